@@ -1,0 +1,35 @@
+#!/usr/bin/env bash
+# Installs everything nimbus needs to build, test and benchmark, from Debian 12 packages.
+# Safe to run again: apt-get skips what is already installed.
+set -euo pipefail
+
+packages=(
+  build-essential cmake ninja-build ccache pkg-config
+  libopenvdb-dev libopenvdb-ax-dev libopenvdb-tools python3-openvdb
+  libopenimageio-dev openimageio-tools
+  libopencolorio-dev
+  libembree-dev libtbb-dev
+  ocl-icd-opencl-dev opencl-headers pocl-opencl-icd clinfo
+  libboost-math-dev libboost-dev
+  nlohmann-json3-dev libcli11-dev
+  libgtest-dev libgmock-dev
+  pybind11-dev python3-dev python3-numpy
+)
+
+missing=()
+for p in "${packages[@]}"; do
+  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+done
+
+if [ ${#missing[@]} -eq 0 ]; then
+  echo "install-deps: all ${#packages[@]} packages present"
+  exit 0
+fi
+
+SUDO=""
+[ "$(id -u)" -eq 0 ] || SUDO="sudo"
+echo "install-deps: installing ${#missing[@]} packages: ${missing[*]}"
+export DEBIAN_FRONTEND=noninteractive
+$SUDO apt-get update -qq
+$SUDO apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
+echo "install-deps: done"

@@ -1,0 +1,28 @@
+#include "Scene.h"
+
+namespace nimbus {
+
+const char* lightTypeName(LightType t)
+{
+    switch (t) {
+    case LightType::Distant: return "distant";
+    case LightType::Point: return "point";
+    case LightType::Spot: return "spot";
+    case LightType::Rect: return "rect";
+    case LightType::Sphere: return "sphere";
+    case LightType::Environment: return "environment";
+    }
+    return "?";
+}
+
+const char* methodName(Method m)
+{
+    switch (m) {
+    case Method::Single: return "single";
+    case Method::Wkb: return "wkb";
+    case Method::Pathtrace: return "pathtrace";
+    }
+    return "?";
+}
+
+}  // namespace nimbus

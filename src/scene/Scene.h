@@ -1,0 +1,126 @@
+// Scene.h: the scene model, nimbus's public C++ API for describing what to render.
+//
+// Everything that renders reads a Scene; everything that reads files, bindings or DCC data
+// builds one (DESIGN "data flow"). Units (docs/units.md): metres, radiance W/(m^2 sr) per RGB
+// channel, distant-light irradiance W/m^2 on a surface facing the light, point/spot radiant
+// intensity W/sr, area/sphere/environment emitted radiance W/(m^2 sr). Angles in degrees.
+// Coefficients sigma_s, sigma_a in 1/m at density 1 (Tessendorf sec. 2: b = kappa_b rho).
+#pragma once
+
+#include "../core/Transform.h"
+#include "../core/Vec.h"
+#include "../../kernels/shared/phase.h"
+
+#include <map>
+#include <string>
+#include <vector>
+
+namespace nimbus {
+
+struct Camera {
+    float3 from = make_float3(0, 0, 5);
+    float3 to = make_float3(0, 0, 0);
+    float3 up = make_float3(0, 1, 0);
+    float fov = 40.0f;  // vertical field of view, degrees
+    int width = 640, height = 360;
+    // Crop window in fractions of the image, [x0, x1] x [y0, y1], y down from the top.
+    float crop[4] = {0, 1, 0, 1};
+    // Shutter interval (frames or seconds, only the ratio matters); motion blur is on when
+    // hasMotion is set: the camera moves linearly from (from,to,up) to the *Close values.
+    float shutterOpen = 0.0f, shutterClose = 0.0f;
+    bool hasMotion = false;
+    float3 fromClose = make_float3(0, 0, 5), toClose = make_float3(0, 0, 0), upClose = make_float3(0, 1, 0);
+};
+
+enum class LightType { Distant, Point, Spot, Rect, Sphere, Environment };
+
+const char* lightTypeName(LightType t);
+
+struct Light {
+    std::string name;  // AOV "light_<name>"; defaults to the index in the list
+    LightType type = LightType::Distant;
+    // distant
+    float3 direction = make_float3(0, -1, 0);  // direction of travel (distant, spot axis)
+    Rgb irradiance = splat(1.0f);               // W/m^2
+    float angle = 0.0f;                         // apparent diameter, degrees
+    // point, spot, sphere
+    float3 position = make_float3(0, 5, 0);
+    Rgb intensity = splat(1.0f);  // W/sr (point, spot)
+    float coneAngle = 30.0f;      // spot: full cone angle, degrees
+    float coneSoftness = 5.0f;    // spot: width of the falloff inside the cone edge, degrees
+    // rect
+    float3 center = make_float3(0, 5, 0);
+    float3 normal = make_float3(0, -1, 0);  // the side that emits
+    float3 up = make_float3(0, 0, 1);
+    float size[2] = {1, 1};
+    // rect, sphere, environment
+    Rgb radiance = splat(1.0f);  // W/(m^2 sr)
+    float radius = 0.5f;         // sphere
+};
+
+struct Medium {
+    Rgb sigma_s = splat(1.0f);  // scattering coefficient at density 1, 1/m
+    Rgb sigma_a = splat(0.0f);  // absorption coefficient at density 1, 1/m
+    float densityScale = 1.0f;
+    NbPhase phase = {0.0f, 0.0f, 0.0f, 0.0f};  // HG g; two-lobe: g2 with weight blend
+    float emissionScale = 1.0f;                // multiplies the shader's emission
+};
+
+enum class SourceType { Vdb, Procedural, Plugin };
+
+struct VolumeSource {
+    SourceType type = SourceType::Procedural;
+    // vdb: file and the grid name for each role (density, temperature, flame, Cd, vel)
+    std::string file;
+    std::map<std::string, std::string> grids;
+    // procedural: "cloud", "sphere", "box" with numeric parameters (see docs/scene-format.md)
+    std::string generator = "cloud";
+    std::map<std::string, double> params;
+    // plugin: shared library path and its parameters (strings and numbers kept as text)
+    std::string pluginPath;
+    std::map<std::string, std::string> pluginParams;
+};
+
+struct Volume {
+    std::string name;
+    VolumeSource source;
+    Transform transform;  // worldFromVolume, applied after the grid's own index-to-world
+    Medium medium;
+    std::string shader;  // file in shaders/ or a path; empty: the default shader
+};
+
+enum class Method { Single, Wkb, Pathtrace };
+
+const char* methodName(Method m);
+
+struct RenderSettings {
+    Method method = Method::Single;
+    uint32_t seed = 1;
+    int threads = 0;   // 0: all cores
+    int spp = 4;       // camera samples per pixel (single, wkb); path samples (pathtrace)
+    float step = 0.5f; // primary march step as a fraction of the smallest voxel
+    int shadowMapResolution = 256;
+    float tolerance = 0.002f;  // deep-shadow-map transmittance error, and term cut-offs
+    float shadowStep = 1.0f;   // light-ray march step for shadow maps and light sampling, voxels
+    int lightSamples = 1;      // area, sphere and environment light samples per march step
+    int maxDepth = 64;         // pathtrace: 1 = single scattering
+    double timeLimit = 0.0;    // pathtrace: seconds, 0 = none
+};
+
+struct OutputSettings {
+    std::string file = "out/render.exr";
+    std::string preview;             // PNG through the OCIO view; empty: none
+    std::vector<std::string> aovs;   // empty: all the method produces
+};
+
+struct Scene {
+    Camera camera;
+    std::vector<Light> lights;
+    std::vector<Volume> volumes;
+    RenderSettings render;
+    OutputSettings output;
+    Rgb background = splat(0.0f);  // radiance behind the volumes when no environment light
+    std::string sourcePath;        // the JSON file it came from, for messages; may be empty
+};
+
+}  // namespace nimbus

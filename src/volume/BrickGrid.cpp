@@ -1,0 +1,155 @@
+#include "BrickGrid.h"
+
+#include <algorithm>
+#include <cmath>
+
+namespace nimbus {
+
+namespace {
+inline int floorDiv(int a, int b) { return a >= 0 ? a / b : -((-a + b - 1) / b); }
+}  // namespace
+
+void BrickGrid::reset(Int3 brickLo, Int3 dims, int channels)
+{
+    mBrickLo = brickLo;
+    mDims = {std::max(dims.x, 0), std::max(dims.y, 0), std::max(dims.z, 0)};
+    mChannels = channels;
+    mTable.assign(size_t(mDims.x) * mDims.y * mDims.z, -1);
+    mMajorant.assign(mTable.size(), 0.0f);
+    mPool.clear();
+    mBrickCount = 0;
+    mMaxValue = 0.0f;
+}
+
+float* BrickGrid::allocateBrick(int bx, int by, int bz)
+{
+    size_t slot = (size_t(bz) * mDims.y + by) * mDims.x + bx;
+    if (mTable[slot] < 0) {
+        mTable[slot] = int32_t(mBrickCount++);
+        mPool.resize(mBrickCount * kBrickValues * mChannels, 0.0f);
+    }
+    return mPool.data() + size_t(mTable[slot]) * kBrickValues * mChannels;
+}
+
+void BrickGrid::updateMajorants()
+{
+    mMaxValue = 0.0f;
+    for (size_t s = 0; s < mTable.size(); ++s) {
+        float m = 0.0f;
+        if (mTable[s] >= 0) {
+            const float* v = mPool.data() + size_t(mTable[s]) * kBrickValues * mChannels;
+            for (int i = 0; i < kBrickValues * mChannels; ++i)
+                m = std::max(m, v[i]);
+        }
+        mMajorant[s] = m;
+        mMaxValue = std::max(mMaxValue, m);
+    }
+}
+
+void BrickGrid::pruneZeroBricks()
+{
+    std::vector<float> pool;
+    size_t count = 0;
+    const size_t n = size_t(kBrickValues) * mChannels;
+    for (auto& entry : mTable) {
+        if (entry < 0)
+            continue;
+        const float* v = mPool.data() + size_t(entry) * n;
+        if (std::all_of(v, v + n, [](float x) { return x == 0.0f; })) {
+            entry = -1;
+            continue;
+        }
+        pool.insert(pool.end(), v, v + n);
+        entry = int32_t(count++);
+    }
+    mPool.swap(pool);
+    mBrickCount = count;
+    updateMajorants();
+}
+
+size_t BrickGrid::memoryBytes() const
+{
+    return mPool.size() * sizeof(float) + mTable.size() * (sizeof(int32_t) + sizeof(float));
+}
+
+Bbox BrickGrid::activeIndexBounds() const
+{
+    Bbox b;
+    for (int z = 0; z < mDims.z; ++z)
+        for (int y = 0; y < mDims.y; ++y)
+            for (int x = 0; x < mDims.x; ++x) {
+                if (mTable[(size_t(z) * mDims.y + y) * mDims.x + x] < 0)
+                    continue;
+                float3 lo = make_float3(float((mBrickLo.x + x) * kBrick), float((mBrickLo.y + y) * kBrick),
+                                        float((mBrickLo.z + z) * kBrick));
+                b.expand(lo);
+                b.expand(lo + splat(float(kBrick)));  // the apron voxel at lo + 8
+            }
+    return b;
+}
+
+int BrickGrid::slotOf(int bx, int by, int bz) const
+{
+    bx -= mBrickLo.x, by -= mBrickLo.y, bz -= mBrickLo.z;
+    if (bx < 0 || by < 0 || bz < 0 || bx >= mDims.x || by >= mDims.y || bz >= mDims.z)
+        return -1;
+    return (bz * mDims.y + by) * mDims.x + bx;
+}
+
+float BrickGrid::voxel(int i, int j, int k, int c) const
+{
+    int slot = slotOf(floorDiv(i, kBrick), floorDiv(j, kBrick), floorDiv(k, kBrick));
+    if (slot < 0 || mTable[slot] < 0)
+        return 0.0f;
+    int li = i - floorDiv(i, kBrick) * kBrick, lj = j - floorDiv(j, kBrick) * kBrick,
+        lk = k - floorDiv(k, kBrick) * kBrick;
+    const float* v = mPool.data() + size_t(mTable[slot]) * kBrickValues * mChannels;
+    return v[((lk * kStored + lj) * kStored + li) * mChannels + c];
+}
+
+float BrickGrid::sample(float3 p, int c) const
+{
+    if (!(p.x > -1e9f && p.x < 1e9f && p.y > -1e9f && p.y < 1e9f && p.z > -1e9f && p.z < 1e9f))
+        return 0.0f;
+    float fx = std::floor(p.x), fy = std::floor(p.y), fz = std::floor(p.z);
+    int i = int(fx), j = int(fy), k = int(fz);
+    int bx = i >> kBrickLog2, by = j >> kBrickLog2, bz = k >> kBrickLog2;
+    int slot = slotOf(bx, by, bz);
+    if (slot < 0 || mTable[slot] < 0)
+        return 0.0f;
+    float tx = p.x - fx, ty = p.y - fy, tz = p.z - fz;
+    int li = i - (bx << kBrickLog2), lj = j - (by << kBrickLog2), lk = k - (bz << kBrickLog2);
+    const float* v = mPool.data() + size_t(mTable[slot]) * kBrickValues * mChannels;
+    const int sx = mChannels, sy = kStored * mChannels, sz = kStored * kStored * mChannels;
+    const float* q = v + lk * sz + lj * sy + li * sx + c;
+    float c00 = q[0] + tx * (q[sx] - q[0]);
+    float c10 = q[sy] + tx * (q[sy + sx] - q[sy]);
+    float c01 = q[sz] + tx * (q[sz + sx] - q[sz]);
+    float c11 = q[sz + sy] + tx * (q[sz + sy + sx] - q[sz + sy]);
+    float c0 = c00 + ty * (c10 - c00);
+    float c1 = c01 + ty * (c11 - c01);
+    return c0 + tz * (c1 - c0);
+}
+
+float3 BrickGrid::sample3(float3 p) const
+{
+    if (mChannels == 1) {
+        float v = sample(p, 0);
+        return make_float3(v, v, v);
+    }
+    return make_float3(sample(p, 0), sample(p, 1), sample(p, 2));
+}
+
+float BrickGrid::majorantAt(float3 p, Int3* slotLo) const
+{
+    int bx = int(std::floor(p.x)) >> kBrickLog2, by = int(std::floor(p.y)) >> kBrickLog2,
+        bz = int(std::floor(p.z)) >> kBrickLog2;
+    if (slotLo)
+        *slotLo = {bx * kBrick, by * kBrick, bz * kBrick};
+    if (!(std::fabs(p.x) < 1e9f && std::fabs(p.y) < 1e9f && std::fabs(p.z) < 1e9f))
+        return 0.0f;
+    int slot = slotOf(bx, by, bz);
+    return slot < 0 ? 0.0f : mMajorant[slot];
+}
+
+}  // namespace nimbus

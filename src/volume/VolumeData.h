@@ -1,0 +1,39 @@
+// VolumeData.h: a scene volume resolved to sampled grids: what the integrators read.
+#pragma once
+
+#include "../scene/Scene.h"
+#include "BrickGrid.h"
+
+#include <memory>
+#include <string>
+#include <vector>
+
+namespace nimbus {
+
+struct VolumeData {
+    std::string name;
+    // Density after the shader (and clamping to [0, inf)); multiply by medium.densityScale and
+    // sigma_s / sigma_a to get coefficients in 1/m.
+    BrickGrid density;
+    // Emitted radiance per metre, W/(m^3 sr) RGB (3 channels), times medium.emissionScale.
+    // Empty when the volume has no emission grid: then emission code does not run.
+    BrickGrid emission;
+    Transform worldFromIndex;  // the volume's "transform" after the grid's index-to-world
+    Transform indexFromWorld;
+    Bbox worldBounds;          // bound of the active bricks in world space
+    float voxelSize = 1.0f;    // smallest world-space voxel edge, metres
+    Medium medium;
+    std::vector<std::string> gridsRead;  // for the render plan
+    size_t clampedVoxels = 0;            // negative / NaN / inf values clamped on load
+
+    Rgb sigmaT() const { return (medium.sigma_s + medium.sigma_a) * medium.densityScale; }
+    Rgb sigmaS() const { return medium.sigma_s * medium.densityScale; }
+    bool hasEmission() const { return !emission.empty(); }
+};
+
+// Builds every volume of the scene: loads VDB files or runs the procedural generators, runs the
+// shader, clamps bad voxels (one warning per volume, with the count) and converts to bricks.
+// Throws InputError naming the file and key path for missing files or grids.
+std::vector<std::shared_ptr<VolumeData>> buildVolumes(const Scene& scene);
+
+}  // namespace nimbus
