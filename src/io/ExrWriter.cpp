@@ -1,0 +1,161 @@
+#include "ExrWriter.h"
+
+#include "AtomicFile.h"
+#include "core/Error.h"
+#include "render/Film.h"
+
+#include <OpenImageIO/imageio.h>
+
+#include <algorithm>
+#include <memory>
+#include <set>
+#include <vector>
+
+namespace nimbus {
+
+namespace {
+
+// One channel of the file: where its values come from in the Film.
+struct ChannelSource {
+    std::string name;
+    const Aov* aov = nullptr;  // nullptr: the constant 1 (plain A when there is no alpha)
+    int component = 0;
+    OIIO::TypeDesc type;
+};
+
+// OpenImageIO error text can span lines; the CLI prints one line per error.
+std::string oneLine(std::string text)
+{
+    std::replace(text.begin(), text.end(), '\n', ' ');
+    while (!text.empty() && text.back() == ' ')
+        text.pop_back();
+    return text.empty() ? std::string("unknown OpenImageIO error") : text;
+}
+
+OIIO::TypeDesc typeOf(const Aov& aov) { return aov.isData ? OIIO::TypeDesc::FLOAT : OIIO::TypeDesc::HALF; }
+
+std::vector<ChannelSource> channelLayout(const Film& film, const std::string& path)
+{
+    auto fail = [&](const std::string& why) { return Error("cannot write EXR '" + path + "': " + why); };
+    const size_t pixels = size_t(film.width) * film.height;
+    for (const Aov& aov : film.aovs) {
+        if (aov.name.empty() || aov.name.find('.') != std::string::npos)
+            throw fail("AOV name '" + aov.name + "' is empty or contains '.', the layer separator");
+        if (aov.channels != 1 && aov.channels != 3 && aov.channels != 4)
+            throw fail("AOV '" + aov.name + "' has " + std::to_string(aov.channels) + " channels (1, 3 or 4 expected)");
+        if (aov.pixels.size() != pixels * aov.channels)
+            throw fail("AOV '" + aov.name + "' holds " + std::to_string(aov.pixels.size()) + " values, not " +
+                       std::to_string(pixels * aov.channels) + " for a " + std::to_string(film.width) + "x" +
+                       std::to_string(film.height) + " film");
+    }
+
+    std::vector<ChannelSource> channels;
+    // The plain RGBA viewers open by default. Its alpha is the beauty's own when it has one, so
+    // that A and beauty.A agree, else the alpha AOV, else opaque.
+    if (const Aov* beauty = film.find("beauty")) {
+        static const char* const rgb[] = {"R", "G", "B"};
+        for (int c = 0; c < 3; ++c)
+            channels.push_back({rgb[c], beauty, beauty->channels == 1 ? 0 : c, OIIO::TypeDesc::HALF});
+        if (beauty->channels == 4)
+            channels.push_back({"A", beauty, 3, OIIO::TypeDesc::HALF});
+        else if (const Aov* alpha = film.find("alpha"))
+            channels.push_back({"A", alpha, 0, OIIO::TypeDesc::HALF});
+        else
+            channels.push_back({"A", nullptr, 0, OIIO::TypeDesc::HALF});
+    }
+    for (const Aov& aov : film.aovs) {
+        static const char* const suffixes[] = {".R", ".G", ".B", ".A"};
+        const int count = aov.channels == 4 ? 4 : 3;
+        for (int c = 0; c < count; ++c)
+            channels.push_back({aov.name + suffixes[c], &aov, aov.channels == 1 ? 0 : c, typeOf(aov)});
+    }
+    std::set<std::string> names;
+    for (const ChannelSource& channel : channels)
+        if (!names.insert(channel.name).second)
+            throw fail("two AOVs both write channel '" + channel.name + "'");
+    return channels;
+}
+
+}  // namespace
+
+void writeExr(const Film& film, const std::string& path)
+{
+    auto fail = [&](const std::string& why) { return Error("cannot write EXR '" + path + "': " + why); };
+    if (film.width <= 0 || film.height <= 0)
+        throw fail("the film is empty (" + std::to_string(film.width) + "x" + std::to_string(film.height) + ")");
+    // A crop left at its default (all zero) means the full frame.
+    int x0 = film.x0, y0 = film.y0, x1 = film.x1, y1 = film.y1;
+    if (x0 == 0 && y0 == 0 && x1 == 0 && y1 == 0) {
+        x1 = film.width;
+        y1 = film.height;
+    }
+    if (x0 < 0 || y0 < 0 || x1 > film.width || y1 > film.height || x0 >= x1 || y0 >= y1)
+        throw fail("crop [" + std::to_string(x0) + "," + std::to_string(x1) + ") x [" + std::to_string(y0) + "," +
+                   std::to_string(y1) + ") is empty or outside the " + std::to_string(film.width) + "x" +
+                   std::to_string(film.height) + " frame");
+    const std::vector<ChannelSource> channels = channelLayout(film, path);
+    if (channels.empty())
+        throw fail("the film has no AOVs");
+
+    const int cropWidth = x1 - x0, cropHeight = y1 - y0;
+    const int channelCount = int(channels.size());
+    OIIO::ImageSpec spec(cropWidth, cropHeight, channelCount, OIIO::TypeDesc::HALF);
+    spec.x = x0;
+    spec.y = y0;
+    spec.full_x = 0;
+    spec.full_y = 0;
+    spec.full_width = film.width;
+    spec.full_height = film.height;
+    spec.channelnames.clear();
+    spec.channelformats.clear();
+    for (const ChannelSource& channel : channels) {
+        spec.channelnames.push_back(channel.name);
+        spec.channelformats.push_back(channel.type);
+    }
+    // OpenImageIO only guesses alpha from a channel named "A"; layer alphas are not premultiplying.
+    spec.alpha_channel = -1;
+    for (int c = 0; c < channelCount; ++c)
+        if (spec.channelnames[c] == "A")
+            spec.alpha_channel = c;
+    spec.z_channel = -1;
+    spec.attribute("compression", "zip");
+    spec.attribute("Software", "nimbus " NIMBUS_VERSION);
+    bool hasVersion = false;
+    for (const auto& [key, value] : film.metadata) {
+        const std::string name = key.rfind("nimbus:", 0) == 0 ? key : "nimbus:" + key;
+        hasVersion = hasVersion || name == "nimbus:version";
+        spec.attribute(name, value);
+    }
+    if (!hasVersion)
+        spec.attribute("nimbus:version", NIMBUS_VERSION);
+
+    AtomicFile file(path, ".exr");
+    std::unique_ptr<OIIO::ImageOutput> out = OIIO::ImageOutput::create(file.tempPath());
+    if (!out)
+        throw fail(oneLine(OIIO::geterror()));
+    if (!out->open(file.tempPath(), spec))
+        throw fail(oneLine(out->geterror()));
+
+    // Blocks of 16 scanlines, the OpenEXR zip block, so memory stays at a few rows however large
+    // the frame. Values are passed as float; OpenImageIO converts each channel to its own format.
+    constexpr int rowsPerBlock = 16;
+    std::vector<float> block(size_t(rowsPerBlock) * cropWidth * channelCount);
+    for (int yBegin = y0; yBegin < y1; yBegin += rowsPerBlock) {
+        const int yEnd = std::min(y1, yBegin + rowsPerBlock);
+        float* dst = block.data();
+        for (int y = yBegin; y < yEnd; ++y)
+            for (int x = x0; x < x1; ++x)
+                for (const ChannelSource& channel : channels) {
+                    const size_t index = size_t(y) * film.width + x;
+                    *dst++ = channel.aov ? channel.aov->pixels[index * channel.aov->channels + channel.component] : 1.0f;
+                }
+        if (!out->write_scanlines(yBegin, yEnd, 0, OIIO::TypeDesc::FLOAT, block.data()))
+            throw fail(oneLine(out->geterror()));
+    }
+    if (!out->close())
+        throw fail(oneLine(out->geterror()));
+    out.reset();
+    file.commit();
+}
+
+}  // namespace nimbus

@@ -1,0 +1,165 @@
+#include "Preview.h"
+
+#include "AtomicFile.h"
+#include "core/Error.h"
+#include "render/Film.h"
+
+#include <OpenColorIO/OpenColorIO.h>
+#include <OpenImageIO/imageio.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdlib>
+#include <memory>
+#include <vector>
+
+namespace OCIO = OCIO_NAMESPACE;
+
+namespace nimbus {
+
+namespace {
+
+std::string oneLine(std::string text)
+{
+    std::replace(text.begin(), text.end(), '\n', ' ');
+    while (!text.empty() && text.back() == ' ')
+        text.pop_back();
+    return text;
+}
+
+struct ConfigChoice {
+    std::string path;
+    std::string source;  // where the path came from, for the error message
+};
+
+ConfigChoice chooseConfig(const PreviewOptions& options)
+{
+    if (!options.config.empty())
+        return {options.config, "preview options"};
+    for (const char* variable : {"OCIO", "NIMBUS_OCIO_CONFIG"})
+        if (const char* value = std::getenv(variable); value && *value)
+            return {value, std::string("$") + variable};
+    return {NIMBUS_SOURCE_DIR "/src/io/ocio/config.ocio", "the shipped config"};
+}
+
+std::string listOf(const std::vector<std::string>& names)
+{
+    std::string list;
+    for (const std::string& name : names)
+        list += (list.empty() ? "'" : ", '") + name + "'";
+    return list;
+}
+
+// The CPU processor from scene_linear to the chosen display and view; every failure becomes one
+// Error line naming the config, the display or the view.
+OCIO::ConstCPUProcessorRcPtr displayProcessor(const PreviewOptions& options)
+{
+    const ConfigChoice choice = chooseConfig(options);
+    const std::string where = "OCIO config '" + choice.path + "' (" + choice.source + ")";
+    OCIO::ConstConfigRcPtr config;
+    try {
+        config = OCIO::Config::CreateFromFile(choice.path.c_str());
+    } catch (const OCIO::Exception& e) {
+        throw Error("cannot load " + where + ": " + oneLine(e.what()));
+    }
+
+    std::string display = options.display.empty() ? config->getDefaultDisplay() : options.display;
+    std::vector<std::string> displays;
+    for (int i = 0; i < config->getNumDisplays(); ++i)
+        displays.push_back(config->getDisplay(i));
+    if (std::find(displays.begin(), displays.end(), display) == displays.end())
+        throw Error("display '" + display + "' is not in " + where + " (displays: " + listOf(displays) + ")");
+    std::string view = options.view.empty() ? config->getDefaultView(display.c_str()) : options.view;
+    std::vector<std::string> views;
+    for (int i = 0; i < config->getNumViews(display.c_str()); ++i)
+        views.push_back(config->getView(display.c_str(), i));
+    if (std::find(views.begin(), views.end(), view) == views.end())
+        throw Error("view '" + view + "' of display '" + display + "' is not in " + where + " (views: " +
+                    listOf(views) + ")");
+
+    try {
+        OCIO::DisplayViewTransformRcPtr transform = OCIO::DisplayViewTransform::Create();
+        transform->setSrc(OCIO::ROLE_SCENE_LINEAR);
+        transform->setDisplay(display.c_str());
+        transform->setView(view.c_str());
+        return config->getProcessor(transform)->getDefaultCPUProcessor();
+    } catch (const OCIO::Exception& e) {
+        throw Error("cannot build display '" + display + "', view '" + view + "' from " + where + ": " +
+                    oneLine(e.what()));
+    }
+}
+
+}  // namespace
+
+void writePreview(const Film& film, const std::string& path, const PreviewOptions& options)
+{
+    auto fail = [&](const std::string& why) { return Error("cannot write preview '" + path + "': " + why); };
+    const Aov* beauty = film.find("beauty");
+    if (!beauty)
+        throw fail("the film has no beauty AOV");
+    if (film.width <= 0 || film.height <= 0)
+        throw fail("the film is empty");
+    if (beauty->pixels.size() != size_t(film.width) * film.height * beauty->channels ||
+        (beauty->channels != 1 && beauty->channels != 3 && beauty->channels != 4))
+        throw fail("the beauty AOV's buffer does not match the film");
+    int x0 = film.x0, y0 = film.y0, x1 = film.x1, y1 = film.y1;
+    if (x0 == 0 && y0 == 0 && x1 == 0 && y1 == 0) {
+        x1 = film.width;
+        y1 = film.height;
+    }
+    x0 = std::clamp(x0, 0, film.width);
+    x1 = std::clamp(x1, x0, film.width);
+    y0 = std::clamp(y0, 0, film.height);
+    y1 = std::clamp(y1, y0, film.height);
+
+    OCIO::ConstCPUProcessorRcPtr processor = displayProcessor(options);
+
+    // Scene-linear RGB of the crop. NaN (a failed sample) shows black rather than whatever the
+    // 8-bit conversion makes of it; +inf stays and clips to white.
+    const int cropWidth = x1 - x0, cropHeight = y1 - y0;
+    const float scale = std::exp2(options.exposure);
+    std::vector<float> rgb(size_t(cropWidth) * cropHeight * 3);
+    for (int y = y0; y < y1; ++y)
+        for (int x = x0; x < x1; ++x) {
+            const float* src = beauty->pixels.data() + (size_t(y) * film.width + x) * beauty->channels;
+            float* dst = rgb.data() + (size_t(y - y0) * cropWidth + (x - x0)) * 3;
+            for (int c = 0; c < 3; ++c) {
+                const float v = src[beauty->channels == 1 ? 0 : c] * scale;
+                dst[c] = std::isnan(v) ? 0.0f : v;
+            }
+        }
+    if (!rgb.empty()) {
+        try {
+            OCIO::PackedImageDesc image(rgb.data(), cropWidth, cropHeight, 3);
+            processor->apply(image);
+        } catch (const OCIO::Exception& e) {
+            throw fail(oneLine(e.what()));
+        }
+    }
+
+    // Full frame; the crop's display values clamped to [0, 1] and rounded to 8 bits.
+    std::vector<unsigned char> pixels(size_t(film.width) * film.height * 3, 0);
+    for (int y = y0; y < y1; ++y)
+        for (int x = x0; x < x1; ++x)
+            for (int c = 0; c < 3; ++c) {
+                float v = rgb[(size_t(y - y0) * cropWidth + (x - x0)) * 3 + c];
+                v = std::isnan(v) ? 0.0f : std::clamp(v, 0.0f, 1.0f);
+                pixels[(size_t(y) * film.width + x) * 3 + c] = static_cast<unsigned char>(std::lround(v * 255.0f));
+            }
+
+    OIIO::ImageSpec spec(film.width, film.height, 3, OIIO::TypeDesc::UINT8);
+    spec.attribute("oiio:ColorSpace", "sRGB");
+    spec.attribute("Software", "nimbus " NIMBUS_VERSION);
+
+    AtomicFile file(path, ".png");
+    std::unique_ptr<OIIO::ImageOutput> out = OIIO::ImageOutput::create(file.tempPath());
+    if (!out)
+        throw fail(oneLine(OIIO::geterror()));
+    if (!out->open(file.tempPath(), spec) || !out->write_image(OIIO::TypeDesc::UINT8, pixels.data()) ||
+        !out->close())
+        throw fail(oneLine(out->geterror()));
+    out.reset();
+    file.commit();
+}
+
+}  // namespace nimbus

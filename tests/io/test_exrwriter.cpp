@@ -1,0 +1,285 @@
+#include "io/ExrWriter.h"
+
+#include "TempDir.h"
+#include "core/Error.h"
+#include "render/Film.h"
+
+#include <OpenImageIO/imageio.h>
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <csignal>
+#include <filesystem>
+#include <map>
+#include <random>
+#include <set>
+
+#include <sys/resource.h>
+
+using namespace nimbus;
+using nimbus::test::readBytes;
+using nimbus::test::writeBytes;
+
+namespace {
+
+// A value unique to (AOV, pixel, component), in the range half stores with 11 significant bits.
+float valueAt(int aovIndex, int x, int y, int c) { return 0.5f * aovIndex + 0.03125f * x + 0.25f * y + 0.1f * c + 0.01f; }
+
+Film makeFilm()
+{
+    Film film;
+    film.width = 8;
+    film.height = 6;
+    film.x0 = 1;
+    film.y0 = 2;
+    film.x1 = 7;
+    film.y1 = 5;
+    film.add("beauty", 4, false);
+    film.add("L0", 3, false);
+    film.add("alpha", 1, true);
+    film.add("depth", 1, true);
+    film.add("light_key", 3, false);
+    for (size_t a = 0; a < film.aovs.size(); ++a) {
+        Aov& aov = film.aovs[a];
+        for (int y = 0; y < film.height; ++y)
+            for (int x = 0; x < film.width; ++x)
+                for (int c = 0; c < aov.channels; ++c)
+                    film.pixel(aov, x, y)[c] = valueAt(int(a), x, y, c);
+    }
+    // A depth beyond half's range (65504) shows that data AOVs really are float.
+    film.pixel(*film.find("depth"), 3, 3)[0] = 1.0e6f;
+    film.metadata = {{"version", "0.1.0"}, {"method", "wkb"}, {"seed", "42"}, {"render_time", "12.5"},
+                     {"settings", "{\"spp\": 64}"}};
+    return film;
+}
+
+struct ReadBack {
+    OIIO::ImageSpec spec;
+    std::map<std::string, int> index;
+    std::vector<float> pixels;
+
+    OIIO::TypeDesc format(const std::string& channel) const
+    {
+        const int c = index.at(channel);
+        return spec.channelformats.empty() ? spec.format : spec.channelformats[c];
+    }
+    float at(const std::string& channel, int x, int y) const
+    {
+        return pixels[(size_t(y - spec.y) * spec.width + (x - spec.x)) * spec.nchannels + index.at(channel)];
+    }
+};
+
+ReadBack readExr(const std::string& path)
+{
+    auto in = OIIO::ImageInput::open(path);
+    EXPECT_TRUE(in) << OIIO::geterror();
+    ReadBack r;
+    if (!in)
+        return r;
+    r.spec = in->spec();
+    for (int c = 0; c < r.spec.nchannels; ++c)
+        r.index[r.spec.channelnames[c]] = c;
+    r.pixels.resize(size_t(r.spec.width) * r.spec.height * r.spec.nchannels);
+    EXPECT_TRUE(in->read_image(0, 0, 0, r.spec.nchannels, OIIO::TypeDesc::FLOAT, r.pixels.data())) << in->geterror();
+    EXPECT_EQ(in->current_subimage(), 0);
+    EXPECT_FALSE(in->seek_subimage(1, 0)) << "expected a single part";
+    return r;
+}
+
+// Half keeps 11 significant bits: round-to-nearest is off by at most 2^-11 relative.
+float halfTolerance(float v) { return std::ldexp(std::fabs(v), -11); }
+
+}  // namespace
+
+TEST(ExrWriter, LayersChannelsFormatsWindowsAndMetadata)
+{
+    test::TempDir dir;
+    const std::string path = dir / "frame.exr";
+    const Film film = makeFilm();
+    writeExr(film, path);
+    EXPECT_EQ(dir.entryCount(), 1u) << "temporary file left behind";
+
+    const ReadBack r = readExr(path);
+    std::set<std::string> names;
+    for (const auto& [name, c] : r.index)
+        names.insert(name);
+    const std::set<std::string> expected = {
+        "R", "G", "B", "A", "beauty.R", "beauty.G", "beauty.B", "beauty.A", "L0.R", "L0.G", "L0.B",
+        "alpha.R", "alpha.G", "alpha.B", "depth.R", "depth.G", "depth.B", "light_key.R", "light_key.G", "light_key.B"};
+    EXPECT_EQ(names, expected);
+    EXPECT_EQ(r.spec.nchannels, int(expected.size()));
+
+    for (const char* half : {"R", "G", "B", "A", "beauty.R", "beauty.A", "L0.G", "light_key.B"})
+        EXPECT_EQ(r.format(half), OIIO::TypeDesc::HALF) << half;
+    for (const char* full : {"alpha.R", "alpha.G", "alpha.B", "depth.R", "depth.G", "depth.B"})
+        EXPECT_EQ(r.format(full), OIIO::TypeDesc::FLOAT) << full;
+
+    EXPECT_EQ(r.spec.x, 1);
+    EXPECT_EQ(r.spec.y, 2);
+    EXPECT_EQ(r.spec.width, 6);
+    EXPECT_EQ(r.spec.height, 3);
+    EXPECT_EQ(r.spec.full_x, 0);
+    EXPECT_EQ(r.spec.full_y, 0);
+    EXPECT_EQ(r.spec.full_width, 8);
+    EXPECT_EQ(r.spec.full_height, 6);
+    EXPECT_EQ(r.spec.tile_width, 0) << "expected scanlines";
+
+    EXPECT_EQ(r.spec.get_string_attribute("compression"), "zip");
+    EXPECT_EQ(r.spec.get_string_attribute("nimbus:version"), "0.1.0");
+    EXPECT_EQ(r.spec.get_string_attribute("nimbus:method"), "wkb");
+    EXPECT_EQ(r.spec.get_string_attribute("nimbus:seed"), "42");
+    EXPECT_EQ(r.spec.get_string_attribute("nimbus:render_time"), "12.5");
+    EXPECT_EQ(r.spec.get_string_attribute("nimbus:settings"), "{\"spp\": 64}");
+}
+
+TEST(ExrWriter, ValuesRoundTrip)
+{
+    test::TempDir dir;
+    const std::string path = dir / "frame.exr";
+    const Film film = makeFilm();
+    writeExr(film, path);
+    const ReadBack r = readExr(path);
+    const char* const rgba[] = {"R", "G", "B", "A"};
+
+    for (int y = film.y0; y < film.y1; ++y)
+        for (int x = film.x0; x < film.x1; ++x) {
+            for (size_t a = 0; a < film.aovs.size(); ++a) {
+                const Aov& aov = film.aovs[a];
+                const int count = aov.channels == 4 ? 4 : 3;
+                for (int c = 0; c < count; ++c) {
+                    const float want = aov.pixels[(size_t(y) * film.width + x) * aov.channels + (aov.channels == 1 ? 0 : c)];
+                    const std::string name = aov.name + "." + rgba[c];
+                    const float got = r.at(name, x, y);
+                    if (aov.isData)
+                        EXPECT_EQ(got, want) << name << " at " << x << "," << y;
+                    else
+                        EXPECT_NEAR(got, want, halfTolerance(want)) << name << " at " << x << "," << y;
+                }
+            }
+            const Aov& beauty = *film.find("beauty");
+            for (int c = 0; c < 4; ++c) {
+                const float want = beauty.pixels[(size_t(y) * film.width + x) * 4 + c];
+                EXPECT_NEAR(r.at(rgba[c], x, y), want, halfTolerance(want)) << rgba[c] << " at " << x << "," << y;
+            }
+        }
+    EXPECT_EQ(r.at("depth.G", 3, 3), 1.0e6f);
+}
+
+TEST(ExrWriter, PlainAlphaFromAlphaAovOrOpaque)
+{
+    test::TempDir dir;
+    Film film;
+    film.width = 2;
+    film.height = 2;
+    film.add("beauty", 3, false).pixels.assign(12, 0.5f);
+    writeExr(film, dir / "opaque.exr");
+    EXPECT_EQ(readExr(dir / "opaque.exr").at("A", 1, 1), 1.0f);
+
+    film.add("alpha", 1, true).pixels.assign(4, 0.25f);
+    writeExr(film, dir / "alpha.exr");
+    const ReadBack r = readExr(dir / "alpha.exr");
+    EXPECT_EQ(r.at("A", 0, 1), 0.25f);
+    EXPECT_EQ(r.index.count("beauty.A"), 0u);
+    EXPECT_EQ(r.spec.x, 0);
+    EXPECT_EQ(r.spec.width, 2) << "an unset crop is the full frame";
+}
+
+TEST(ExrWriter, CreatesParentDirectoriesAndOverwrites)
+{
+    test::TempDir dir;
+    const std::string path = dir / "out/shot010/frame.0001.exr";
+    writeExr(makeFilm(), path);
+    ASSERT_TRUE(std::filesystem::is_regular_file(path));
+    Film other = makeFilm();
+    other.metadata = {{"seed", "7"}};
+    writeExr(other, path);
+    EXPECT_EQ(readExr(path).spec.get_string_attribute("nimbus:seed"), "7");
+    EXPECT_EQ(std::filesystem::path(path).parent_path().empty(), false);
+    size_t entries = 0;
+    for (const auto& entry : std::filesystem::directory_iterator(std::filesystem::path(path).parent_path()))
+        entries += entry.is_regular_file();
+    EXPECT_EQ(entries, 1u);
+}
+
+TEST(ExrWriter, UnwritableTargetsThrowAndLeaveOtherFilesUntouched)
+{
+    test::TempDir dir;
+    const std::string existing = dir / "existing.exr";
+    writeExr(makeFilm(), existing);
+    const std::string bytes = readBytes(existing);
+
+    std::filesystem::create_directories(dir / "frame_dir.exr");
+    writeBytes(dir / "plain_file", "not a directory");
+    for (const std::string& bad : {dir / "frame_dir.exr", dir / "plain_file/frame.exr"}) {
+        try {
+            writeExr(makeFilm(), bad);
+            ADD_FAILURE() << "writing " << bad << " did not throw";
+        } catch (const Error& e) {
+            const std::string message = e.what();
+            EXPECT_NE(message.find(bad), std::string::npos) << message;
+            EXPECT_EQ(message.find('\n'), std::string::npos) << message;
+        }
+    }
+    EXPECT_EQ(readBytes(existing), bytes);
+    EXPECT_EQ(dir.entryCount(), 3u) << "temporary file left behind";  // existing, frame_dir.exr, plain_file
+}
+
+TEST(ExrWriter, FailedWriteOverExistingFileKeepsItsBytes)
+{
+    test::TempDir dir;
+    const std::string path = dir / "frame.exr";
+    writeExr(makeFilm(), path);
+    const std::string bytes = readBytes(path);
+
+    Film broken = makeFilm();
+    broken.find("L0")->pixels.resize(5);  // a buffer that does not match the film
+    EXPECT_THROW(writeExr(broken, path), Error);
+    Film badCrop = makeFilm();
+    badCrop.x1 = 9;
+    EXPECT_THROW(writeExr(badCrop, path), Error);
+    Film dotted = makeFilm();
+    dotted.aovs[1].name = "L0.diffuse";
+    EXPECT_THROW(writeExr(dotted, path), Error);
+
+    EXPECT_EQ(readBytes(path), bytes);
+    EXPECT_EQ(dir.entryCount(), 1u);
+}
+
+// A write that fails half-way through the file (the disk fills up): a file-size limit makes
+// write(2) fail with EFBIG after the first 4 KiB, even for root, where permissions would not.
+TEST(ExrWriter, WriteFailingMidFileKeepsExistingBytes)
+{
+    test::TempDir dir;
+    const std::string path = dir / "frame.exr";
+    writeBytes(path, "the previous frame");
+
+    Film noisy;
+    noisy.width = noisy.height = 128;
+    Aov& beauty = noisy.add("beauty", 4, false);
+    std::mt19937 rng(1);
+    std::uniform_real_distribution<float> uniform(0.0f, 1.0f);
+    for (float& v : beauty.pixels)
+        v = uniform(rng);  // noise does not compress: the file is far over the limit
+
+    rlimit old{};
+    ASSERT_EQ(getrlimit(RLIMIT_FSIZE, &old), 0);
+    auto oldHandler = std::signal(SIGXFSZ, SIG_IGN);
+    rlimit limited = old;
+    limited.rlim_cur = 4096;
+    ASSERT_EQ(setrlimit(RLIMIT_FSIZE, &limited), 0);
+    bool threw = false;
+    std::string message;
+    try {
+        writeExr(noisy, path);
+    } catch (const Error& e) {
+        threw = true;
+        message = e.what();
+    }
+    setrlimit(RLIMIT_FSIZE, &old);
+    std::signal(SIGXFSZ, oldHandler);
+
+    EXPECT_TRUE(threw);
+    EXPECT_NE(message.find(path), std::string::npos) << message;
+    EXPECT_EQ(readBytes(path), "the previous frame");
+    EXPECT_EQ(dir.entryCount(), 1u) << "temporary file left behind";
+}
