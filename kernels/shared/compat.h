@@ -87,6 +87,9 @@ NB_FN float nbMaxComponent(float3 v) { return fmax(v.x, fmax(v.y, v.z)); }
 NB_FN float nbMinComponent(float3 v) { return fmin(v.x, fmin(v.y, v.z)); }
 NB_FN float nbAverage(float3 v) { return (v.x + v.y + v.z) * (1.0f / 3.0f); }
 
+/* float[4] storage in plain-data structs to float3 (OpenCL float3 is 16 bytes in buffers). */
+NB_FN float3 nbLoad3(const float* v) { return make_float3(v[0], v[1], v[2]); }
+
 /* An orthonormal basis around unit vector n (Duff et al. 2017, branchless). */
 NB_FN void nbBasis(float3 n, NB_PRIVATE float3* t, NB_PRIVATE float3* b)
 {

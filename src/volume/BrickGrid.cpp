@@ -19,6 +19,7 @@ void BrickGrid::reset(Int3 brickLo, Int3 dims, int channels)
     mPool.clear();
     mBrickCount = 0;
     mMaxValue = 0.0f;
+    mActiveBounds = Bbox();
 }
 
 float* BrickGrid::allocateBrick(int bx, int by, int bz)
@@ -44,6 +45,7 @@ void BrickGrid::updateMajorants()
         mMajorant[s] = m;
         mMaxValue = std::max(mMaxValue, m);
     }
+    updateActiveBounds();
 }
 
 void BrickGrid::pruneZeroBricks()
@@ -72,7 +74,7 @@ size_t BrickGrid::memoryBytes() const
     return mPool.size() * sizeof(float) + mTable.size() * (sizeof(int32_t) + sizeof(float));
 }
 
-Bbox BrickGrid::activeIndexBounds() const
+void BrickGrid::updateActiveBounds()
 {
     Bbox b;
     for (int z = 0; z < mDims.z; ++z)
@@ -85,7 +87,7 @@ Bbox BrickGrid::activeIndexBounds() const
                 b.expand(lo);
                 b.expand(lo + splat(float(kBrick)));  // the apron voxel at lo + 8
             }
-    return b;
+    mActiveBounds = b;
 }
 
 int BrickGrid::slotOf(int bx, int by, int bz) const

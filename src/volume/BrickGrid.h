@@ -47,7 +47,7 @@ public:
     // Index-space bounds of the table (voxel centres), and of the allocated bricks.
     Int3 brickLo() const { return mBrickLo; }
     Int3 dims() const { return mDims; }
-    Bbox activeIndexBounds() const;
+    const Bbox& activeIndexBounds() const { return mActiveBounds; }  // cached by updateMajorants
 
     // Trilinear sample of channel c at index-space position p (zero outside).
     float sample(float3 p, int c = 0) const;
@@ -68,6 +68,7 @@ public:
 
 private:
     int slotOf(int bx, int by, int bz) const;  // -1 if outside the table
+    void updateActiveBounds();
 
     Int3 mBrickLo, mDims;
     int mChannels = 1;
@@ -76,6 +77,7 @@ private:
     std::vector<float> mMajorant;  // slot -> max over channels of the brick's values
     size_t mBrickCount = 0;
     float mMaxValue = 0.0f;
+    Bbox mActiveBounds;
 };
 
 }  // namespace nimbus

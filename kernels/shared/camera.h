@@ -1,0 +1,49 @@
+/* camera.h: the perspective pinhole camera with linear motion over the shutter, shared by the
+ * host integrators and the OpenCL path tracer so both generate identical primary rays.
+ *
+ * Image plane: pixel (0,0) is the top-left; x right, y down. The vertical field of view is
+ * `fov`; the basis is right-handed with y up (DESIGN "Units and conventions").
+ * Motion blur (Tessendorf sec. 7, eq. 90): each pixel sample draws a time in the shutter and the
+ * camera frame is interpolated linearly between open and close; the volumes do not move.
+ */
+#ifndef NIMBUS_KERNELS_SHARED_CAMERA_H
+#define NIMBUS_KERNELS_SHARED_CAMERA_H
+
+#include "compat.h"
+
+/* Plain data with fixed-width members (STYLE rule 3): 3 * 4 * 2 + 4 floats = 112 bytes. */
+typedef struct {
+    float originOpen[4];   /* xyz, w unused */
+    float forwardOpen[4];  /* unit view direction */
+    float rightOpen[4];    /* unit, scaled by tanHalfFov * aspect in w */
+    float originClose[4];
+    float forwardClose[4];
+    float rightClose[4];
+    float tanHalfFov;      /* tan(fov/2), vertical */
+    float aspect;          /* width / height */
+    float hasMotion;       /* 0 or 1 */
+    float pad;
+} NbCamera;
+
+/* Primary ray through image-plane position (x, y) in pixels (fractional, sample jitter
+ * included) at shutter time fraction t in [0,1]. Writes origin and unit direction. */
+NB_FN void nbCameraRay(NbCamera cam, float x, float y, int width, int height, float t, NB_PRIVATE float3* origin,
+                       NB_PRIVATE float3* dir)
+{
+    float3 o = nbLoad3(cam.originOpen);
+    float3 f = nbLoad3(cam.forwardOpen);
+    float3 r = nbLoad3(cam.rightOpen);
+    if (cam.hasMotion > 0.5f) {
+        o = o + (nbLoad3(cam.originClose) - o) * t;
+        f = normalize(f + (nbLoad3(cam.forwardClose) - f) * t);
+        r = normalize(r + (nbLoad3(cam.rightClose) - r) * t);
+        r = normalize(r - f * dot(r, f));
+    }
+    float3 u = cross(r, f);
+    float sx = (2.0f * x / (float)width - 1.0f) * cam.tanHalfFov * cam.aspect;
+    float sy = (1.0f - 2.0f * y / (float)height) * cam.tanHalfFov;
+    *origin = o;
+    *dir = normalize(f + r * sx + u * sy);
+}
+
+#endif

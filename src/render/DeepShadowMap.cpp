@@ -1,0 +1,270 @@
+#include "DeepShadowMap.h"
+
+#include "../core/Error.h"
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+
+namespace nimbus {
+
+namespace {
+
+// Cube faces: forward axes +x, -x, +y, -y, +z, -z with right/up completing a right-handed frame.
+const float3 kCubeForward[6] = {{1, 0, 0}, {-1, 0, 0}, {0, 1, 0}, {0, -1, 0}, {0, 0, 1}, {0, 0, -1}};
+const float3 kCubeUp[6] = {{0, 1, 0}, {0, 1, 0}, {0, 0, -1}, {0, 0, 1}, {0, 1, 0}, {0, 1, 0}};
+
+// Perspective maps wider than this half-angle use a cube instead (texel stretch grows as
+// 1/cos^2 of the off-axis angle).
+constexpr float kMaxPerspectiveHalfAngleDeg = 60.0f;
+
+}  // namespace
+
+DeepShadowMap DeepShadowMap::build(const NbLight& light, const VolumeSet& volumes, const Settings& settings)
+{
+    auto start = std::chrono::steady_clock::now();
+    DeepShadowMap m;
+    m.mRes = std::max(1, settings.resolution);
+    m.mTolerance = settings.tolerance;
+    m.mStepFraction = settings.stepFraction;
+    const Bbox& bounds = volumes.worldBounds();
+
+    if (light.type == NB_LIGHT_DISTANT) {
+        m.mProjection = Projection::Orthographic;
+        Face f;
+        f.forward = normalize(nbLoad3(light.direction));
+        nbBasis(f.forward, &f.right, &f.up);
+        float lo[3] = {1e30f, 1e30f, 1e30f}, hi[3] = {-1e30f, -1e30f, -1e30f};
+        for (int i = 0; i < 8; ++i) {
+            float3 c = make_float3(i & 1 ? bounds.hi.x : bounds.lo.x, i & 2 ? bounds.hi.y : bounds.lo.y,
+                                   i & 4 ? bounds.hi.z : bounds.lo.z);
+            float q[3] = {dot(c, f.right), dot(c, f.up), dot(c, f.forward)};
+            for (int a = 0; a < 3; ++a)
+                lo[a] = std::min(lo[a], q[a]), hi[a] = std::max(hi[a], q[a]);
+        }
+        // A square footprint with a margin of one texel on each side (clamp-to-edge lookups).
+        float side = std::max(hi[0] - lo[0], hi[1] - lo[1]);
+        side = std::max(side, 1e-6f) * (1.0f + 2.0f / float(m.mRes));
+        float cr = 0.5f * (lo[0] + hi[0]), cu = 0.5f * (lo[1] + hi[1]);
+        float depth0 = lo[2] - 0.01f * (hi[2] - lo[2]) - 1e-6f;
+        f.origin = f.right * (cr - 0.5f * side) + f.up * (cu - 0.5f * side) + f.forward * depth0;
+        f.extent = side;
+        m.mFaces.push_back(f);
+    } else if (light.type == NB_LIGHT_SPOT &&
+               std::acos(std::min(1.0f, std::max(-1.0f, light.p0))) < kMaxPerspectiveHalfAngleDeg * M_PI / 180.0) {
+        m.mProjection = Projection::Perspective;
+        Face f;
+        f.origin = nbLoad3(light.position);
+        f.forward = normalize(nbLoad3(light.direction));
+        nbBasis(f.forward, &f.right, &f.up);
+        float halfAngle = std::acos(std::min(1.0f, std::max(-1.0f, light.p0)));
+        // One extra texel of footprint so bilinear lookups at the cone edge stay inside.
+        f.extent = std::tan(halfAngle) * (1.0f + 2.0f / float(m.mRes));
+        m.mFaces.push_back(f);
+    } else if (light.type == NB_LIGHT_POINT || light.type == NB_LIGHT_SPOT) {
+        m.mProjection = Projection::Cube;
+        for (int i = 0; i < 6; ++i) {
+            Face f;
+            f.origin = nbLoad3(light.position);
+            f.forward = kCubeForward[i];
+            f.up = kCubeUp[i];
+            f.right = cross(f.forward, f.up);
+            f.extent = 1.0f;
+            m.mFaces.push_back(f);
+        }
+    } else {
+        throw Error("deep shadow maps are built for distant, point and spot lights only");
+    }
+
+    const int res = m.mRes;
+    const size_t texels = size_t(res) * res * m.mFaces.size();
+    std::vector<std::vector<Vertex>> rows(size_t(res) * m.mFaces.size());
+    std::vector<std::vector<uint32_t>> rowCounts(rows.size());
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, rows.size()), [&](const tbb::blocked_range<size_t>& r) {
+        std::vector<Vertex> texel;
+        for (size_t row = r.begin(); row != r.end(); ++row) {
+            int face = int(row / res), iy = int(row % res);
+            for (int ix = 0; ix < res; ++ix) {
+                m.buildTexel(volumes, face, ix, iy, texel);
+                rows[row].insert(rows[row].end(), texel.begin(), texel.end());
+                rowCounts[row].push_back(uint32_t(texel.size()));
+            }
+        }
+    });
+    m.mOffsets.reserve(texels + 1);
+    size_t total = 0;
+    for (auto& row : rows)
+        total += row.size();
+    m.mVertices.reserve(total);
+    for (size_t row = 0; row < rows.size(); ++row) {
+        for (uint32_t count : rowCounts[row]) {
+            m.mOffsets.push_back(uint32_t(m.mVertices.size()));
+            (void)count;
+            m.mVertices.insert(m.mVertices.end(), rows[row].begin(), rows[row].begin() + count);
+            rows[row].erase(rows[row].begin(), rows[row].begin() + count);
+        }
+    }
+    m.mOffsets.push_back(uint32_t(m.mVertices.size()));
+    m.mBuildSeconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    return m;
+}
+
+void DeepShadowMap::texelRay(int face, float u, float v, float3& o, float3& d) const
+{
+    const Face& f = mFaces[face];
+    if (mProjection == Projection::Orthographic) {
+        o = f.origin + f.right * (u * f.extent) + f.up * (v * f.extent);
+        d = f.forward;
+    } else {
+        o = f.origin;
+        d = normalize(f.forward + f.right * ((2.0f * u - 1.0f) * f.extent) + f.up * ((2.0f * v - 1.0f) * f.extent));
+    }
+}
+
+void DeepShadowMap::marchRay(const VolumeSet& volumes, float3 o, float3 d, float stepFraction, std::vector<Vertex>& raw)
+{
+    thread_local std::vector<Span> spanList;
+    volumes.spans(o, d, 0.0f, 1e30f, stepFraction, spanList);
+    raw.clear();
+    float tau[3] = {0, 0, 0};
+    for (const Span& s : spanList) {
+        raw.push_back({s.t0, {tau[0], tau[1], tau[2]}});
+        float len = s.t1 - s.t0;
+        int n = std::max(1, int(std::ceil(len / s.step)));
+        float dt = len / float(n);
+        for (int k = 0; k < n; ++k) {
+            Rgb c = volumes.sample(o + d * (s.t0 + (k + 0.5f) * dt)).sigma_t;
+            tau[0] += c.x * dt, tau[1] += c.y * dt, tau[2] += c.z * dt;
+            raw.push_back({s.t0 + (k + 1) * dt, {tau[0], tau[1], tau[2]}});
+        }
+    }
+}
+
+void DeepShadowMap::compress(const std::vector<Vertex>& raw, float tolerance, std::vector<Vertex>& out)
+{
+    out.clear();
+    if (raw.empty())
+        return;
+    const Vertex& last = raw.back();
+    if (std::max({last.tau[0], last.tau[1], last.tau[2]}) <= 0.0f)
+        return;  // nothing along this ray: T = 1 everywhere
+
+    // Greedy compression with a window of admissible slopes per channel (Lokovic & Veach sec.
+    // 4.2): from the last kept vertex a, extend while some line through a passes within
+    // tol_i of every raw vertex; tol_i is the optical-depth error that keeps the
+    // transmittance error below `tolerance` at that depth: exp(-tau)(e^tol_i - 1) = tolerance.
+    auto tolAt = [&](const Vertex& v, int c) { return std::log1p(tolerance * std::exp(std::min(v.tau[c], 80.0f))); };
+    size_t a = 0;
+    out.push_back(raw[0]);
+    float lo[3], hi[3];
+    auto resetWindow = [&]() {
+        for (int c = 0; c < 3; ++c)
+            lo[c] = -INFINITY, hi[c] = INFINITY;
+    };
+    resetWindow();
+    for (size_t i = 1; i < raw.size(); ++i) {
+        float dz = raw[i].z - raw[a].z;
+        bool fits = dz > 0.0f;
+        for (int c = 0; c < 3 && fits; ++c) {
+            float slope = (raw[i].tau[c] - raw[a].tau[c]) / dz;
+            fits = slope >= lo[c] && slope <= hi[c];
+        }
+        if (!fits) {
+            // Keep the previous vertex and restart the window from it.
+            a = i - 1;
+            out.push_back(raw[a]);
+            resetWindow();
+            dz = raw[i].z - raw[a].z;
+            if (!(dz > 0.0f))
+                continue;
+        }
+        for (int c = 0; c < 3; ++c) {
+            float t = tolAt(raw[i], c);
+            lo[c] = std::max(lo[c], (raw[i].tau[c] - t - raw[a].tau[c]) / dz);
+            hi[c] = std::min(hi[c], (raw[i].tau[c] + t - raw[a].tau[c]) / dz);
+        }
+    }
+    if (out.back().z != raw.back().z)
+        out.push_back(raw.back());
+}
+
+void DeepShadowMap::buildTexel(const VolumeSet& volumes, int face, int ix, int iy, std::vector<Vertex>& out) const
+{
+    float3 o, d;
+    texelRay(face, (ix + 0.5f) / mRes, (iy + 0.5f) / mRes, o, d);
+    thread_local std::vector<Vertex> raw;
+    marchRay(volumes, o, d, mStepFraction, raw);
+    compress(raw, mTolerance, out);
+}
+
+bool DeepShadowMap::project(float3 p, int& face, float& u, float& v, float& z) const
+{
+    if (mProjection == Projection::Orthographic) {
+        const Face& f = mFaces[0];
+        float3 q = p - f.origin;
+        face = 0;
+        u = dot(q, f.right) / f.extent;
+        v = dot(q, f.up) / f.extent;
+        z = dot(q, f.forward);
+        return true;
+    }
+    float3 q = p - mFaces[0].origin;
+    if (mProjection == Projection::Cube) {
+        float ax = std::fabs(q.x), ay = std::fabs(q.y), az = std::fabs(q.z);
+        face = ax >= ay && ax >= az ? (q.x >= 0 ? 0 : 1) : (ay >= az ? (q.y >= 0 ? 2 : 3) : (q.z >= 0 ? 4 : 5));
+    } else {
+        face = 0;
+    }
+    const Face& f = mFaces[face];
+    float zf = dot(q, f.forward);
+    if (!(zf > 0.0f))
+        return false;
+    u = 0.5f * (dot(q, f.right) / (zf * f.extent) + 1.0f);
+    v = 0.5f * (dot(q, f.up) / (zf * f.extent) + 1.0f);
+    z = length(q);
+    return true;
+}
+
+Rgb DeepShadowMap::texelOpticalDepth(int face, int ix, int iy, float z) const
+{
+    size_t t = (size_t(face) * mRes + iy) * mRes + ix;
+    const Vertex* begin = mVertices.data() + mOffsets[t];
+    const Vertex* end = mVertices.data() + mOffsets[t + 1];
+    if (begin == end || z <= begin->z)
+        return splat(0.0f);
+    if (z >= (end - 1)->z)
+        return make_float3((end - 1)->tau[0], (end - 1)->tau[1], (end - 1)->tau[2]);
+    const Vertex* hiV = std::upper_bound(begin, end, z, [](float zz, const Vertex& v) { return zz < v.z; });
+    const Vertex* loV = hiV - 1;
+    float w = (z - loV->z) / std::max(hiV->z - loV->z, 1e-30f);
+    return make_float3(loV->tau[0] + w * (hiV->tau[0] - loV->tau[0]), loV->tau[1] + w * (hiV->tau[1] - loV->tau[1]),
+                       loV->tau[2] + w * (hiV->tau[2] - loV->tau[2]));
+}
+
+Rgb DeepShadowMap::transmittance(float3 p) const
+{
+    int face;
+    float u, v, z;
+    if (!project(p, face, u, v, z))
+        return splat(1.0f);
+    if (mProjection != Projection::Cube && (u < 0.0f || u > 1.0f || v < 0.0f || v > 1.0f))
+        return splat(1.0f);
+    float fx = u * mRes - 0.5f, fy = v * mRes - 0.5f;
+    int x0 = int(std::floor(fx)), y0 = int(std::floor(fy));
+    float wx = fx - x0, wy = fy - y0;
+    auto clampI = [&](int i) { return std::min(std::max(i, 0), mRes - 1); };
+    int xa = clampI(x0), xb = clampI(x0 + 1), ya = clampI(y0), yb = clampI(y0 + 1);
+    Rgb tau = texelOpticalDepth(face, xa, ya, z) * ((1 - wx) * (1 - wy)) + texelOpticalDepth(face, xb, ya, z) * (wx * (1 - wy)) +
+              texelOpticalDepth(face, xa, yb, z) * ((1 - wx) * wy) + texelOpticalDepth(face, xb, yb, z) * (wx * wy);
+    return exp(-tau);
+}
+
+size_t DeepShadowMap::memoryBytes() const
+{
+    return mVertices.size() * sizeof(Vertex) + mOffsets.size() * sizeof(uint32_t);
+}
+
+}  // namespace nimbus

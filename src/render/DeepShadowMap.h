@@ -1,0 +1,85 @@
+// DeepShadowMap.h: per-light transmittance from the light to any point (Tessendorf eq. 27;
+// Lokovic & Veach 2000).
+//
+// Each texel holds the optical depth tau(z) (RGB, since extinction is chromatic) along its ray
+// from the light as a piecewise-linear function of depth z, compressed so that the
+// transmittance exp(-tau) it reconstructs is within `tolerance` of the marched one at every
+// marched sample. Storing optical depth rather than transmittance keeps homogeneous stretches
+// exact with two vertices and makes the compression error bound direct:
+// |exp(-a) - exp(-b)| <= exp(-min(a,b)) |a - b|.
+// Projections: orthographic for distant lights (depth along the direction of travel),
+// perspective for spot lights and a cube of six perspective faces for point lights (depth =
+// distance from the light, so optical depth is linear in depth in homogeneous media).
+// Lookups interpolate bilinearly between the four nearest texels, each evaluated at the
+// point's depth.
+#pragma once
+
+#include "../../kernels/shared/light.h"
+#include "VolumeSet.h"
+
+#include <vector>
+
+namespace nimbus {
+
+class DeepShadowMap {
+public:
+    enum class Projection { Orthographic, Perspective, Cube };
+
+    struct Settings {
+        int resolution = 256;       // texels per side (per face for cube maps)
+        float tolerance = 0.002f;   // max transmittance error of the compression
+        float stepFraction = 1.0f;  // light-ray march step, voxels
+    };
+
+    // Builds the map for a point, spot or distant light over the volumes (TBB-parallel).
+    static DeepShadowMap build(const NbLight& light, const VolumeSet& volumes, const Settings& settings);
+
+    // Transmittance (RGB) from the light to world point p. Points outside the map's footprint
+    // see no volume between them and the light and get 1.
+    Rgb transmittance(float3 p) const;
+
+    Projection projection() const { return mProjection; }
+    int resolution() const { return mRes; }
+    size_t vertexCount() const { return mVertices.size(); }
+    size_t memoryBytes() const;
+    double buildSeconds() const { return mBuildSeconds; }
+
+    // The optical depth stored in texel (face, ix, iy) at depth z, and the texel's ray
+    // (u, v in [0,1] across the face): for tests and debugging views.
+    Rgb texelOpticalDepth(int face, int ix, int iy, float z) const;
+    void texelRay(int face, float u, float v, float3& o, float3& d) const;
+    int faceCount() const { return int(mFaces.size()); }
+
+    // One vertex of a texel's optical-depth function: depth z (metres) and tau per channel.
+    struct Vertex {
+        float z;
+        float tau[3];
+    };
+    // The uncompressed march along a light ray: a vertex at the start of every span and at the
+    // end of every step (midpoint rule), optical depth accumulated from the ray origin.
+    static void marchRay(const VolumeSet& volumes, float3 o, float3 d, float stepFraction, std::vector<Vertex>& raw);
+    // Greedy piecewise-linear compression of `raw` whose transmittance stays within
+    // `tolerance` of raw's at every raw vertex (and so everywhere between them).
+    static void compress(const std::vector<Vertex>& raw, float tolerance, std::vector<Vertex>& out);
+
+private:
+    struct Face {
+        float3 origin;    // orthographic: a corner of the footprint plane; perspective: apex
+        float3 right, up, forward;
+        float extent;     // orthographic: footprint side, metres; perspective: tan(half angle)
+    };
+
+    bool project(float3 p, int& face, float& u, float& v, float& z) const;
+    void buildTexel(const VolumeSet& volumes, int face, int ix, int iy, std::vector<Vertex>& out) const;
+
+    Projection mProjection = Projection::Orthographic;
+    int mRes = 0;
+    float mTolerance = 0.002f;
+    float mStepFraction = 1.0f;
+    std::vector<Face> mFaces;
+    std::vector<uint32_t> mOffsets;  // per texel: first vertex; one past the last at the end
+    std::vector<Vertex> mVertices;
+    double mBuildSeconds = 0.0;
+};
+
+}  // namespace nimbus

@@ -1,0 +1,39 @@
+// RenderContext.h: everything an integrator reads, built once from a Scene: the volumes as one
+// medium, the lights in kernel form, their deep shadow maps and the render plan.
+#pragma once
+
+#include "../scene/Scene.h"
+#include "DeepShadowMap.h"
+#include "RenderPlan.h"
+#include "VolumeSet.h"
+
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+namespace nimbus {
+
+struct LightEntry {
+    NbLight light;
+    std::string aov;  // "light_<name>"
+    bool used = true;
+    std::optional<DeepShadowMap> shadowMap;  // set for delta lights that reach a volume
+};
+
+struct RenderContext {
+    const Scene* scene = nullptr;
+    VolumeSet volumes;
+    std::vector<LightEntry> lights;
+    RenderPlan plan;
+    Rgb background = splat(0.0f);  // radiance seen where rays leave the volumes
+
+    // Loads the volumes and plans the render. `buildShadowMaps` false: plan only (nimbus info).
+    static std::unique_ptr<RenderContext> create(const Scene& scene, bool buildShadowMaps);
+
+    // Transmittance-weighted light arriving at p from light i, as L_i / pdf (see light.h), and
+    // the direction toward the light. Uses the shadow map where there is one, else a shadow ray.
+    Rgb incident(size_t i, float3 p, float u0, float u1, float3& wi) const;
+};
+
+}  // namespace nimbus

@@ -1,0 +1,194 @@
+#include "Renderer.h"
+
+#include "../core/Error.h"
+#include "../core/Log.h"
+#include "../scene/KernelScene.h"
+#include "RenderContext.h"
+#include "SingleScatter.h"
+
+#include <tbb/blocked_range.h>
+#include <tbb/global_control.h>
+#include <tbb/parallel_for.h>
+
+#include <chrono>
+#include <cmath>
+#include <memory>
+#include <sstream>
+
+namespace nimbus {
+
+namespace {
+
+constexpr int kTile = 16;
+
+std::string lightAov(const Light& l, size_t i) { return "light_" + (l.name.empty() ? std::to_string(i) : l.name); }
+
+void setupFilm(Film& film, const Scene& scene, Method method)
+{
+    const Camera& c = scene.camera;
+    film.width = c.width;
+    film.height = c.height;
+    film.x0 = std::max(0, int(std::floor(c.crop[0] * c.width)));
+    film.x1 = std::min(c.width, int(std::ceil(c.crop[1] * c.width)));
+    film.y0 = std::max(0, int(std::floor(c.crop[2] * c.height)));
+    film.y1 = std::min(c.height, int(std::ceil(c.crop[3] * c.height)));
+    for (const std::string& name : aovNames(scene, method)) {
+        bool data = name == "alpha" || name == "depth" || name == "variance";
+        film.add(name, name == "beauty" ? 4 : (data ? 1 : 3), data);
+    }
+}
+
+std::string settingsSummary(const Scene& s)
+{
+    std::ostringstream o;
+    o << "spp=" << s.render.spp << " step=" << s.render.step << " shadow_map_resolution=" << s.render.shadowMapResolution
+      << " tolerance=" << s.render.tolerance << " shadow_step=" << s.render.shadowStep
+      << " light_samples=" << s.render.lightSamples;
+    return o.str();
+}
+
+// The L0 + L1 (+ L2+) camera-ray integrators share this driver: tiles in parallel, each
+// pixel's samples drawn from (seed, pixel, sample) so any thread count gives the same image.
+void renderMarched(const RenderContext& ctx, Film& film, const RenderOptions& options)
+{
+    const Scene& scene = *ctx.scene;
+    const NbCamera cam = makeNbCamera(scene.camera);
+    const int spp = std::max(1, scene.render.spp);
+    const size_t nLights = ctx.lights.size();
+    const int tilesX = (film.x1 - film.x0 + kTile - 1) / kTile, tilesY = (film.y1 - film.y0 + kTile - 1) / kTile;
+    const int tileCount = std::max(0, tilesX * tilesY);
+    std::atomic<int> done{0};
+    std::atomic<bool> cancelled{false};
+
+    Aov* beauty = film.find("beauty");
+    Aov* L0 = film.find("L0");
+    Aov* L1 = film.find("L1");
+    Aov* L2 = film.find("L2plus");
+    Aov* alpha = film.find("alpha");
+    Aov* depth = film.find("depth");
+    std::vector<Aov*> perLightAov(nLights, nullptr);
+    for (size_t i = 0; i < nLights; ++i)
+        perLightAov[i] = film.find(ctx.lights[i].aov);
+
+    tbb::parallel_for(tbb::blocked_range<int>(0, tileCount, 1), [&](const tbb::blocked_range<int>& r) {
+        std::vector<float> perLight(3 * nLights), perLightSum(3 * nLights);
+        for (int tile = r.begin(); tile != r.end(); ++tile) {
+            if (cancelled.load(std::memory_order_relaxed))
+                return;
+            int tx0 = film.x0 + (tile % tilesX) * kTile, ty0 = film.y0 + (tile / tilesX) * kTile;
+            for (int y = ty0; y < std::min(ty0 + kTile, film.y1); ++y)
+                for (int x = tx0; x < std::min(tx0 + kTile, film.x1); ++x) {
+                    CameraSample sum;
+                    sum.transmittance = splat(0.0f);
+                    float depthSum = 0.0f, depthWeight = 0.0f;
+                    std::fill(perLightSum.begin(), perLightSum.end(), 0.0f);
+                    nb_uint pixelIndex = nb_uint(y) * nb_uint(film.width) + nb_uint(x);
+                    for (int s = 0; s < spp; ++s) {
+                        NbRng rng = nbRngStart(scene.render.seed, pixelIndex, nb_uint(s));
+                        float jx = nbRngNext(&rng), jy = nbRngNext(&rng), time = nbRngNext(&rng);
+                        float3 o, d;
+                        nbCameraRay(cam, x + jx, y + jy, film.width, film.height, time, &o, &d);
+                        CameraSample cs;
+                        std::fill(perLight.begin(), perLight.end(), 0.0f);
+                        marchSingle(ctx, o, d, rng, cs, perLight.data());
+                        sum.L0 += cs.L0;
+                        sum.L1 += cs.L1;
+                        sum.L2plus += cs.L2plus;
+                        sum.transmittance += cs.transmittance;
+                        float a = 1.0f - nbAverage(cs.transmittance);
+                        depthSum += a * cs.depth;
+                        depthWeight += a;
+                        for (size_t i = 0; i < perLight.size(); ++i)
+                            perLightSum[i] += perLight[i];
+                    }
+                    const float inv = 1.0f / float(spp);
+                    Rgb l0 = sum.L0 * inv, l1 = sum.L1 * inv, l2 = sum.L2plus * inv;
+                    Rgb b = l0 + l1 + l2;
+                    float a = 1.0f - nbAverage(sum.transmittance * inv);
+                    float* pb = film.pixel(*beauty, x, y);
+                    pb[0] = b.x, pb[1] = b.y, pb[2] = b.z, pb[3] = a;
+                    auto put3 = [&](Aov* aov, Rgb v) {
+                        if (!aov)
+                            return;
+                        float* p = film.pixel(*aov, x, y);
+                        p[0] = v.x, p[1] = v.y, p[2] = v.z;
+                    };
+                    put3(L0, l0);
+                    put3(L1, l1);
+                    put3(L2, l2);
+                    if (alpha)
+                        *film.pixel(*alpha, x, y) = a;
+                    if (depth)
+                        *film.pixel(*depth, x, y) = depthWeight > 0.0f ? depthSum / depthWeight : 0.0f;
+                    for (size_t i = 0; i < nLights; ++i)
+                        put3(perLightAov[i], make_float3(perLightSum[3 * i] * inv, perLightSum[3 * i + 1] * inv,
+                                                         perLightSum[3 * i + 2] * inv));
+                }
+            int finished = ++done;
+            bool keepGoing = true;
+            if (options.progress)
+                keepGoing = options.progress(float(finished) / float(tileCount));
+            if (!keepGoing || (options.cancel && options.cancel->load()))
+                cancelled = true;
+        }
+    });
+    if (cancelled)
+        throw Cancelled();
+}
+
+}  // namespace
+
+std::vector<std::string> aovNames(const Scene& scene, Method method)
+{
+    std::vector<std::string> names = {"beauty", "L0", "L1"};
+    if (method != Method::Single)
+        names.push_back("L2plus");
+    names.push_back("alpha");
+    names.push_back("depth");
+    if (method == Method::Pathtrace)
+        names.push_back("variance");
+    for (size_t i = 0; i < scene.lights.size(); ++i)
+        names.push_back(lightAov(scene.lights[i], i));
+    return names;
+}
+
+RenderPlan planRender(const Scene& scene) { return RenderContext::create(scene, false)->plan; }
+
+RenderResult render(const Scene& scene, const RenderOptions& options)
+{
+    auto start = std::chrono::steady_clock::now();
+    std::unique_ptr<tbb::global_control> threads;
+    if (scene.render.threads > 0)
+        threads = std::make_unique<tbb::global_control>(tbb::global_control::max_allowed_parallelism,
+                                                        size_t(scene.render.threads));
+    RenderResult result;
+    setupFilm(result.film, scene, scene.render.method);
+
+    switch (scene.render.method) {
+    case Method::Single: {
+        auto ctx = RenderContext::create(scene, true);
+        auto t = std::chrono::steady_clock::now();
+        renderMarched(*ctx, result.film, options);
+        ctx->plan.stageSeconds.push_back(
+            {"march", std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count()});
+        result.plan = ctx->plan;
+        break;
+    }
+    case Method::Wkb:
+    case Method::Pathtrace:
+        throw Error(std::string("method '") + methodName(scene.render.method) + "' is not available in this build yet");
+    }
+
+    result.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    auto& md = result.film.metadata;
+    md.push_back({"version", NIMBUS_VERSION});
+    md.push_back({"method", methodName(scene.render.method)});
+    md.push_back({"seed", std::to_string(scene.render.seed)});
+    md.push_back({"render_time", std::to_string(result.seconds)});
+    md.push_back({"settings", settingsSummary(scene)});
+    if (!scene.sourcePath.empty())
+        md.push_back({"scene", scene.sourcePath});
+    return result;
+}
+
+}  // namespace nimbus

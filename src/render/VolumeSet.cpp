@@ -1,0 +1,151 @@
+#include "VolumeSet.h"
+
+#include <algorithm>
+#include <cmath>
+
+namespace nimbus {
+
+VolumeSet::VolumeSet(std::vector<std::shared_ptr<VolumeData>> volumes, float)
+{
+    mMinVoxel = std::numeric_limits<float>::infinity();
+    for (auto& v : volumes) {
+        if (!v || v->density.empty() || v->worldBounds.empty())
+            continue;  // an empty grid renders as nothing
+        mBounds.expand(v->worldBounds);
+        mHasEmission |= v->hasEmission();
+        mMinVoxel = std::min(mMinVoxel, v->voxelSize);
+        mVolumes.push_back(std::move(v));
+    }
+    if (mVolumes.empty())
+        mMinVoxel = 1.0f;
+}
+
+namespace {
+
+// Appends the spans of non-empty brick slots of one grid along an index-space ray (3D DDA,
+// Amanatides & Woo 1987). tIn/tOut bound the ray inside the grid's active bounds.
+void gridSpans(const BrickGrid& grid, const BrickGrid* emission, float3 o, float3 d, float tIn, float tOut,
+               float step, std::vector<Span>& out)
+{
+    const float B = float(BrickGrid::kBrick);
+    float3 p = o + d * tIn;
+    int cell[3] = {int(std::floor(p.x / B)), int(std::floor(p.y / B)), int(std::floor(p.z / B))};
+    float dir[3] = {d.x, d.y, d.z}, org[3] = {o.x, o.y, o.z};
+    int stepDir[3];
+    float tNext[3], tDelta[3];
+    for (int a = 0; a < 3; ++a) {
+        if (dir[a] > 0) {
+            stepDir[a] = 1;
+            tNext[a] = ((cell[a] + 1) * B - org[a]) / dir[a];
+            tDelta[a] = B / dir[a];
+        } else if (dir[a] < 0) {
+            stepDir[a] = -1;
+            tNext[a] = (cell[a] * B - org[a]) / dir[a];
+            tDelta[a] = -B / dir[a];
+        } else {
+            stepDir[a] = 0;
+            tNext[a] = std::numeric_limits<float>::infinity();
+            tDelta[a] = std::numeric_limits<float>::infinity();
+        }
+    }
+    float t = tIn;
+    // Cap the walk: a ray crosses at most the sum of the table's dimensions plus a margin.
+    Int3 dims = grid.dims();
+    int maxSteps = dims.x + dims.y + dims.z + 8;
+    for (int i = 0; i < maxSteps && t < tOut; ++i) {
+        int axis = tNext[0] < tNext[1] ? (tNext[0] < tNext[2] ? 0 : 2) : (tNext[1] < tNext[2] ? 1 : 2);
+        float tExit = std::min(tNext[axis], tOut);
+        float3 centre = make_float3((cell[0] + 0.5f) * B, (cell[1] + 0.5f) * B, (cell[2] + 0.5f) * B);
+        bool occupied = grid.majorantAt(centre) > 0.0f || (emission && emission->majorantAt(centre) > 0.0f);
+        if (occupied && tExit > t) {
+            if (!out.empty() && out.back().t1 >= t - 1e-6f * std::fabs(t) && out.back().step == step)
+                out.back().t1 = tExit;
+            else
+                out.push_back({t, tExit, step});
+        }
+        t = tExit;
+        cell[axis] += stepDir[axis];
+        tNext[axis] += tDelta[axis];
+    }
+}
+
+}  // namespace
+
+void VolumeSet::spans(float3 o, float3 d, float tmin, float tmax, float stepFraction, std::vector<Span>& out) const
+{
+    out.clear();
+    if (mVolumes.empty() || !(tmax > tmin))
+        return;
+    std::vector<Span> local;
+    for (auto& v : mVolumes) {
+        float t0, t1;
+        if (!v->worldBounds.intersect(o, safeInverse(d), tmin, tmax, t0, t1))
+            continue;
+        float3 oi = v->indexFromWorld.point(o), di = v->indexFromWorld.vector(d);
+        Bbox ib = v->density.activeIndexBounds();
+        if (v->hasEmission())
+            ib.expand(v->emission.activeIndexBounds());
+        float s0, s1;
+        if (!ib.intersect(oi, safeInverse(di), t0, t1, s0, s1))
+            continue;
+        size_t before = local.size();
+        gridSpans(v->density, v->hasEmission() ? &v->emission : nullptr, oi, di, s0, s1,
+                  stepFraction * v->voxelSize, local);
+        (void)before;
+    }
+    if (local.empty())
+        return;
+    std::sort(local.begin(), local.end(), [](const Span& a, const Span& b) { return a.t0 < b.t0; });
+    // Merge overlaps; where volumes overlap, the finer step wins.
+    out.push_back(local[0]);
+    for (size_t i = 1; i < local.size(); ++i) {
+        Span& last = out.back();
+        if (local[i].t0 <= last.t1) {
+            last.t1 = std::max(last.t1, local[i].t1);
+            last.step = std::min(last.step, local[i].step);
+        } else {
+            out.push_back(local[i]);
+        }
+    }
+}
+
+MediumSample VolumeSet::sample(float3 p, float* phaseWeights) const
+{
+    MediumSample m;
+    for (size_t i = 0; i < mVolumes.size(); ++i) {
+        const VolumeData& v = *mVolumes[i];
+        float w = 0.0f;
+        if (v.worldBounds.contains(p)) {
+            float3 ip = v.indexFromWorld.point(p);
+            float rho = v.density.sample(ip);
+            if (rho > 0.0f) {
+                Rgb s = v.sigmaS() * rho;
+                m.sigma_s += s;
+                m.sigma_t += v.sigmaT() * rho;
+                w = nbAverage(s);
+            }
+            if (v.hasEmission())
+                m.emission += v.emission.sample3(ip) * v.medium.emissionScale;
+        }
+        if (phaseWeights)
+            phaseWeights[i] = w;
+    }
+    return m;
+}
+
+Rgb VolumeSet::opticalDepth(float3 o, float3 d, float t0, float t1, float stepFraction) const
+{
+    thread_local std::vector<Span> spanList;
+    spans(o, d, t0, t1, stepFraction, spanList);
+    Rgb tau = splat(0.0f);
+    for (const Span& s : spanList) {
+        float len = s.t1 - s.t0;
+        int n = std::max(1, int(std::ceil(len / s.step)));
+        float dt = len / float(n);
+        for (int k = 0; k < n; ++k)
+            tau += sample(o + d * (s.t0 + (k + 0.5f) * dt)).sigma_t * dt;
+    }
+    return tau;
+}
+
+}  // namespace nimbus
