@@ -1,0 +1,169 @@
+// nimbus: the command-line renderer.
+//
+//   nimbus render SCENE.json [-o out.exr] [--method single|wkb|pathtrace] [--set key.path=value]...
+//   nimbus render --default            the embedded default scene (a procedural cloud)
+//   nimbus info SCENE.json             scene summary and render plan
+//   nimbus devices                     OpenCL devices for the path tracer
+//   nimbus default-scene               prints the default scene as JSON
+//
+// Exit codes: 0 success, 1 render failure, 2 bad input (a missing file or grid, bad JSON, an
+// unknown key, a value out of range, a bad flag). Errors are one line on stderr.
+#include "core/Error.h"
+#include "core/Log.h"
+#include "io/Outputs.h"
+#include "io/Progress.h"
+#include "render/Renderer.h"
+#include "scene/DefaultScene.h"
+#include "scene/SceneJson.h"
+#include "scene/SceneValidate.h"
+
+#include <CLI/CLI.hpp>
+#include <nlohmann/json.hpp>
+
+#include <cstdio>
+#include <iostream>
+#include <string>
+#include <vector>
+
+using namespace nimbus;
+
+namespace {
+
+enum Exit { kOk = 0, kRenderFailure = 1, kBadInput = 2 };
+
+struct SceneArgs {
+    std::string file;
+    bool useDefault = false;
+    std::vector<std::string> sets;
+    std::string method;
+};
+
+Scene loadScene(const SceneArgs& a)
+{
+    if (a.useDefault == !a.file.empty())
+        throw InputError(a.useDefault ? "give either a scene file or --default, not both"
+                                      : "no scene: give a scene file or --default");
+    std::vector<std::string> overrides = a.sets;
+    if (!a.method.empty())
+        overrides.push_back("render.method=\"" + a.method + "\"");
+    if (a.useDefault) {
+        nlohmann::json j = sceneToJson(defaultScene());
+        applyOverrides(j, overrides, "default scene");
+        return sceneFromJson(j, "");
+    }
+    return loadSceneFile(a.file, overrides);
+}
+
+void addSceneArgs(CLI::App* cmd, SceneArgs& a)
+{
+    cmd->add_option("scene", a.file, "Scene file (JSON)");
+    cmd->add_flag("--default", a.useDefault, "Use the embedded default scene");
+    cmd->add_option("--set", a.sets, "Override a scene value: key.path=value (JSON value)")->take_all();
+    cmd->add_option("--method", a.method, "single | wkb | pathtrace")
+        ->check(CLI::IsMember({"single", "wkb", "pathtrace"}));
+}
+
+int runRender(const SceneArgs& args, const std::string& output, const std::string& preview, bool explain, bool quiet)
+{
+    Scene scene = loadScene(args);
+    if (!output.empty())
+        scene.output.file = output;
+    if (!preview.empty())
+        scene.output.preview = preview;
+    validateScene(scene);
+    checkOutputs(scene);
+
+    Progress progress("render", 1000, ProgressOptions{quiet, {}});
+    float last = 0.0f;
+    RenderOptions options;
+    options.progress = [&](float fraction) {
+        size_t now = size_t(fraction * 1000.0f), before = size_t(last * 1000.0f);
+        last = std::max(last, fraction);
+        if (now > before)
+            progress.advance(now - before);
+        return true;
+    };
+    RenderResult result = render(scene, options);
+    progress.finish();
+    if (explain)
+        std::cout << result.plan.describe();
+    selectAovs(scene, result.film);
+    writeOutputs(scene, result.film);
+    if (!quiet) {
+        std::fprintf(stderr, "nimbus: wrote %s", scene.output.file.c_str());
+        if (!scene.output.preview.empty())
+            std::fprintf(stderr, " and %s", scene.output.preview.c_str());
+        std::fprintf(stderr, " (%s, %.2f s)\n", methodName(scene.render.method), result.seconds);
+    }
+    return kOk;
+}
+
+int runInfo(const SceneArgs& args)
+{
+    Scene scene = loadScene(args);
+    validateScene(scene);
+    const Camera& c = scene.camera;
+    std::cout << "scene " << (scene.sourcePath.empty() ? "(default)" : scene.sourcePath) << "\n";
+    std::cout << "  camera: " << c.width << "x" << c.height << ", fov " << c.fov << " deg"
+              << (c.hasMotion ? ", motion blur" : "") << "\n";
+    std::cout << "  " << scene.lights.size() << " light(s), " << scene.volumes.size() << " volume(s), method "
+              << methodName(scene.render.method) << ", spp " << scene.render.spp << ", seed " << scene.render.seed
+              << "\n";
+    std::cout << planRender(scene).describe();
+    return kOk;
+}
+
+}  // namespace
+
+int main(int argc, char** argv)
+{
+    CLI::App app{"nimbus: a volume renderer (single scattering, WKB multiple scattering, path tracing)"};
+    app.require_subcommand(1);
+    app.set_version_flag("--version", std::string("nimbus ") + NIMBUS_VERSION);
+
+    SceneArgs renderArgs, infoArgs;
+    std::string output, preview;
+    bool explain = false, quiet = false;
+    CLI::App* render = app.add_subcommand("render", "Render a scene to EXR (and a preview PNG)");
+    addSceneArgs(render, renderArgs);
+    render->add_option("-o,--output", output, "EXR output path (overrides output.file)");
+    render->add_option("--preview", preview, "Preview PNG path (overrides output.preview)");
+    render->add_flag("--explain", explain, "Print the render plan with stage times");
+    render->add_flag("-q,--quiet", quiet, "No progress or info lines");
+
+    CLI::App* info = app.add_subcommand("info", "Print the scene summary and the render plan");
+    addSceneArgs(info, infoArgs);
+
+    CLI::App* dump = app.add_subcommand("default-scene", "Print the embedded default scene as JSON");
+
+    try {
+        app.parse(argc, argv);
+    } catch (const CLI::ParseError& e) {
+        int code = app.exit(e);
+        return code == 0 ? kOk : kBadInput;
+    }
+
+    try {
+        setLogQuiet(quiet);
+        if (quiet)
+            Progress::setQuiet(true);
+        if (*render)
+            return runRender(renderArgs, output, preview, explain, quiet);
+        if (*info)
+            return runInfo(infoArgs);
+        if (*dump) {
+            std::cout << sceneToJson(defaultScene()).dump(2) << "\n";
+            return kOk;
+        }
+    } catch (const InputError& e) {
+        std::fprintf(stderr, "nimbus: error: %s\n", e.what());
+        return kBadInput;
+    } catch (const Cancelled& e) {
+        std::fprintf(stderr, "nimbus: %s\n", e.what());
+        return kRenderFailure;
+    } catch (const std::exception& e) {
+        std::fprintf(stderr, "nimbus: render failed: %s\n", e.what());
+        return kRenderFailure;
+    }
+    return kOk;
+}

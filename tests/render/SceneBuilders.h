@@ -1,0 +1,34 @@
+// SceneBuilders.h: small scenes with known answers, built through the public Scene API.
+#pragma once
+
+#include "scene/Scene.h"
+
+#include <string>
+
+namespace nimbus::test {
+
+// A homogeneous box of the given size (metres), centred at the origin, density 1.
+inline Volume homogeneousBox(float sx, float sy, float sz, float voxel, Rgb sigma_s, Rgb sigma_a, float g = 0.0f)
+{
+    Volume v;
+    v.name = "box";
+    v.source.type = SourceType::Procedural;
+    v.source.generator = "box";
+    v.source.params = {{"size_x", sx}, {"size_y", sy}, {"size_z", sz}, {"voxel_size", voxel}, {"density", 1.0}};
+    v.medium.sigma_s = sigma_s;
+    v.medium.sigma_a = sigma_a;
+    v.medium.phase = NbPhase{g, 0, 0, 0};
+    return v;
+}
+
+inline Scene emptyScene(int w, int h)
+{
+    Scene s;
+    s.camera.width = w;
+    s.camera.height = h;
+    s.render.threads = 0;
+    s.output.file = "unused.exr";
+    return s;
+}
+
+}  // namespace nimbus::test
