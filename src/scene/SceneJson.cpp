@@ -1,0 +1,573 @@
+// SceneJson.cpp: reading and writing the JSON scene format.
+//
+// Each object's plain keys are listed once, in a visit function that takes either a reader or a
+// writer (the field() overloads of both have the same shape), so reading and writing cannot
+// drift apart and adding a key is one line. Keys whose JSON shape differs from the Scene field
+// (resolution, motion, transform, phase, sources) are read and written by hand next to each other.
+#include "SceneJson.h"
+
+#include "JsonReader.h"
+#include "SceneValidate.h"
+
+#include "../core/Error.h"
+
+#include <nlohmann/json.hpp>
+
+#include <cerrno>
+#include <cstdint>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+namespace nimbus {
+
+using nlohmann::json;
+
+namespace {
+
+// ---- the two visitors ----------------------------------------------------------------------
+
+// The JSON number whose shortest decimal reads back as exactly v: written files say 0.1, not
+// 0.10000000149011612, and still round-trip bit for bit.
+double shortestDecimal(float v)
+{
+    char buf[32];
+    for (int precision = 6; precision <= 9; ++precision) {
+        std::snprintf(buf, sizeof buf, "%.*g", precision, double(v));
+        double d = std::strtod(buf, nullptr);
+        if (float(d) == v)
+            return d;
+    }
+    return double(v);
+}
+
+class JsonWriter {
+public:
+    void field(const std::string& key, float v) { mJson[key] = shortestDecimal(v); }
+    void field(const std::string& key, double v) { mJson[key] = v; }
+    void field(const std::string& key, int v) { mJson[key] = v; }
+    void field(const std::string& key, uint32_t v) { mJson[key] = v; }
+    void field(const std::string& key, const std::string& v) { mJson[key] = v; }
+    void field(const std::string& key, const std::vector<std::string>& v) { mJson[key] = v; }
+    void field(const std::string& key, float3 v) { mJson[key] = array(v); }
+    void field(const std::string& key, Method m) { mJson[key] = methodName(m); }
+    void rgb(const std::string& key, Rgb v) { mJson[key] = array(v); }
+    template <int N>
+    void field(const std::string& key, const float (&v)[N])
+    {
+        json a = json::array();
+        for (int i = 0; i < N; ++i)
+            a.push_back(shortestDecimal(v[i]));
+        mJson[key] = a;
+    }
+
+    static json array(float3 v) { return {shortestDecimal(v.x), shortestDecimal(v.y), shortestDecimal(v.z)}; }
+    nlohmann::json& doc() { return mJson; }
+
+private:
+    nlohmann::json mJson = nlohmann::json::object();
+};
+
+// The reader side, with the Scene's enums.
+class SceneReader : public JsonReader {
+public:
+    using JsonReader::field;
+    using JsonReader::JsonReader;
+
+    void field(const std::string& key, Method& out)
+    {
+        const nlohmann::json* v = find(key);
+        if (!v)
+            return;
+        std::string name = JsonValue{*v, keyPath(key), file()}.string();
+        for (Method m : {Method::Single, Method::Wkb, Method::Pathtrace})
+            if (name == methodName(m)) {
+                out = m;
+                return;
+            }
+        fail(key, "unknown method '" + name + "' (expected single, wkb, pathtrace)");
+    }
+};
+
+const json& requireList(const JsonValue& v)
+{
+    if (!v.value.is_array())
+        v.typeError("a list");
+    return v.value;
+}
+
+std::string indexed(const std::string& path, size_t i) { return path + "[" + std::to_string(i) + "]"; }
+
+// ---- render, output ------------------------------------------------------------------------
+
+template <class V, class R>
+void visitRender(V& v, R& r)
+{
+    v.field("method", r.method);
+    v.field("seed", r.seed);
+    v.field("threads", r.threads);
+    v.field("spp", r.spp);
+    v.field("step", r.step);
+    v.field("shadow_map_resolution", r.shadowMapResolution);
+    v.field("tolerance", r.tolerance);
+    v.field("shadow_step", r.shadowStep);
+    v.field("light_samples", r.lightSamples);
+    v.field("max_depth", r.maxDepth);
+    v.field("time_limit", r.timeLimit);
+}
+
+template <class V, class O>
+void visitOutput(V& v, O& o)
+{
+    v.field("file", o.file);
+    v.field("preview", o.preview);
+    v.field("aovs", o.aovs);
+}
+
+// ---- camera --------------------------------------------------------------------------------
+
+template <class V, class C>
+void visitCamera(V& v, C& c)
+{
+    v.field("from", c.from);
+    v.field("to", c.to);
+    v.field("up", c.up);
+    v.field("fov", c.fov);
+    v.field("crop", c.crop);
+}
+
+Camera readCamera(SceneReader r)
+{
+    Camera c;
+    visitCamera(r, c);
+    if (const json* v = r.find("resolution")) {
+        JsonValue res{*v, r.keyPath("resolution"), r.file()};
+        if (!v->is_array() || v->size() != 2)
+            res.typeError("[width, height], an array of 2 integers");
+        c.width = int(JsonValue{(*v)[0], indexed(res.path, 0), r.file()}.integer(INT32_MIN, INT32_MAX));
+        c.height = int(JsonValue{(*v)[1], indexed(res.path, 1), r.file()}.integer(INT32_MIN, INT32_MAX));
+    }
+    float shutter[2] = {c.shutterOpen, c.shutterClose};
+    bool hasShutter = r.has("shutter");
+    r.field("shutter", shutter);
+    if (const json* v = r.find("motion")) {
+        // The pose at shutter close; what it leaves out stays as at shutter open.
+        SceneReader m(*v, r.keyPath("motion"), r.file());
+        c.hasMotion = true;
+        c.fromClose = c.from, c.toClose = c.to, c.upClose = c.up;
+        m.field("from", c.fromClose);
+        m.field("to", c.toClose);
+        m.field("up", c.upClose);
+        m.finish();
+        // Motion without a shutter interval would blur nothing; open for a whole frame.
+        if (!hasShutter)
+            shutter[0] = 0.0f, shutter[1] = 1.0f;
+    }
+    c.shutterOpen = shutter[0], c.shutterClose = shutter[1];
+    r.finish();
+    return c;
+}
+
+json writeCamera(const Camera& c)
+{
+    JsonWriter w;
+    visitCamera(w, c);
+    w.doc()["resolution"] = {c.width, c.height};
+    if (c.hasMotion || c.shutterOpen != 0.0f || c.shutterClose != 0.0f) {
+        const float shutter[2] = {c.shutterOpen, c.shutterClose};
+        w.field("shutter", shutter);
+    }
+    if (c.hasMotion)
+        w.doc()["motion"] = {{"from", JsonWriter::array(c.fromClose)},
+                              {"to", JsonWriter::array(c.toClose)},
+                              {"up", JsonWriter::array(c.upClose)}};
+    return w.doc();
+}
+
+// ---- lights --------------------------------------------------------------------------------
+
+const LightType kLightTypes[] = {LightType::Distant, LightType::Point,  LightType::Spot,
+                                 LightType::Rect,    LightType::Sphere, LightType::Environment};
+
+// A light has the keys of its type only: a cone_angle on a point light is a mistake to report,
+// not a value to carry.
+template <class V, class L>
+void visitLight(V& v, L& l)
+{
+    switch (l.type) {
+    case LightType::Distant:
+        v.field("direction", l.direction);
+        v.rgb("irradiance", l.irradiance);
+        v.field("angle", l.angle);
+        break;
+    case LightType::Point:
+        v.field("position", l.position);
+        v.rgb("intensity", l.intensity);
+        break;
+    case LightType::Spot:
+        v.field("position", l.position);
+        v.field("direction", l.direction);
+        v.rgb("intensity", l.intensity);
+        v.field("cone_angle", l.coneAngle);
+        v.field("cone_softness", l.coneSoftness);
+        break;
+    case LightType::Rect:
+        v.field("center", l.center);
+        v.field("normal", l.normal);
+        v.field("up", l.up);
+        v.field("size", l.size);
+        v.rgb("radiance", l.radiance);
+        break;
+    case LightType::Sphere:
+        v.field("position", l.position);
+        v.field("radius", l.radius);
+        v.rgb("radiance", l.radiance);
+        break;
+    case LightType::Environment:
+        v.rgb("radiance", l.radiance);
+        break;
+    }
+}
+
+Light readLight(SceneReader r, size_t index)
+{
+    Light l;
+    std::string type = r.get("type").string();
+    bool known = false;
+    for (LightType t : kLightTypes)
+        if (type == lightTypeName(t))
+            l.type = t, known = true;
+    if (!known)
+        r.fail("type", "unknown light type '" + type + "' (expected distant, point, spot, rect, sphere, environment)");
+    l.name = std::to_string(index);
+    r.field("name", l.name);
+    visitLight(r, l);
+    r.finish(" for a " + type + " light");
+    return l;
+}
+
+json writeLight(const Light& l)
+{
+    JsonWriter w;
+    w.doc()["type"] = lightTypeName(l.type);
+    if (!l.name.empty())
+        w.field("name", l.name);
+    visitLight(w, l);
+    return w.doc();
+}
+
+// ---- volumes -------------------------------------------------------------------------------
+
+VolumeSource readSource(SceneReader r, const std::string& sourcePath)
+{
+    VolumeSource s;
+    std::string type = r.get("type").string();
+    if (type == "vdb") {
+        s.type = SourceType::Vdb;
+        s.file = r.get("file").string();
+        // Relative to the scene file, so a scene directory can move as a whole.
+        std::filesystem::path file(s.file);
+        std::filesystem::path dir = std::filesystem::path(sourcePath).parent_path();
+        if (!s.file.empty() && file.is_relative() && !dir.empty())
+            s.file = (dir / file).lexically_normal().string();
+        if (const json* grids = r.find("grids")) {
+            SceneReader g(*grids, r.keyPath("grids"), r.file());
+            g.markAllRead();
+            for (const auto& item : grids->items()) {
+                std::string name = JsonValue{item.value(), g.keyPath(item.key()), r.file()}.string();
+                s.grids[item.key() == "heat" ? "flame" : item.key()] = name;  // DESIGN: heat is flame
+            }
+        }
+    } else if (type == "procedural") {
+        s.type = SourceType::Procedural;
+        r.field("generator", s.generator);
+        // Every other key is a numeric generator parameter; the generator checks the names.
+        for (const auto& item : r.value().items()) {
+            if (item.key() == "type" || item.key() == "generator")
+                continue;
+            s.params[item.key()] = JsonValue{item.value(), r.keyPath(item.key()), r.file()}.number();
+        }
+        r.markAllRead();
+    } else if (type == "plugin") {
+        s.type = SourceType::Plugin;
+        s.pluginPath = r.get("path").string();
+        if (const json* params = r.find("params")) {
+            SceneReader p(*params, r.keyPath("params"), r.file());
+            p.markAllRead();
+            for (const auto& item : params->items()) {
+                JsonValue v{item.value(), p.keyPath(item.key()), r.file()};
+                if (!v.value.is_string() && !v.value.is_number())
+                    v.typeError("a string or a number");
+                s.pluginParams[item.key()] = v.value.is_string() ? v.string() : v.value.dump();
+            }
+        }
+    } else {
+        r.fail("type", "unknown source type '" + type + "' (expected vdb, procedural, plugin)");
+    }
+    r.finish(" for a " + type + " source");
+    return s;
+}
+
+json writeSource(const VolumeSource& s)
+{
+    json j;
+    switch (s.type) {
+    case SourceType::Vdb:
+        j = {{"type", "vdb"}, {"file", s.file}, {"grids", json::object()}};
+        for (const auto& [role, grid] : s.grids)
+            j["grids"][role] = grid;
+        break;
+    case SourceType::Procedural:
+        j = {{"type", "procedural"}, {"generator", s.generator}};
+        for (const auto& [key, value] : s.params)
+            j[key] = value;
+        break;
+    case SourceType::Plugin:
+        j = {{"type", "plugin"}, {"path", s.pluginPath}, {"params", json::object()}};
+        for (const auto& [key, value] : s.pluginParams)
+            j["params"][key] = value;
+        break;
+    }
+    return j;
+}
+
+// A row-major 4x4 matrix, or scale, then rotate, then translate (the order artists expect from
+// a TRS gizmo: the volume is sized about its own origin, then turned, then placed).
+Transform readTransform(const JsonValue& v)
+{
+    const json& j = v.value;
+    auto element = [&](const json& a, const std::string& path, size_t i) {
+        return JsonValue{a[i], indexed(path, i), v.file}.number();
+    };
+    if (j.is_array()) {
+        if (j.size() != 16)
+            v.typeError("a row-major matrix of 16 numbers");
+        std::array<double, 16> m;
+        for (size_t i = 0; i < 16; ++i)
+            m[i] = element(j, v.path, i);
+        return Transform::fromRowMajor(m);
+    }
+    if (!j.is_object())
+        v.typeError("a row-major matrix of 16 numbers or an object {translate, rotate, scale}");
+    SceneReader r(j, v.path, v.file);
+    Transform t;
+    if (const json* s = r.find("scale")) {
+        JsonValue sv{*s, r.keyPath("scale"), v.file};
+        if (s->is_number()) {
+            double k = sv.number();
+            t = Transform::scale(k, k, k);
+        } else {
+            if (!s->is_array() || s->size() != 3)
+                sv.typeError("a number or an array of 3 numbers");
+            t = Transform::scale(element(*s, sv.path, 0), element(*s, sv.path, 1), element(*s, sv.path, 2));
+        }
+    }
+    if (const json* rot = r.find("rotate")) {
+        JsonValue rv{*rot, r.keyPath("rotate"), v.file};
+        if (!rot->is_array() || rot->size() != 4)
+            rv.typeError("[angle_degrees, axis_x, axis_y, axis_z], an array of 4 numbers");
+        double a[4];
+        for (size_t i = 0; i < 4; ++i)
+            a[i] = element(*rot, rv.path, i);
+        if (a[1] == 0 && a[2] == 0 && a[3] == 0)
+            rv.fail("the rotation axis must be a non-zero vector");
+        t = Transform::rotateDegrees(a[0], a[1], a[2], a[3]) * t;
+    }
+    if (const json* tr = r.find("translate")) {
+        JsonValue tv{*tr, r.keyPath("translate"), v.file};
+        if (!tr->is_array() || tr->size() != 3)
+            tv.typeError("an array of 3 numbers");
+        t = Transform::translate(element(*tr, tv.path, 0), element(*tr, tv.path, 1), element(*tr, tv.path, 2)) * t;
+    }
+    r.finish();
+    return t;
+}
+
+template <class V, class M>
+void visitMedium(V& v, M& m)
+{
+    v.rgb("sigma_s", m.sigma_s);
+    v.rgb("sigma_a", m.sigma_a);
+    v.field("density_scale", m.densityScale);
+    v.field("emission_scale", m.emissionScale);
+}
+
+NbPhase readPhase(SceneReader r)
+{
+    NbPhase p = {0.0f, 0.0f, 0.0f, 0.0f};
+    std::string type = "hg";
+    r.field("type", type);
+    // "hg" with g2 and blend is the same two-lobe function; both spellings are accepted.
+    if (type != "hg" && type != "hg2" && type != "two_lobe")
+        r.fail("type", "unknown phase function '" + type + "' (expected hg, hg2)");
+    r.field("g", p.g);
+    r.field("g2", p.g2);
+    r.field("blend", p.blend);
+    r.finish();
+    return p;
+}
+
+json writePhase(const NbPhase& p)
+{
+    if (p.g2 == 0.0f && p.blend == 0.0f)
+        return {{"type", "hg"}, {"g", shortestDecimal(p.g)}};
+    return {{"type", "hg2"}, {"g", shortestDecimal(p.g)}, {"g2", shortestDecimal(p.g2)},
+            {"blend", shortestDecimal(p.blend)}};
+}
+
+Medium readMedium(SceneReader r)
+{
+    Medium m;
+    visitMedium(r, m);
+    if (const json* p = r.find("phase"))
+        m.phase = readPhase(SceneReader(*p, r.keyPath("phase"), r.file()));
+    r.finish();
+    return m;
+}
+
+Volume readVolume(SceneReader r, size_t index, const std::string& sourcePath)
+{
+    Volume v;
+    v.name = "volume" + std::to_string(index);
+    r.field("name", v.name);
+    v.source = readSource(SceneReader(r.get("source").value, r.keyPath("source"), r.file()), sourcePath);
+    if (const json* t = r.find("transform"))
+        v.transform = readTransform(JsonValue{*t, r.keyPath("transform"), r.file()});
+    if (const json* m = r.find("medium"))
+        v.medium = readMedium(SceneReader(*m, r.keyPath("medium"), r.file()));
+    r.field("shader", v.shader);
+    r.finish();
+    return v;
+}
+
+json writeVolume(const Volume& v)
+{
+    JsonWriter medium;
+    visitMedium(medium, v.medium);
+    medium.doc()["phase"] = writePhase(v.medium.phase);
+    json j = {{"name", v.name}, {"source", writeSource(v.source)}, {"medium", medium.doc()}};
+    j["transform"] = v.transform.rowMajor();
+    if (!v.shader.empty())
+        j["shader"] = v.shader;
+    return j;
+}
+
+// Byte offset to "line L, column C", both from 1, as editors count them.
+std::string lineColumn(const std::string& text, size_t offset)
+{
+    size_t line = 1, column = 1;
+    for (size_t i = 0; i < offset && i < text.size(); ++i) {
+        if (text[i] == '\n')
+            ++line, column = 1;
+        else
+            ++column;
+    }
+    return "line " + std::to_string(line) + ", column " + std::to_string(column);
+}
+
+}  // namespace
+
+json readJsonFile(const std::string& path)
+{
+    errno = 0;
+    std::ifstream in(path, std::ios::binary);
+    std::error_code ec;
+    if (in && std::filesystem::is_directory(path, ec))
+        errno = EISDIR, in.setstate(std::ios::failbit);
+    if (!in)
+        throw InputError(path + ": cannot open scene file: " + (errno ? std::strerror(errno) : "unreadable"));
+    std::ostringstream buffer;
+    buffer << in.rdbuf();
+    std::string text = buffer.str();
+    try {
+        return json::parse(text);
+    } catch (const json::parse_error& e) {
+        // nlohmann's message is "[json.exception.parse_error.101] parse error at line L, column
+        // C: <what>"; keep <what> and say where in our own words.
+        std::string what = e.what();
+        size_t colon = what.find(": ", what.find("parse error"));
+        what = colon == std::string::npos ? what : what.substr(colon + 2);
+        size_t offset = e.byte > 0 ? e.byte - 1 : 0;
+        throw InputError(path + ": invalid JSON at " + lineColumn(text, offset) + ": " + what);
+    } catch (const json::exception& e) {
+        // Number overflow ("1e999") is reported without a position; find the literal.
+        std::string what = e.what();
+        size_t q0 = what.find('\''), q1 = what.rfind('\'');
+        size_t at = q0 < q1 ? text.find(what.substr(q0 + 1, q1 - q0 - 1)) : std::string::npos;
+        size_t colon = what.find("] ");
+        what = colon == std::string::npos ? what : what.substr(colon + 2);
+        throw InputError(path + ": invalid JSON at " + lineColumn(text, at == std::string::npos ? 0 : at) + ": " +
+                         what);
+    }
+}
+
+Scene sceneFromJson(const json& document, const std::string& sourcePath)
+{
+    Scene s;
+    s.sourcePath = sourcePath;
+    SceneReader r(document, "", sourcePath);
+    if (const json* v = r.find("version")) {
+        int64_t version = JsonValue{*v, "version", sourcePath}.integer(INT32_MIN, INT32_MAX);
+        if (version != kSceneFormatVersion)
+            r.fail("version", "this nimbus reads scene format version " + std::to_string(kSceneFormatVersion) +
+                                  ", got " + std::to_string(version));
+    }
+    if (const json* v = r.find("camera"))
+        s.camera = readCamera(SceneReader(*v, "camera", sourcePath));
+    if (const json* v = r.find("lights")) {
+        const json& list = requireList(JsonValue{*v, "lights", sourcePath});
+        for (size_t i = 0; i < list.size(); ++i)
+            s.lights.push_back(readLight(SceneReader(list[i], indexed("lights", i), sourcePath), i));
+    }
+    if (const json* v = r.find("volumes")) {
+        const json& list = requireList(JsonValue{*v, "volumes", sourcePath});
+        for (size_t i = 0; i < list.size(); ++i)
+            s.volumes.push_back(readVolume(SceneReader(list[i], indexed("volumes", i), sourcePath), i, sourcePath));
+    }
+    if (const json* v = r.find("render")) {
+        SceneReader render(*v, "render", sourcePath);
+        visitRender(render, s.render);
+        render.finish();
+    }
+    if (const json* v = r.find("output")) {
+        SceneReader output(*v, "output", sourcePath);
+        visitOutput(output, s.output);
+        output.finish();
+    }
+    r.rgb("background", s.background);
+    r.finish();
+    validateScene(s);
+    return s;
+}
+
+Scene loadSceneFile(const std::string& path, const std::vector<std::string>& overrides)
+{
+    json document = readJsonFile(path);
+    applyOverrides(document, overrides, path);
+    return sceneFromJson(document, path);
+}
+
+json sceneToJson(const Scene& s)
+{
+    json j;
+    j["version"] = kSceneFormatVersion;
+    j["camera"] = writeCamera(s.camera);
+    j["lights"] = json::array();
+    for (const Light& l : s.lights)
+        j["lights"].push_back(writeLight(l));
+    j["volumes"] = json::array();
+    for (const Volume& v : s.volumes)
+        j["volumes"].push_back(writeVolume(v));
+    JsonWriter render, output;
+    visitRender(render, s.render);
+    visitOutput(output, s.output);
+    j["render"] = render.doc();
+    j["output"] = output.doc();
+    j["background"] = JsonWriter::array(s.background);
+    return j;
+}
+
+}  // namespace nimbus

@@ -1,0 +1,329 @@
+// SceneValidate.cpp: range checks, one function per part of the scene. Key paths are spelled
+// as in the JSON format (docs/scene-format.md) because that is the parameter vocabulary users
+// know, whichever client built the Scene.
+#include "SceneValidate.h"
+
+#include "../core/Error.h"
+
+#include <cmath>
+#include <cstdio>
+#include <set>
+
+namespace nimbus {
+
+void throwSceneError(const std::string& file, const std::string& keyPath, const std::string& what)
+{
+    std::string message;
+    if (!file.empty())
+        message += file + ": ";
+    if (!keyPath.empty())
+        message += keyPath + ": ";
+    throw InputError(message + what);
+}
+
+namespace {
+
+std::string num(double v)
+{
+    char buf[32];
+    std::snprintf(buf, sizeof buf, "%g", v);
+    return buf;
+}
+
+std::string vec(float3 v) { return "[" + num(v.x) + ", " + num(v.y) + ", " + num(v.z) + "]"; }
+
+bool isNameChar(char c)
+{
+    return (c >= 'A' && c <= 'Z') || (c >= 'a' && c <= 'z') || (c >= '0' && c <= '9') || c == '_';
+}
+
+// One interval with open or closed ends, written in the message the way a user reads ranges.
+struct Range {
+    double lo, hi;
+    bool loOpen, hiOpen;
+    const char* units;
+
+    bool contains(double v) const
+    {
+        // Written so that NaN fails every comparison and is rejected.
+        bool aboveLo = loOpen ? v > lo : v >= lo;
+        bool belowHi = hiOpen ? v < hi : v <= hi;
+        return aboveLo && belowHi;
+    }
+    std::string text() const
+    {
+        std::string s = std::string(loOpen ? "(" : "[") + (std::isinf(lo) ? "-inf" : num(lo)) + ", " +
+                        (std::isinf(hi) ? "inf" : num(hi)) + (hiOpen ? ")" : "]");
+        if (units && *units)
+            s += std::string(" ") + units;
+        return s;
+    }
+};
+
+const double kInf = INFINITY;
+const Range kAngle{0, 180, true, true, "degrees"};
+const Range kPositive{0, kInf, true, true, ""};
+const Range kNonNegative{0, kInf, false, true, ""};
+// |g| = 1 is a delta phase function that HG sampling cannot represent; 0.999 is the documented cap.
+const Range kAsymmetry{-0.999, 0.999, false, false, ""};
+
+class Checker {
+public:
+    explicit Checker(const std::string& file) : mFile(file) {}
+
+    [[noreturn]] void fail(const std::string& path, const std::string& what) const
+    {
+        throwSceneError(mFile, path, what);
+    }
+    void range(const std::string& path, double v, const Range& r) const
+    {
+        if (!r.contains(v))
+            fail(path, "must be in " + r.text() + ", got " + num(v));
+    }
+    void atLeast(const std::string& path, long long v, long long lo) const
+    {
+        if (v < lo)
+            fail(path, "must be at least " + std::to_string(lo) + ", got " + std::to_string(v));
+    }
+    void finite(const std::string& path, float3 v) const
+    {
+        if (!isFinite(v))
+            fail(path, "must be finite, got " + vec(v));
+    }
+    void direction(const std::string& path, float3 v) const
+    {
+        finite(path, v);
+        if (v.x == 0 && v.y == 0 && v.z == 0)
+            fail(path, "must be a non-zero vector");
+    }
+    // Radiometric quantities and coefficients: a negative value would add energy to a medium
+    // or subtract light, which no integrator is written to handle.
+    void nonNegative(const std::string& path, float3 v) const
+    {
+        if (!isFinite(v) || v.x < 0 || v.y < 0 || v.z < 0)
+            fail(path, "must be non-negative and finite, got " + vec(v));
+    }
+    // Both non-zero (checked before) and not parallel: the cross product must be a usable axis.
+    void notParallel(const std::string& path, float3 a, float3 b, const std::string& other) const
+    {
+        float3 c = cross(normalize(a), normalize(b));
+        if (!(length(c) > 1e-5f))
+            fail(path, "must not be parallel to " + other + ", got " + vec(a) + " and " + vec(b));
+    }
+
+private:
+    const std::string& mFile;
+};
+
+void checkPose(const Checker& c, const std::string& prefix, float3 from, float3 to, float3 up)
+{
+    c.finite(prefix + "from", from);
+    c.finite(prefix + "to", to);
+    c.direction(prefix + "up", up);
+    float3 view = to - from;
+    if (view.x == 0 && view.y == 0 && view.z == 0)
+        c.fail(prefix + "to", "must differ from " + prefix + "from (a camera cannot look at its own position), got " +
+                                  vec(to));
+    c.notParallel(prefix + "up", up, view, "the view direction (to - from)");
+}
+
+void checkCamera(const Checker& c, const Camera& cam)
+{
+    checkPose(c, "camera.", cam.from, cam.to, cam.up);
+    c.range("camera.fov", cam.fov, kAngle);
+    if (cam.width < 1 || cam.height < 1 || cam.width > 65536 || cam.height > 65536)
+        c.fail("camera.resolution", "must be two positive integers <= 65536, got [" + std::to_string(cam.width) +
+                                        ", " + std::to_string(cam.height) + "]");
+    const float* k = cam.crop;
+    bool inUnit = true;
+    for (int i = 0; i < 4; ++i)
+        inUnit = inUnit && k[i] >= 0 && k[i] <= 1;
+    if (!inUnit || !(k[0] < k[1]) || !(k[2] < k[3]))
+        c.fail("camera.crop", "must be [x0, x1, y0, y1] within [0, 1] with x0 < x1 and y0 < y1, got [" + num(k[0]) +
+                                  ", " + num(k[1]) + ", " + num(k[2]) + ", " + num(k[3]) + "]");
+    if (!std::isfinite(cam.shutterOpen) || !std::isfinite(cam.shutterClose) || cam.shutterOpen > cam.shutterClose)
+        c.fail("camera.shutter", "must be finite [open, close] with open <= close, got [" + num(cam.shutterOpen) +
+                                     ", " + num(cam.shutterClose) + "]");
+    if (cam.hasMotion)
+        checkPose(c, "camera.motion.", cam.fromClose, cam.toClose, cam.upClose);
+}
+
+void checkLight(const Checker& c, const Light& l, const std::string& p)
+{
+    switch (l.type) {
+    case LightType::Distant:
+        c.direction(p + "direction", l.direction);
+        c.nonNegative(p + "irradiance", l.irradiance);
+        c.range(p + "angle", l.angle, Range{0, 180, false, true, "degrees"});
+        break;
+    case LightType::Point:
+        c.finite(p + "position", l.position);
+        c.nonNegative(p + "intensity", l.intensity);
+        break;
+    case LightType::Spot:
+        c.finite(p + "position", l.position);
+        c.direction(p + "direction", l.direction);
+        c.nonNegative(p + "intensity", l.intensity);
+        c.range(p + "cone_angle", l.coneAngle, kAngle);
+        c.range(p + "cone_softness", l.coneSoftness, Range{0, l.coneAngle, false, false, "degrees (up to cone_angle)"});
+        break;
+    case LightType::Rect:
+        c.finite(p + "center", l.center);
+        c.direction(p + "normal", l.normal);
+        c.direction(p + "up", l.up);
+        c.notParallel(p + "up", l.up, l.normal, "the normal");
+        c.range(p + "size[0]", l.size[0], kPositive);
+        c.range(p + "size[1]", l.size[1], kPositive);
+        c.nonNegative(p + "radiance", l.radiance);
+        break;
+    case LightType::Sphere:
+        c.finite(p + "position", l.position);
+        c.range(p + "radius", l.radius, kPositive);
+        c.nonNegative(p + "radiance", l.radiance);
+        break;
+    case LightType::Environment:
+        c.nonNegative(p + "radiance", l.radiance);
+        break;
+    default:
+        c.fail(p + "type", "unknown light type " + std::to_string(int(l.type)));
+    }
+}
+
+void checkLights(const Checker& c, const std::vector<Light>& lights)
+{
+    std::set<std::string> names;
+    for (size_t i = 0; i < lights.size(); ++i) {
+        const Light& l = lights[i];
+        std::string p = "lights[" + std::to_string(i) + "].";
+        bool valid = !l.name.empty();
+        for (char ch : l.name)
+            valid = valid && isNameChar(ch);
+        if (!valid)
+            c.fail(p + "name", "must match [A-Za-z0-9_]+ (it names the AOV light_<name>), got '" + l.name + "'");
+        if (!names.insert(l.name).second)
+            c.fail(p + "name", "'" + l.name + "' names another light too; light names must be unique");
+        checkLight(c, l, p);
+    }
+}
+
+// Grid roles a VDB source can map (DESIGN "Units and conventions"); "heat" is read as "flame".
+bool isGridRole(const std::string& role)
+{
+    return role == "density" || role == "temperature" || role == "flame" || role == "Cd" || role == "vel";
+}
+
+void checkSource(const Checker& c, const VolumeSource& s, const std::string& p)
+{
+    switch (s.type) {
+    case SourceType::Vdb:
+        if (s.file.empty())
+            c.fail(p + "file", "a vdb source needs a file");
+        for (const auto& [role, grid] : s.grids) {
+            if (!isGridRole(role))
+                c.fail(p + "grids." + role, "unknown grid role (expected density, temperature, flame, Cd, vel)");
+            if (grid.empty())
+                c.fail(p + "grids." + role, "grid name must not be empty");
+        }
+        break;
+    case SourceType::Procedural:
+        if (s.generator != "cloud" && s.generator != "sphere" && s.generator != "box")
+            c.fail(p + "generator", "unknown generator '" + s.generator + "' (expected cloud, sphere, box)");
+        for (const auto& [key, value] : s.params)
+            if (!std::isfinite(value))
+                c.fail(p + key, "must be finite, got " + num(value));
+        break;
+    case SourceType::Plugin:
+        if (s.pluginPath.empty())
+            c.fail(p + "path", "a plugin source needs the path of its shared library");
+        break;
+    default:
+        c.fail(p + "type", "unknown source type " + std::to_string(int(s.type)));
+    }
+}
+
+void checkTransform(const Checker& c, const Transform& t, const std::string& path)
+{
+    const auto& m = t.rowMajor();
+    for (double v : m)
+        if (!std::isfinite(v))
+            c.fail(path, "must be finite, got an entry " + num(v));
+    if (m[12] != 0 || m[13] != 0 || m[14] != 0 || m[15] != 1)
+        c.fail(path, "must be affine: the last row of the row-major matrix must be [0, 0, 0, 1], got [" + num(m[12]) +
+                         ", " + num(m[13]) + ", " + num(m[14]) + ", " + num(m[15]) + "]");
+    if (t.isSingular())
+        c.fail(path, "is singular (a zero scale?); the volume would have no extent");
+}
+
+void checkMedium(const Checker& c, const Medium& m, const std::string& p)
+{
+    c.nonNegative(p + "sigma_s", m.sigma_s);
+    c.nonNegative(p + "sigma_a", m.sigma_a);
+    c.range(p + "density_scale", m.densityScale, kNonNegative);
+    c.range(p + "emission_scale", m.emissionScale, kNonNegative);
+    c.range(p + "phase.g", m.phase.g, kAsymmetry);
+    c.range(p + "phase.g2", m.phase.g2, kAsymmetry);
+    c.range(p + "phase.blend", m.phase.blend, Range{0, 1, false, false, ""});
+}
+
+void checkVolumes(const Checker& c, const std::vector<Volume>& volumes)
+{
+    for (size_t i = 0; i < volumes.size(); ++i) {
+        const Volume& v = volumes[i];
+        std::string p = "volumes[" + std::to_string(i) + "].";
+        if (v.name.empty())
+            c.fail(p + "name", "must not be empty");
+        checkSource(c, v.source, p + "source.");
+        checkTransform(c, v.transform, p + "transform");
+        checkMedium(c, v.medium, p + "medium.");
+    }
+}
+
+void checkRender(const Checker& c, const RenderSettings& r)
+{
+    c.atLeast("render.threads", r.threads, 0);
+    c.atLeast("render.spp", r.spp, 1);
+    c.range("render.step", r.step, Range{0, 100, true, false, "voxels"});
+    c.range("render.shadow_map_resolution", r.shadowMapResolution, Range{8, 16384, false, false, "texels"});
+    c.range("render.tolerance", r.tolerance, Range{0, 0.5, true, false, ""});
+    c.range("render.shadow_step", r.shadowStep, Range{0, 100, true, false, "voxels"});
+    c.atLeast("render.light_samples", r.lightSamples, 1);
+    c.atLeast("render.max_depth", r.maxDepth, 1);
+    c.range("render.time_limit", r.timeLimit, Range{0, kInf, false, true, "seconds"});
+}
+
+void checkOutput(const Checker& c, const OutputSettings& o)
+{
+    std::set<std::string> seen;
+    for (size_t i = 0; i < o.aovs.size(); ++i) {
+        std::string p = "output.aovs[" + std::to_string(i) + "]";
+        if (o.aovs[i].empty())
+            c.fail(p, "must not be empty");
+        if (!seen.insert(o.aovs[i]).second)
+            c.fail(p, "'" + o.aovs[i] + "' is listed twice");
+    }
+}
+
+}  // namespace
+
+void validateScene(const Scene& scene)
+{
+    Checker c(scene.sourcePath);
+    checkCamera(c, scene.camera);
+    checkLights(c, scene.lights);
+    checkVolumes(c, scene.volumes);
+    checkRender(c, scene.render);
+    checkOutput(c, scene.output);
+    c.nonNegative("background", scene.background);
+}
+
+void applyDefaultNames(Scene& scene)
+{
+    for (size_t i = 0; i < scene.lights.size(); ++i)
+        if (scene.lights[i].name.empty())
+            scene.lights[i].name = std::to_string(i);
+    for (size_t i = 0; i < scene.volumes.size(); ++i)
+        if (scene.volumes[i].name.empty())
+            scene.volumes[i].name = "volume" + std::to_string(i);
+}
+
+}  // namespace nimbus

@@ -1,0 +1,30 @@
+// SceneValidate.h: the range checks every Scene passes before anything renders it, and the
+// one-line message format of scene input errors.
+//
+// The JSON loader checks types and key names while parsing and then calls validateScene; API
+// clients (C ABI, Python, Blender) call validateScene on the Scene they built. Both report a
+// problem the same way, named by the scene file's key path, so that a user who built a scene
+// through the API reads the same parameter names as the documentation (docs/scene-format.md).
+#pragma once
+
+#include "Scene.h"
+
+#include <string>
+
+namespace nimbus {
+
+// Throws InputError "<file>: <keyPath>: <what>", one line. An empty file drops the "<file>: "
+// prefix (a scene built in memory); an empty keyPath drops "<keyPath>: ".
+[[noreturn]] void throwSceneError(const std::string& file, const std::string& keyPath, const std::string& what);
+
+// Checks every value against its documented range (docs/scene-format.md): finite numbers,
+// non-negative radiometric quantities, non-degenerate camera, directions and transforms,
+// unique light names that can be AOV names. Throws InputError naming scene.sourcePath and the
+// key path of the first offending value.
+void validateScene(const Scene& scene);
+
+// Fills empty light names with their index ("0", "1", ...) and empty volume names with
+// "volume<i>", the defaults the JSON format gives them; for API clients that leave names empty.
+void applyDefaultNames(Scene& scene);
+
+}  // namespace nimbus
