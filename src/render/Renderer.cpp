@@ -2,6 +2,7 @@
 
 #include "../core/Error.h"
 #include "../core/Log.h"
+#include "../pathtracer/Pathtracer.h"
 #include "../scene/KernelScene.h"
 #include "RenderContext.h"
 #include "SingleScatter.h"
@@ -175,8 +176,16 @@ RenderResult render(const Scene& scene, const RenderOptions& options)
         break;
     }
     case Method::Wkb:
-    case Method::Pathtrace:
         throw Error(std::string("method '") + methodName(scene.render.method) + "' is not available in this build yet");
+    case Method::Pathtrace: {
+        auto ctx = RenderContext::create(scene, false);  // no shadow maps: NEE traces shadow rays
+        auto t = std::chrono::steady_clock::now();
+        renderPathtrace(*ctx, result.film, options);
+        ctx->plan.stageSeconds.push_back(
+            {"pathtrace", std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count()});
+        result.plan = ctx->plan;
+        break;
+    }
     }
 
     result.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();

@@ -1,0 +1,363 @@
+/* pathtrace.cl: nimbus's reference integrator, an unbiased volumetric path tracer.
+ *
+ * One work item renders one pixel of the data window: `samples` camera paths per launch, each
+ * folded into per-pixel running means (Skanberg eq. 39) in `acc` (layout in ptscene.h). The
+ * random numbers of a path are a hash of (seed, pixel, sample index, dimension) (rng.h), so the
+ * image does not depend on the work-group size, the launch split or the device's thread count.
+ *
+ * Estimators (docs/pathtracer.md derives each):
+ *  - Free flights: delta tracking against the local majorant mu (majorant.h), with the
+ *    "spectral tracking" choice of events of Kutz et al. 2017 (SIGGRAPH, "Spectral and
+ *    decomposition tracking for rendering heterogeneous volumes", sec. 5) for RGB media. At a
+ *    tentative collision the null-collision form of the RTE (Galtier et al. 2013; Novak et al.
+ *    2018 sec. 4) reads, per channel c,
+ *        L_c = [ j_c + sigma_s,c L^s_c + sigma_n,c L_c ] / mu,   sigma_n = mu - sigma_t >= 0,
+ *    averaged over tentative collisions drawn with pdf mu exp(-mu t) (one scalar mu for all
+ *    channels: the largest channel's majorant). The emission term j/mu is added at every
+ *    tentative collision. Of the other two we pick one: scattering with probability
+ *        P_s = avg(w sigma_s) / (avg(w sigma_s) + avg(w sigma_n)),  P_n = 1 - P_s,
+ *    and weight w *= sigma_s / (mu P_s) or sigma_n / (mu P_n), w the RGB path throughput. The
+ *    expectation is exactly the bracket above in every channel whenever P_x > 0 wherever
+ *    w sigma_x != 0, which the averages guarantee: the scheme is unbiased for any RGB
+ *    coefficients. Absorption is never sampled as an event; its share of the collision term
+ *    (sigma_a L_a with L_a = 0, emission being separate) contributes zero, so dropping it only
+ *    rescales the weights. For grey media this is delta tracking with absorption by weighting:
+ *    P_s = sigma_s / (sigma_s + sigma_n) and w *= 1 - sigma_a / mu.
+ *  - Transmittance to lights: ratio tracking (Cramer 1978; Novak et al. 2014) over the same
+ *    majorant walk, T_c *= 1 - sigma_t,c / mu per tentative collision, with Russian roulette
+ *    once every channel is below 0.1.
+ *  - Next-event estimation at every scattering vertex for every light (nbLightSample). Camera
+ *    rays that escape see the background (L0); scattered rays that escape add nothing, since
+ *    NEE already accounts for every light: nothing is counted twice.
+ *  - Directions from the phase function (nbPhaseSample, pdf = phase, weight 1).
+ *  - Russian roulette from rrDepth scattering events on, survival probability min(1, max_c w_c).
+ *  - maxDepth bounds the number of scattering events; emission met after the last allowed
+ *    event still counts (those paths have maxDepth events).
+ *
+ * Specialisation (the host's defines): NB_NUM_VOLUMES, NB_NUM_LIGHTS, NB_HAS_LIGHT_<TYPE>,
+ * NB_HAS_EMISSION, NB_TWO_LOBE, NB_CHROMATIC, NB_GLOBAL_MAJORANT. Code for what a scene lacks is
+ * not compiled.
+ */
+#include "shared/compat.h"
+#include "shared/rng.h"
+#include "shared/phase.h"
+#include "shared/camera.h"
+#include "shared/light.h"
+#include "shared/ptscene.h"
+#include "shared/brickgrid.h"
+#include "shared/majorant.h"
+
+#ifndef NB_NUM_LIGHTS
+#define NB_NUM_LIGHTS 0
+#endif
+#ifndef NB_TWO_LOBE
+#define NB_TWO_LOBE 1
+#endif
+#ifndef NB_CHROMATIC
+#define NB_CHROMATIC 1
+#endif
+
+/* Uniform in (0, 1]: safe for -log. */
+inline float nbRngOpen(__private NbRng* rng) { return 1.0f - nbRngNext(rng); }
+
+/* t + dt, but at least one ulp past t: a majorant so large that dt falls below t's precision
+ * must not stall the walk (the shift is far below a voxel for any sane scene). */
+inline float nbAdvance(float t, float dt)
+{
+    float tn = t + dt;
+    return tn > t ? tn : nextafter(t, NB_INF);
+}
+
+inline float3 nbSigmaS(__global const NbVolumeDesc* vd) { return make_float3(vd->sigma_s[0], vd->sigma_s[1], vd->sigma_s[2]); }
+inline float3 nbSigmaT(__global const NbVolumeDesc* vd) { return make_float3(vd->sigma_t[0], vd->sigma_t[1], vd->sigma_t[2]); }
+
+/* Channel average of w * v: the "history-aware" weights of spectral tracking. Grey media need
+ * one channel only. */
+inline float nbWeighted(float3 w, float3 v)
+{
+#if NB_CHROMATIC
+    return nbAverage(w * v);
+#else
+    return w.x * v.x;
+#endif
+}
+
+/* One light sample. With the types a scene has known at compile time, each case calls
+ * nbLightSample with a constant type, so the compiler drops the branches for the others. */
+inline NbLightSample nbSampleLight(NbLight l, float3 p, float u0, float u1)
+{
+    NbLightSample s;
+    s.wi = make_float3(0.0f, 1.0f, 0.0f);
+    s.distance = 0.0f;
+    s.weight = make_float3(0.0f, 0.0f, 0.0f);
+    switch (l.type) {
+#if NB_HAS_LIGHT_DISTANT
+    case NB_LIGHT_DISTANT: l.type = NB_LIGHT_DISTANT; s = nbLightSample(l, p, u0, u1); break;
+#endif
+#if NB_HAS_LIGHT_POINT
+    case NB_LIGHT_POINT: l.type = NB_LIGHT_POINT; s = nbLightSample(l, p, u0, u1); break;
+#endif
+#if NB_HAS_LIGHT_SPOT
+    case NB_LIGHT_SPOT: l.type = NB_LIGHT_SPOT; s = nbLightSample(l, p, u0, u1); break;
+#endif
+#if NB_HAS_LIGHT_RECT
+    case NB_LIGHT_RECT: l.type = NB_LIGHT_RECT; s = nbLightSample(l, p, u0, u1); break;
+#endif
+#if NB_HAS_LIGHT_SPHERE
+    case NB_LIGHT_SPHERE: l.type = NB_LIGHT_SPHERE; s = nbLightSample(l, p, u0, u1); break;
+#endif
+#if NB_HAS_LIGHT_ENVIRONMENT
+    case NB_LIGHT_ENVIRONMENT: l.type = NB_LIGHT_ENVIRONMENT; s = nbLightSample(l, p, u0, u1); break;
+#endif
+    default: break;
+    }
+    return s;
+}
+
+/* Ratio-tracking transmittance along o + t d, t in [0, tMax] (Novak et al. 2014, eq. 6): an
+ * unbiased estimate of exp(-int sigma_t) per channel. */
+inline float3 nbRatioTransmittance(float3 o, float3 d, float tMax, __global const NbVolumeDesc* vols, int volumeCount,
+                                   __global const int* tables, __global const float* pools,
+                                   __global const float* majorants, __private NbRng* rng)
+{
+    float3 T = make_float3(1.0f, 1.0f, 1.0f);
+    NbMajorantIter it;
+    nbMajorantInit(&it, vols, volumeCount, o, d, 0.0f, tMax);
+    float tau = -log(nbRngOpen(rng));
+    float segEnd, mu;
+    float rho[NB_NUM_VOLUMES];
+    while (nbMajorantNext(&it, vols, majorants, &segEnd, &mu)) {
+        float span = mu * (segEnd - it.t);
+        if (tau >= span) {
+            tau -= span;
+            it.t = segEnd;
+            continue;
+        }
+        it.t = nbAdvance(it.t, tau / mu);
+        nbMajorantDensities(&it, vols, tables, pools, rho);
+        float3 sigma_t = make_float3(0.0f, 0.0f, 0.0f);
+        for (int v = 0; v < NB_NUM_VOLUMES; ++v)
+            sigma_t = sigma_t + nbSigmaT(vols + v) * rho[v];
+        T = T * fmax(make_float3(0.0f, 0.0f, 0.0f), make_float3(1.0f, 1.0f, 1.0f) - sigma_t / mu);
+        float m = nbMaxComponent(T);
+        if (m < 0.1f) {
+            /* Russian roulette: survive with probability 10 m, then T has max 0.1. */
+            if (nbRngNext(rng) >= m * 10.0f)
+                return make_float3(0.0f, 0.0f, 0.0f);
+            T = T / (m * 10.0f);
+        }
+        tau = -log(nbRngOpen(rng));
+    }
+    return T;
+}
+
+/* The contributions of one camera path, by scattering order. */
+typedef struct {
+    float3 L[3];           /* L0, L1, L2plus */
+    float transmittance;   /* camera-ray transmittance estimate (channel average) */
+    float depth;           /* distance to the first scattering vertex; valid if hasDepth */
+    float hasDepth;
+#if NB_NUM_LIGHTS > 0
+    float3 perLight[NB_NUM_LIGHTS];
+#endif
+} NbPathSample;
+
+inline void nbTracePath(float3 o, float3 d, __global const NbPtParams* P, __global const NbLight* lights,
+                        __global const NbVolumeDesc* vols, __global const int* tables, __global const float* pools,
+                        __global const float* majorants, __private NbRng* rng, __private NbPathSample* out)
+{
+    const int volumeCount = P->volumeCount;
+    float3 w = make_float3(1.0f, 1.0f, 1.0f);
+    int order = 0; /* scattering events so far */
+    float rho[NB_NUM_VOLUMES];
+
+    for (;;) {
+        /* Free flight from o along d. */
+        NbMajorantIter it;
+        nbMajorantInit(&it, vols, volumeCount, o, d, 0.0f, NB_INF);
+        float tau = -log(nbRngOpen(rng));
+        float segEnd, mu;
+        int scatterVolume = -1;
+        const int bucket = order < 2 ? order : 2;
+        while (nbMajorantNext(&it, vols, majorants, &segEnd, &mu)) {
+            float span = mu * (segEnd - it.t);
+            if (tau >= span) {
+                tau -= span;
+                it.t = segEnd;
+                continue;
+            }
+            it.t = nbAdvance(it.t, tau / mu);
+            nbMajorantDensities(&it, vols, tables, pools, rho);
+#if NB_HAS_EMISSION
+            /* Emission at every tentative collision: its term in the bracket is j / mu. */
+            out->L[bucket] += w * nbMajorantEmission(&it, vols, tables, pools) / mu;
+#endif
+            float3 sigma_t = make_float3(0.0f, 0.0f, 0.0f), sigma_s = sigma_t;
+            for (int v = 0; v < NB_NUM_VOLUMES; ++v) {
+                sigma_t = sigma_t + nbSigmaT(vols + v) * rho[v];
+                sigma_s = sigma_s + nbSigmaS(vols + v) * rho[v];
+            }
+            float3 sigma_n = fmax(make_float3(0.0f, 0.0f, 0.0f), make_float3(mu, mu, mu) - sigma_t);
+            float ps = nbWeighted(w, sigma_s), pn = nbWeighted(w, sigma_n);
+            float total = ps + pn;
+            if (!(total > 0.0f)) { /* only absorption is left: the path ends */
+                w = make_float3(0.0f, 0.0f, 0.0f);
+                break;
+            }
+            float u = nbRngNext(rng) * total;
+            if (u < ps) {
+                /* A real scattering event; choose the volume that scatters in proportion to its
+                 * share of avg(w sigma_s), which fixes the phase function. */
+                int chosen = 0;
+                float3 sigma_sv = nbSigmaS(vols) * rho[0];
+#if NB_NUM_VOLUMES > 1
+                float acc = 0.0f;
+                for (int v = 0; v < NB_NUM_VOLUMES; ++v) {
+                    float3 s = nbSigmaS(vols + v) * rho[v];
+                    float sv = nbWeighted(w, s);
+                    if (sv > 0.0f) { /* never a volume with no share, whatever the rounding */
+                        chosen = v;
+                        sigma_sv = s;
+                    }
+                    acc += sv;
+                    if (u < acc)
+                        break;
+                }
+#endif
+                float pv = nbWeighted(w, sigma_sv) / total;
+                w = w * sigma_sv / (mu * pv);
+                scatterVolume = chosen;
+                break;
+            }
+            w = w * sigma_n / (mu * (pn / total));
+            tau = -log(nbRngOpen(rng));
+        }
+
+        if (scatterVolume < 0) {
+            if (order == 0) {
+                /* The camera ray left the volumes: E[w] is its transmittance per channel. */
+                float3 bg = make_float3(P->background[0], P->background[1], P->background[2]);
+                out->L[0] += w * bg;
+                out->transmittance = nbAverage(w);
+            }
+            return;
+        }
+        if (order >= P->maxDepth)
+            return; /* a path with one more event than allowed */
+        ++order;
+        const float3 p = o + d * it.t;
+        if (order == 1) {
+            out->depth = it.t;
+            out->hasDepth = 1.0f;
+        }
+        NbPhase phase = vols[scatterVolume].phase;
+#if !NB_TWO_LOBE
+        phase.blend = 0.0f;
+#endif
+        const int nb = order < 2 ? order : 2;
+
+#if NB_NUM_LIGHTS > 0
+        /* Next-event estimation for every light. Light arrives travelling along -wi and leaves
+         * along -d (toward the previous vertex): cos = dot(-wi, -d) (phase.h's convention). */
+        for (int i = 0; i < P->lightCount && i < NB_NUM_LIGHTS; ++i) {
+            NbLight l = lights[i];
+            float u0 = nbRngNext(rng), u1 = nbRngNext(rng);
+            NbLightSample s = nbSampleLight(l, p, u0, u1);
+            if (!(nbMaxComponent(s.weight) > 0.0f))
+                continue;
+            float f = nbPhaseEval(phase, dot(s.wi, d));
+            if (!(f > 0.0f))
+                continue;
+            float3 T = nbRatioTransmittance(p, s.wi, s.distance, vols, volumeCount, tables, pools, majorants, rng);
+            float3 c = w * s.weight * T * f;
+            out->L[nb] += c;
+            out->perLight[i] += c;
+        }
+#endif
+
+#if !NB_HAS_EMISSION
+        if (order >= P->maxDepth)
+            return; /* nothing more to gather: a further flight could only meet emission */
+#endif
+        if (order >= P->rrDepth) {
+            float q = fmin(1.0f, nbMaxComponent(w));
+            if (nbRngNext(rng) >= q)
+                return;
+            w = w / q;
+        }
+        float u0 = nbRngNext(rng), u1 = nbRngNext(rng), u2 = nbRngNext(rng);
+        d = nbPhaseSample(phase, d, u0, u1, u2);
+        o = p;
+    }
+}
+
+__kernel void nbPathtrace(__global const NbPtParams* P, __global const NbLight* lights,
+                          __global const NbVolumeDesc* vols, __global const int* tables,
+                          __global const float* pools, __global const float* majorants, __global float* acc,
+                          __global int* badSamples)
+{
+    const int gid = (int)get_global_id(0);
+    if (gid >= P->pixelCount)
+        return;
+    const int px = P->x0 + gid % P->cropWidth, py = P->y0 + gid / P->cropWidth;
+    const nb_uint pixelIndex = (nb_uint)py * (nb_uint)P->width + (nb_uint)px;
+    const NbCamera cam = P->camera;
+    __global float* a = acc + (size_t)gid * NB_ACC_STRIDE(NB_NUM_LIGHTS);
+
+    for (int s = 0; s < P->samples; ++s) {
+        const nb_uint sampleIndex = P->sampleStart + (nb_uint)s;
+        NbRng rng = nbRngStart(P->seed, pixelIndex, sampleIndex);
+        float jx = nbRngNext(&rng), jy = nbRngNext(&rng), time = nbRngNext(&rng);
+        float3 o, d;
+        nbCameraRay(cam, (float)px + jx, (float)py + jy, P->width, P->height, time, &o, &d);
+
+        NbPathSample r;
+        r.L[0] = r.L[1] = r.L[2] = make_float3(0.0f, 0.0f, 0.0f);
+        r.transmittance = 0.0f;
+        r.depth = 0.0f;
+        r.hasDepth = 0.0f;
+#if NB_NUM_LIGHTS > 0
+        for (int i = 0; i < NB_NUM_LIGHTS; ++i)
+            r.perLight[i] = make_float3(0.0f, 0.0f, 0.0f);
+#endif
+        nbTracePath(o, d, P, lights, vols, tables, pools, majorants, &rng, &r);
+
+        /* A non-finite sample (a bug or a float overflow) would poison the pixel for good:
+         * count it and drop it. */
+        float3 beauty = r.L[0] + r.L[1] + r.L[2];
+        float y = nbAverage(beauty);
+        if (!isfinite(y)) {
+            atomic_inc(badSamples);
+            r.L[0] = r.L[1] = r.L[2] = make_float3(0.0f, 0.0f, 0.0f);
+#if NB_NUM_LIGHTS > 0
+            for (int i = 0; i < NB_NUM_LIGHTS; ++i)
+                r.perLight[i] = make_float3(0.0f, 0.0f, 0.0f);
+#endif
+            y = 0.0f;
+        }
+
+        /* Running means (Skanberg eq. 39) and Welford's M2: after n samples,
+         * variance of the mean = M2 / (n (n - 1)). */
+        const float inv = 1.0f / (float)(sampleIndex + 1u);
+        for (int k = 0; k < 3; ++k) {
+            float3 L = r.L[k];
+            a[3 * k + 0] += (L.x - a[3 * k + 0]) * inv;
+            a[3 * k + 1] += (L.y - a[3 * k + 1]) * inv;
+            a[3 * k + 2] += (L.z - a[3 * k + 2]) * inv;
+        }
+        a[NB_ACC_TRANSMITTANCE] += (r.transmittance - a[NB_ACC_TRANSMITTANCE]) * inv;
+        a[NB_ACC_DEPTH_SUM] += (r.depth * r.hasDepth - a[NB_ACC_DEPTH_SUM]) * inv;
+        a[NB_ACC_DEPTH_HITS] += (r.hasDepth - a[NB_ACC_DEPTH_HITS]) * inv;
+        float delta = y - a[NB_ACC_MEAN_Y];
+        a[NB_ACC_MEAN_Y] += delta * inv;
+        a[NB_ACC_M2_Y] += delta * (y - a[NB_ACC_MEAN_Y]);
+#if NB_NUM_LIGHTS > 0
+        for (int i = 0; i < NB_NUM_LIGHTS; ++i) {
+            __global float* q = a + NB_ACC_LIGHTS + 3 * i;
+            q[0] += (r.perLight[i].x - q[0]) * inv;
+            q[1] += (r.perLight[i].y - q[1]) * inv;
+            q[2] += (r.perLight[i].z - q[2]) * inv;
+        }
+#endif
+    }
+}

@@ -1,0 +1,62 @@
+/* ptscene.h: the path tracer's scene as the OpenCL kernel reads it: one descriptor per volume
+ * and the per-launch parameters. Plain data with fixed-width members, sizes static_asserted on
+ * the host (src/pathtracer/PathtraceScene.cpp), so host and device agree byte for byte.
+ *
+ * The volumes' grids live in three buffers shared by all volumes (concatenated BrickGrid table,
+ * pool and slot-majorant arrays, see brickgrid.h); a descriptor holds the offsets into them,
+ * the transform from world to the grid's index space and the medium.
+ */
+#ifndef NIMBUS_KERNELS_SHARED_PTSCENE_H
+#define NIMBUS_KERNELS_SHARED_PTSCENE_H
+
+#include "brickgrid.h"
+#include "camera.h"
+#include "phase.h"
+
+/* 224 bytes. Coefficients in 1/m with the density scale folded in: sigma at a point is
+ * sigma_* times the trilinear density there. */
+typedef struct {
+    float indexFromWorld[12];  /* 3x4 row-major: p_index = M p_world + t (rows: M | t) */
+    float sigma_s[4];          /* xyz RGB scattering; w: 0 */
+    float sigma_t[4];          /* xyz RGB extinction; w: majorant scale = max channel (x 1 + 1e-5) */
+    NbPhase phase;
+    float boundsLo[4];         /* xyz: index-space box of the active bricks (density and emission),
+                                * brick aligned; w: extinction majorant (1/m) of an emitting slot
+                                * (see pathtrace.cl, "emission") */
+    float boundsHi[4];         /* xyz: upper corner; w: emission scale (medium.emissionScale) */
+    NbGridDesc density;        /* 1 channel: density after the shader */
+    NbGridDesc emission;       /* 3 channels: emitted radiance per metre W/(m^3 sr); or absent */
+} NbVolumeDesc;
+
+/* Per-launch parameters, 192 bytes. */
+typedef struct {
+    NbCamera camera;
+    float background[4];  /* radiance seen by camera rays that leave the volumes (L0) */
+    int width, height;    /* full image, pixels */
+    int x0, y0;           /* the data window's (crop's) top-left pixel */
+    int cropWidth;        /* data window width; the launch covers cropWidth x rows pixels */
+    int pixelCount;
+    nb_uint seed;
+    nb_uint sampleStart;  /* global index of this launch's first sample per pixel */
+    int samples;          /* samples per pixel in this launch */
+    int maxDepth;         /* the most scattering events a path may have */
+    int rrDepth;          /* Russian roulette from this many scattering events on */
+    int lightCount;
+    int volumeCount;
+    int pad[3];
+} NbPtParams;
+
+/* Per-pixel accumulator layout (floats), running means over the samples so far (Skanberg
+ * eq. 39) and Welford's M2 of the per-sample channel average of beauty. */
+#define NB_ACC_L0 0
+#define NB_ACC_L1 3
+#define NB_ACC_L2 6
+#define NB_ACC_TRANSMITTANCE 9 /* camera-ray transmittance (channel average) */
+#define NB_ACC_DEPTH_SUM 10    /* mean of depth * hit */
+#define NB_ACC_DEPTH_HITS 11   /* mean of hit (a first scattering vertex exists) */
+#define NB_ACC_MEAN_Y 12       /* mean of the channel average of beauty */
+#define NB_ACC_M2_Y 13         /* Welford's sum of squared deviations of the same */
+#define NB_ACC_LIGHTS 14       /* 3 floats per light, NEE contributions of that light */
+#define NB_ACC_STRIDE(lightCount) (NB_ACC_LIGHTS + 3 * (lightCount))
+
+#endif

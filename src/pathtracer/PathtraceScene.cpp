@@ -1,0 +1,111 @@
+#include "PathtraceScene.h"
+
+#include "../core/Error.h"
+
+#include <algorithm>
+#include <sstream>
+
+namespace nimbus {
+
+static_assert(sizeof(NbGridDesc) == 48, "NbGridDesc layout is shared with OpenCL");
+static_assert(sizeof(NbVolumeDesc) == 224, "NbVolumeDesc layout is shared with OpenCL");
+static_assert(sizeof(NbPtParams) == 192, "NbPtParams layout is shared with OpenCL");
+static_assert(sizeof(NbLight) == 96, "NbLight layout is shared with OpenCL");
+
+namespace {
+
+// The slot majorants of sigma_t are inflated by this relative margin: trilinear interpolation
+// never exceeds the largest corner mathematically, but float rounding can overshoot it by an
+// ulp or two, and a majorant below sigma_t would make null-collision weights negative.
+constexpr float kMajorantMargin = 1.0f + 1e-5f;
+
+// Collisions per metre in emitting slots whose density majorant is lower: emission is gathered
+// at tentative collisions (pathtrace.cl), so an emitting slot needs a positive rate even where
+// the density is zero. Half a collision per voxel: about four per brick crossed.
+constexpr float kEmissionCollisionsPerVoxel = 0.5f;
+
+NbGridDesc appendGrid(const BrickGrid& g, PathtraceScene& s)
+{
+    NbGridDesc d{};
+    if (g.empty())
+        return d;  // channels 0: absent
+    d.brickLo[0] = g.brickLo().x, d.brickLo[1] = g.brickLo().y, d.brickLo[2] = g.brickLo().z;
+    d.dims[0] = g.dims().x, d.dims[1] = g.dims().y, d.dims[2] = g.dims().z;
+    d.dims[3] = g.channels();
+    d.tableOffset = nb_uint(s.tables.size());
+    d.poolOffset = nb_uint(s.pools.size());
+    d.majorantOffset = nb_uint(s.majorants.size());
+    d.maxValue = g.maxValue();
+    s.tables.insert(s.tables.end(), g.table().begin(), g.table().end());
+    s.pools.insert(s.pools.end(), g.pool().begin(), g.pool().end());
+    s.majorants.insert(s.majorants.end(), g.majorants().begin(), g.majorants().end());
+    if (s.pools.size() > size_t(0xffffffffu))
+        throw Error("path tracer: the volumes hold more than 2^32 values (16 GiB); not supported");
+    return d;
+}
+
+bool isGrey(Rgb c) { return c.x == c.y && c.y == c.z; }
+
+}  // namespace
+
+PathtraceScene buildPathtraceScene(const RenderContext& ctx)
+{
+    PathtraceScene s;
+    const auto& vols = ctx.volumes.volumes();
+    if (int(vols.size()) > kMaxPathtraceVolumes)
+        throw Error("path tracer: " + std::to_string(vols.size()) + " volumes; at most " +
+                    std::to_string(kMaxPathtraceVolumes) + " are supported (merge grids into one volume)");
+    for (const auto& vp : vols) {
+        const VolumeData& v = *vp;
+        NbVolumeDesc d{};
+        for (int r = 0; r < 3; ++r)
+            for (int c = 0; c < 4; ++c)
+                d.indexFromWorld[4 * r + c] = float(v.indexFromWorld.at(r, c));
+        Rgb ss = v.sigmaS(), st = v.sigmaT();
+        d.sigma_s[0] = ss.x, d.sigma_s[1] = ss.y, d.sigma_s[2] = ss.z;
+        d.sigma_t[0] = st.x, d.sigma_t[1] = st.y, d.sigma_t[2] = st.z;
+        d.sigma_t[3] = nbMaxComponent(st) * kMajorantMargin;
+        d.phase = v.medium.phase;
+        if (!(d.phase.blend > 0.0f))
+            d.phase.blend = 0.0f;
+        s.twoLobe |= d.phase.blend > 0.0f;
+        s.chromatic |= !isGrey(ss) || !isGrey(st);
+
+        Bbox b = v.density.activeIndexBounds();
+        if (v.hasEmission())
+            b.expand(v.emission.activeIndexBounds());
+        d.boundsLo[0] = b.lo.x, d.boundsLo[1] = b.lo.y, d.boundsLo[2] = b.lo.z;
+        d.boundsHi[0] = b.hi.x, d.boundsHi[1] = b.hi.y, d.boundsHi[2] = b.hi.z;
+        d.boundsLo[3] = kEmissionCollisionsPerVoxel / std::max(v.voxelSize, 1e-12f);
+        d.boundsHi[3] = v.medium.emissionScale;
+        d.density = appendGrid(v.density, s);
+        if (v.hasEmission()) {
+            d.emission = appendGrid(v.emission, s);
+            s.emission = true;
+        }
+        s.volumes.push_back(d);
+    }
+    for (size_t i = 0; i < ctx.lights.size(); ++i) {
+        const LightEntry& e = ctx.lights[i];
+        if (!e.used)
+            continue;
+        s.lights.push_back(e.light);
+        s.lightEntry.push_back(int(i));
+        s.lightTypes |= 1u << e.light.type;
+    }
+    return s;
+}
+
+std::string PathtraceScene::defines(bool globalMajorant) const
+{
+    std::ostringstream o;
+    o << "-D NB_NUM_VOLUMES=" << std::max<size_t>(1, volumes.size()) << " -D NB_NUM_LIGHTS=" << lights.size();
+    const char* names[] = {"DISTANT", "POINT", "SPOT", "RECT", "SPHERE", "ENVIRONMENT"};
+    for (int t = 0; t < 6; ++t)
+        o << " -D NB_HAS_LIGHT_" << names[t] << "=" << ((lightTypes >> t) & 1u);
+    o << " -D NB_HAS_EMISSION=" << (emission ? 1 : 0) << " -D NB_TWO_LOBE=" << (twoLobe ? 1 : 0)
+      << " -D NB_CHROMATIC=" << (chromatic ? 1 : 0) << " -D NB_GLOBAL_MAJORANT=" << (globalMajorant ? 1 : 0);
+    return o.str();
+}
+
+}  // namespace nimbus

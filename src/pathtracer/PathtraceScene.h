@@ -1,0 +1,41 @@
+// PathtraceScene.h: a RenderContext flattened into the buffers the OpenCL path tracer reads
+// (kernels/shared/ptscene.h), and the preprocessor defines that specialise its kernel.
+//
+// Every volume's density and emission BrickGrids go up unchanged: their tables, pools and slot
+// majorants are concatenated into three buffers, and a descriptor per volume records the
+// offsets, the world-to-index transform and the medium (DESIGN "reference path tracer").
+#pragma once
+
+#include "../../kernels/shared/light.h"
+#include "../../kernels/shared/ptscene.h"
+#include "../render/RenderContext.h"
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+namespace nimbus {
+
+// The kernel keeps per-volume walk state in private memory; this many may overlap a ray.
+constexpr int kMaxPathtraceVolumes = 8;
+
+struct PathtraceScene {
+    std::vector<NbVolumeDesc> volumes;
+    std::vector<int32_t> tables;
+    std::vector<float> pools;
+    std::vector<float> majorants;
+    std::vector<NbLight> lights;  // the lights that can reach a volume
+    std::vector<int> lightEntry;  // for each, its index in RenderContext::lights (AOV)
+    bool emission = false;        // some volume has an emission grid
+    bool twoLobe = false;         // some phase function has a second lobe
+    bool chromatic = false;       // some medium's coefficients differ between channels
+    uint32_t lightTypes = 0;      // bit NB_LIGHT_<TYPE> set for each type present
+
+    // "-D NB_NUM_VOLUMES=2 -D NB_HAS_LIGHT_DISTANT=1 ..." for buildProgram.
+    std::string defines(bool globalMajorant) const;
+};
+
+// Throws Error when the scene has more than kMaxPathtraceVolumes volumes.
+PathtraceScene buildPathtraceScene(const RenderContext& ctx);
+
+}  // namespace nimbus

@@ -1,0 +1,253 @@
+#include "Pathtracer.h"
+
+#include "../core/Error.h"
+#include "../core/Log.h"
+#include "../scene/KernelScene.h"
+#include "KernelCache.h"
+#include "OpenCl.h"
+#include "PathtraceScene.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+
+namespace nimbus {
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double secondsBetween(Clock::time_point a, Clock::time_point b) { return std::chrono::duration<double>(b - a).count(); }
+
+// Russian roulette starts after this many scattering events (Skanberg sec. 6.8 uses 3).
+constexpr int kRussianRouletteDepth = 3;
+// Adaptive launches aim at this duration: short enough for progress, cancellation and GPU
+// watchdogs, long enough that launch overhead is noise.
+constexpr double kTargetPassSeconds = 0.5;
+constexpr int kMaxSamplesPerPass = 64;
+
+void setupFilm(Film& film, const RenderContext& ctx)
+{
+    const Camera& c = ctx.scene->camera;
+    film.width = c.width;
+    film.height = c.height;
+    film.x0 = std::max(0, int(std::floor(c.crop[0] * c.width)));
+    film.x1 = std::min(c.width, int(std::ceil(c.crop[1] * c.width)));
+    film.y0 = std::max(0, int(std::floor(c.crop[2] * c.height)));
+    film.y1 = std::min(c.height, int(std::ceil(c.crop[3] * c.height)));
+    film.add("beauty", 4, false);
+    film.add("L0", 3, false);
+    film.add("L1", 3, false);
+    film.add("L2plus", 3, false);
+    film.add("alpha", 1, true);
+    film.add("depth", 1, true);
+    film.add("variance", 1, true);
+    for (const LightEntry& e : ctx.lights)
+        film.add(e.aov, 3, false);
+}
+
+// Copies the running estimate into the film's AOVs.
+void resolve(const std::vector<float>& acc, int stride, long long n, const PathtraceScene& ps, const RenderContext& ctx,
+             Film& film)
+{
+    Aov* beauty = film.find("beauty");
+    Aov* L[3] = {film.find("L0"), film.find("L1"), film.find("L2plus")};
+    Aov* alpha = film.find("alpha");
+    Aov* depth = film.find("depth");
+    Aov* variance = film.find("variance");
+    std::vector<Aov*> lightAov;
+    for (int entry : ps.lightEntry)
+        lightAov.push_back(film.find(ctx.lights[size_t(entry)].aov));
+    const int cropWidth = film.x1 - film.x0;
+    const double varianceScale = n > 1 ? 1.0 / (double(n) * double(n - 1)) : 0.0;
+    for (int y = film.y0; y < film.y1; ++y)
+        for (int x = film.x0; x < film.x1; ++x) {
+            const float* a = acc.data() + (size_t(y - film.y0) * cropWidth + (x - film.x0)) * stride;
+            float b[3] = {0, 0, 0};
+            for (int k = 0; k < 3; ++k) {
+                for (int c = 0; c < 3; ++c)
+                    b[c] += a[3 * k + c];
+                if (L[k]) {
+                    float* p = film.pixel(*L[k], x, y);
+                    p[0] = a[3 * k], p[1] = a[3 * k + 1], p[2] = a[3 * k + 2];
+                }
+            }
+            const float al = 1.0f - a[NB_ACC_TRANSMITTANCE];
+            if (beauty) {
+                float* p = film.pixel(*beauty, x, y);
+                p[0] = b[0], p[1] = b[1], p[2] = b[2];
+                if (beauty->channels == 4)
+                    p[3] = al;
+            }
+            if (alpha)
+                *film.pixel(*alpha, x, y) = al;
+            if (depth)
+                *film.pixel(*depth, x, y) = a[NB_ACC_DEPTH_HITS] > 0 ? a[NB_ACC_DEPTH_SUM] / a[NB_ACC_DEPTH_HITS] : 0.0f;
+            if (variance)
+                *film.pixel(*variance, x, y) = float(double(a[NB_ACC_M2_Y]) * varianceScale);
+            for (size_t i = 0; i < lightAov.size(); ++i)
+                if (lightAov[i]) {
+                    float* p = film.pixel(*lightAov[i], x, y);
+                    const float* q = a + NB_ACC_LIGHTS + 3 * i;
+                    p[0] = q[0], p[1] = q[1], p[2] = q[2];
+                }
+        }
+}
+
+}  // namespace
+
+std::vector<std::string> listOpenClDevices()
+{
+    std::vector<std::string> out;
+    for (const ocl::DeviceInfo& d : ocl::enumerateDevices())
+        out.push_back(d.describe());
+    return out;
+}
+
+void renderPathtrace(const RenderContext& ctx, Film& film, const RenderOptions& options, const PathtraceOptions& pt)
+{
+    if (!ctx.scene)
+        throw Error("path tracer: the render context has no scene");
+    const Scene& scene = *ctx.scene;
+    if (film.aovs.empty())
+        setupFilm(film, ctx);
+    const int cropWidth = film.x1 - film.x0, cropHeight = film.y1 - film.y0;
+    const long long pixelCount = (long long)std::max(0, cropWidth) * std::max(0, cropHeight);
+    if (pixelCount == 0)
+        return;
+    if (pixelCount > 0x7fffffffLL)
+        throw Error("path tracer: image too large");
+
+    const PathtraceScene ps = buildPathtraceScene(ctx);
+    const int stride = NB_ACC_STRIDE(int(ps.lights.size()));
+
+    const ocl::DeviceInfo device = ocl::selectDevice(pt.device);
+    ocl::Context cl(device);
+    const std::string defines = ps.defines(pt.globalMajorant);
+    ProgramBuild build = buildProgram(cl, "pathtrace.cl", defines);
+    cl_int err = CL_SUCCESS;
+    ocl::Kernel kernel(clCreateKernel(build.program.get(), "nbPathtrace", &err));
+    ocl::check(err, "clCreateKernel(nbPathtrace)");
+
+    NbPtParams params{};
+    params.camera = makeNbCamera(scene.camera);
+    params.background[0] = ctx.background.x, params.background[1] = ctx.background.y;
+    params.background[2] = ctx.background.z;
+    params.width = film.width;
+    params.height = film.height;
+    params.x0 = film.x0;
+    params.y0 = film.y0;
+    params.cropWidth = cropWidth;
+    params.pixelCount = int(pixelCount);
+    params.seed = scene.render.seed;
+    params.maxDepth = std::max(0, scene.render.maxDepth);
+    params.rrDepth = kRussianRouletteDepth;
+    params.lightCount = int(ps.lights.size());
+    params.volumeCount = int(ps.volumes.size());
+
+    ocl::Mem paramBuf = cl.allocate(sizeof params);
+    ocl::Mem lightBuf = cl.upload(ps.lights);
+    ocl::Mem volumeBuf = cl.upload(ps.volumes);
+    ocl::Mem tableBuf = cl.upload(ps.tables);
+    ocl::Mem poolBuf = cl.upload(ps.pools);
+    ocl::Mem majorantBuf = cl.upload(ps.majorants);
+    ocl::Mem accBuf = cl.allocate(size_t(pixelCount) * stride * sizeof(float));
+    ocl::Mem badBuf = cl.allocate(sizeof(cl_int));
+    const cl_mem args[] = {paramBuf.get(), lightBuf.get(), volumeBuf.get(), tableBuf.get(),
+                           poolBuf.get(),  majorantBuf.get(), accBuf.get(), badBuf.get()};
+    for (cl_uint i = 0; i < sizeof args / sizeof args[0]; ++i)
+        ocl::check(clSetKernelArg(kernel.get(), i, sizeof(cl_mem), &args[i]), "clSetKernelArg");
+
+    size_t local = pt.localSize;
+    if (local > 0) {
+        size_t maxLocal = 0;
+        clGetKernelWorkGroupInfo(kernel.get(), device.device, CL_KERNEL_WORK_GROUP_SIZE, sizeof maxLocal, &maxLocal,
+                                 nullptr);
+        if (maxLocal > 0 && local > maxLocal)
+            throw Error("path tracer: work-group size " + std::to_string(local) + " exceeds the kernel's limit " +
+                        std::to_string(maxLocal) + " on " + device.name);
+    }
+    const size_t global = local > 0 ? (size_t(pixelCount) + local - 1) / local * local : size_t(pixelCount);
+
+    const long long sppTarget = scene.render.spp > 0 ? scene.render.spp : (scene.render.timeLimit > 0 ? 0 : 1);
+    const double timeLimit = scene.render.timeLimit;
+    std::vector<float> acc;
+    auto readBack = [&](long long n) {
+        acc.resize(size_t(pixelCount) * stride);
+        cl.read(accBuf, acc.data(), acc.size() * sizeof(float));
+        resolve(acc, stride, n, ps, ctx, film);
+    };
+
+    const auto start = Clock::now();
+    auto lastCheckpoint = start;
+    long long done = 0;
+    int passes = 0;
+    int perPass = pt.samplesPerPass > 0 ? pt.samplesPerPass : 1;
+    for (;;) {
+        if (sppTarget > 0 && done >= sppTarget)
+            break;
+        if (done >= 0xffffffffLL)
+            break;  // the RNG's sample index is 32 bits
+        int n = perPass;
+        if (sppTarget > 0)
+            n = int(std::min<long long>(n, sppTarget - done));
+        params.sampleStart = nb_uint(done);
+        params.samples = n;
+        cl.write(paramBuf, &params, sizeof params);
+        const auto passStart = Clock::now();
+        ocl::check(clEnqueueNDRangeKernel(cl.queue(), kernel.get(), 1, nullptr, &global, local > 0 ? &local : nullptr, 0,
+                                          nullptr, nullptr),
+                   "clEnqueueNDRangeKernel(nbPathtrace)");
+        ocl::check(clFinish(cl.queue()), "clFinish");
+        const auto now = Clock::now();
+        done += n;
+        ++passes;
+        const double elapsed = secondsBetween(start, now);
+        if (pt.samplesPerPass <= 0) {
+            const double passSeconds = std::max(1e-4, secondsBetween(passStart, now));
+            const double ideal = n * kTargetPassSeconds / passSeconds;
+            perPass = int(std::clamp(ideal, 1.0, double(std::min(kMaxSamplesPerPass, 2 * n))));
+        }
+        if (options.progress) {
+            float fraction = sppTarget > 0 ? float(double(done) / double(sppTarget)) : 0.0f;
+            if (timeLimit > 0)
+                fraction = std::max(fraction, float(std::min(1.0, elapsed / timeLimit)));
+            if (!options.progress(std::min(fraction, 1.0f)))
+                throw Cancelled();
+        }
+        if (options.cancel && options.cancel->load())
+            throw Cancelled();
+        if (timeLimit > 0 && elapsed >= timeLimit)
+            break;
+        if (pt.checkpointSeconds > 0 && pt.onCheckpoint && secondsBetween(lastCheckpoint, now) >= pt.checkpointSeconds &&
+            !(sppTarget > 0 && done >= sppTarget)) {
+            readBack(done);
+            pt.onCheckpoint(film);
+            lastCheckpoint = Clock::now();
+        }
+    }
+    readBack(done);
+    const double renderSeconds = secondsBetween(start, Clock::now());
+
+    cl_int bad = 0;
+    cl.read(badBuf, &bad, sizeof bad);
+    if (bad > 0)
+        logWarning("path tracer: " + std::to_string(bad) + " non-finite path samples dropped");
+
+    film.metadata.push_back({"pathtrace_spp", std::to_string(done)});
+    film.metadata.push_back({"pathtrace_device", device.name});
+    if (pt.stats) {
+        PathtraceStats& s = *pt.stats;
+        s.samplesPerPixel = done;
+        s.pathSamples = done * pixelCount;
+        s.renderSeconds = renderSeconds;
+        s.buildSeconds = build.seconds;
+        s.kernelFromCache = build.fromCache;
+        s.passes = passes;
+        s.badSamples = bad;
+        s.device = device.describe();
+        s.defines = defines;
+    }
+}
+
+}  // namespace nimbus

@@ -1,0 +1,207 @@
+// Determinism (STYLE rule 7), progressive rendering and stopping rules: the same seed gives
+// the same bits whatever the work-group size or the split into launches; a checkpoint after k
+// samples is the image of a k-sample render; time limits and cancellation stop the render.
+#include "PtWorld.h"
+
+#include "core/Error.h"
+
+#include <gtest/gtest.h>
+
+#include <atomic>
+#include <chrono>
+#include <cstring>
+
+using namespace nimbus;
+using namespace nimbus::pttest;
+
+namespace {
+
+// Every feature the kernel specialises on: two overlapping volumes (one emitting, one with a
+// two-lobe phase function), RGB media, and one light of every type.
+World featureWorld(bool emission = true)
+{
+    World w(16, 12);
+    w.volumes.push_back(boxVolume(make_float3(-1, -1, -1), make_float3(1, 1, 1), {2, 2, 2},
+                                  medium(make_float3(2, 3, 4), make_float3(0.2f, 0.1f, 0.3f), NbPhase{0.5f, 0, 0, 0}),
+                                  [](float3 u) { return 0.2f + u.x * u.y + 0.5f * u.z * u.z; },
+                                  emission ? std::function<Rgb(float3)>([](float3 u) { return make_float3(u.x, 0.2f, u.z); })
+                                           : nullptr));
+    w.volumes.push_back(boxVolume(make_float3(-0.2f, -1.2f, -0.5f), make_float3(1.4f, 0.4f, 1.1f), {1, 1, 1},
+                                  medium(splat(1.5f), splat(0.5f), NbPhase{0.8f, -0.3f, 0.25f, 0}),
+                                  [](float3 u) { return u.y; }));
+    w.addLight(distantLight(make_float3(0.3f, -1, -0.2f), make_float3(2, 2, 1.5f)));
+    Light point;
+    point.type = LightType::Point;
+    point.position = make_float3(0.5f, 1.5f, 1.0f);
+    point.intensity = splat(3.0f);
+    w.addLight(point);
+    Light spot;
+    spot.type = LightType::Spot;
+    spot.position = make_float3(-2, 0.5f, 1);
+    spot.direction = normalize(make_float3(1, -0.2f, -0.5f));
+    spot.intensity = splat(5.0f);
+    w.addLight(spot);
+    Light rect;
+    rect.type = LightType::Rect;
+    rect.center = make_float3(0, -2, 0);
+    rect.normal = make_float3(0, 1, 0);
+    rect.size[0] = rect.size[1] = 1.5f;
+    rect.radiance = splat(2.0f);
+    w.addLight(rect);
+    Light sphere;
+    sphere.type = LightType::Sphere;
+    sphere.position = make_float3(1.5f, 0.5f, -1.5f);
+    sphere.radius = 0.3f;
+    sphere.radiance = splat(4.0f);
+    w.addLight(sphere);
+    w.addLight(environmentLight(make_float3(0.1f, 0.15f, 0.2f)));
+    lookAt(w.scene, make_float3(0.5f, 0.8f, 4.5f), make_float3(0, 0, 0), 40);
+    w.scene.camera.crop[0] = 0.1f;
+    w.scene.camera.crop[1] = 0.9f;
+    w.scene.camera.crop[2] = 0.2f;
+    w.scene.camera.crop[3] = 1.0f;
+    w.scene.render.maxDepth = 12;
+    w.scene.render.spp = 6;
+    w.scene.render.seed = 5;
+    return w;
+}
+
+void expectIdentical(const Film& a, const Film& b, const char* what)
+{
+    ASSERT_EQ(a.aovs.size(), b.aovs.size());
+    for (size_t i = 0; i < a.aovs.size(); ++i) {
+        ASSERT_EQ(a.aovs[i].name, b.aovs[i].name);
+        ASSERT_EQ(a.aovs[i].pixels.size(), b.aovs[i].pixels.size());
+        size_t differing = 0;
+        for (size_t k = 0; k < a.aovs[i].pixels.size(); ++k)
+            differing += std::memcmp(&a.aovs[i].pixels[k], &b.aovs[i].pixels[k], sizeof(float)) != 0;
+        EXPECT_EQ(differing, 0u) << what << ": AOV " << a.aovs[i].name;
+    }
+}
+
+}  // namespace
+
+TEST(PathtraceDeterminism, SameSeedSameBitsAnyWorkGroupSizeAndLaunchSplit)
+{
+    useTestKernelCache("determinism");
+    World w = featureWorld();
+    PathtraceStats stats;
+    PathtraceOptions base;
+    base.stats = &stats;
+    Film reference = w.render(base);
+    EXPECT_EQ(stats.samplesPerPixel, 6);
+    EXPECT_EQ(stats.badSamples, 0);
+    std::printf("kernel: %s\n", stats.defines.c_str());
+
+    PathtraceOptions again = base;
+    Film second = w.render(again);
+    EXPECT_TRUE(stats.kernelFromCache) << "the second build should load the cached binary";
+    expectIdentical(reference, second, "same seed");
+
+    for (size_t local : {size_t(1), size_t(7), size_t(64)})
+        for (int perPass : {1, 4}) {
+            PathtraceOptions o;
+            o.localSize = local;
+            o.samplesPerPass = perPass;
+            Film f = w.render(o);
+            std::string what = "local size " + std::to_string(local) + ", " + std::to_string(perPass) + " spp per launch";
+            expectIdentical(reference, f, what.c_str());
+        }
+
+    w.scene.render.seed = 6;
+    Film other = w.render();
+    const Aov* a = reference.find("beauty");
+    const Aov* b = other.find("beauty");
+    size_t differing = 0;
+    for (size_t k = 0; k < a->pixels.size(); ++k)
+        differing += a->pixels[k] != b->pixels[k];
+    EXPECT_GT(differing, a->pixels.size() / 2) << "another seed must give another image";
+
+    // Sanity of the film: finite and non-negative; the crop window only.
+    for (const Aov& aov : reference.aovs)
+        for (float v : aov.pixels) {
+            ASSERT_TRUE(std::isfinite(v)) << aov.name;
+            ASSERT_GE(v, 0.0f) << aov.name;
+        }
+    EXPECT_EQ(pixel1(reference, "alpha", 0, 0), 0.0f);  // outside the crop: untouched
+    EXPECT_GT(nbAverage(pixel3(reference, "beauty", 8, 6)), 0.0f);
+}
+
+// Without emission, the per-light AOVs split L1 + L2plus between the lights.
+TEST(PathtraceDeterminism, LightAovsSumToScatteredLight)
+{
+    useTestKernelCache("determinism");
+    World w = featureWorld(false);
+    Film f = w.render();
+    double worst = 0, scale = 0;
+    for (int y = f.y0; y < f.y1; ++y)
+        for (int x = f.x0; x < f.x1; ++x) {
+            Rgb sum = splat(0.0f);
+            for (const Light& l : w.scene.lights)
+                sum += pixel3(f, "light_" + l.name, x, y);
+            Rgb scattered = pixel3(f, "L1", x, y) + pixel3(f, "L2plus", x, y);
+            worst = std::max(worst, double(nbMaxComponent(fmax(sum - scattered, scattered - sum))));
+            scale = std::max(scale, double(nbMaxComponent(scattered)));
+        }
+    EXPECT_LT(worst, 1e-5 * std::max(1.0, scale));
+}
+
+// A checkpoint after k samples holds exactly the image of a k-sample render: the running
+// estimate is the same sequence of updates.
+TEST(PathtraceProgressive, CheckpointsAreTheRunningEstimate)
+{
+    useTestKernelCache("determinism");
+    World w = featureWorld();
+    w.scene.render.spp = 3;
+    std::vector<Film> checkpoints;
+    PathtraceOptions o;
+    o.samplesPerPass = 1;
+    o.checkpointSeconds = 1e-9;
+    o.onCheckpoint = [&](const Film& f) { checkpoints.push_back(f); };
+    Film final = w.render(o);
+    ASSERT_EQ(checkpoints.size(), 2u);  // after samples 1 and 2; the final image is not a checkpoint
+    for (int k = 1; k <= 2; ++k) {
+        w.scene.render.spp = k;
+        Film f = w.render();
+        f.metadata.clear();
+        checkpoints[size_t(k - 1)].metadata.clear();
+        expectIdentical(f, checkpoints[size_t(k - 1)], ("checkpoint " + std::to_string(k)).c_str());
+    }
+}
+
+TEST(PathtraceProgressive, TimeLimitStopsAfterTheLaunchThatCrossesIt)
+{
+    useTestKernelCache("determinism");
+    World w = featureWorld();
+    w.scene.render.spp = 0;  // no sample budget: the time limit alone stops the render
+    w.scene.render.timeLimit = 0.3;
+    PathtraceStats stats;
+    PathtraceOptions o;
+    o.stats = &stats;
+    o.samplesPerPass = 1;
+    auto t0 = std::chrono::steady_clock::now();
+    Film f = w.render(o);
+    double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    EXPECT_GE(stats.renderSeconds, 0.3);
+    EXPECT_GT(stats.samplesPerPixel, 1);
+    EXPECT_LT(seconds, 30.0);
+    std::printf("time limit 0.3 s: %lld spp in %.2f s\n", stats.samplesPerPixel, stats.renderSeconds);
+}
+
+TEST(PathtraceProgressive, CancelThrowsCancelled)
+{
+    useTestKernelCache("determinism");
+    World w = featureWorld();
+    w.scene.render.spp = 1000000;
+    std::atomic<bool> cancel{true};
+    RenderOptions options;
+    options.cancel = &cancel;
+    Film film;
+    EXPECT_THROW(renderPathtrace(w.context(), film, options, PathtraceOptions{}), Cancelled);
+    RenderOptions stopByProgress;
+    int calls = 0;
+    stopByProgress.progress = [&](float) { return ++calls < 3; };
+    Film film2;
+    EXPECT_THROW(renderPathtrace(w.context(), film2, stopByProgress, PathtraceOptions{}), Cancelled);
+    EXPECT_EQ(calls, 3);
+}
