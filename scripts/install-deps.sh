@@ -6,7 +6,7 @@ set -euo pipefail
 packages=(
   build-essential cmake ninja-build ccache pkg-config
   libopenvdb-dev libopenvdb-ax-dev libopenvdb-tools python3-openvdb
-  libopenimageio-dev openimageio-tools
+  libopenimageio-dev openimageio-tools python3-openimageio
   libopencolorio-dev
   libembree-dev libtbb-dev
   ocl-icd-opencl-dev opencl-headers pocl-opencl-icd clinfo

@@ -154,9 +154,14 @@ void DeepShadowMap::compress(const std::vector<Vertex>& raw, float tolerance, st
 
     // Greedy compression with a window of admissible slopes per channel (Lokovic & Veach sec.
     // 4.2): from the last kept vertex a, extend while some line through a passes within
-    // tol_i of every raw vertex; tol_i is the optical-depth error that keeps the
-    // transmittance error below `tolerance` at that depth: exp(-tau)(e^tol_i - 1) = tolerance.
-    auto tolAt = [&](const Vertex& v, int c) { return std::log1p(tolerance * std::exp(std::min(v.tau[c], 80.0f))); };
+    // tol_i of every raw vertex. tol_i is the optical-depth error delta that keeps the
+    // transmittance error within the bound at that depth:
+    // e^{-tau}(e^delta - 1) = tolerance * max(e^{-tau}, floor), so
+    // delta = log(1 + tolerance * max(1, floor e^tau)). (The error toward lower T is smaller.)
+    auto tolAt = [&](const Vertex& v, int c) {
+        float rel = std::max(1.0f, kRelativeFloor * std::exp(std::min(v.tau[c], 80.0f)));
+        return std::log1p(tolerance * rel);
+    };
     size_t a = 0;
     out.push_back(raw[0]);
     float lo[3], hi[3];

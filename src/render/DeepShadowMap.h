@@ -3,10 +3,13 @@
 //
 // Each texel holds the optical depth tau(z) (RGB, since extinction is chromatic) along its ray
 // from the light as a piecewise-linear function of depth z, compressed so that the
-// transmittance exp(-tau) it reconstructs is within `tolerance` of the marched one at every
-// marched sample. Storing optical depth rather than transmittance keeps homogeneous stretches
-// exact with two vertices and makes the compression error bound direct:
-// |exp(-a) - exp(-b)| <= exp(-min(a,b)) |a - b|.
+// transmittance exp(-tau) it reconstructs is within `tolerance` of the marched one *relative
+// to the transmittance* wherever T >= kRelativeFloor, and within tolerance * kRelativeFloor
+// below: the single-scattered light is proportional to T, so a relative bound is a bound on the
+// relative error of L1; darker regions, where nothing visible is lit, cost no vertices.
+// Storing optical depth rather than transmittance keeps homogeneous stretches exact with two
+// vertices and makes the bound direct: an optical-depth error delta changes T by the factor
+// e^{+-delta}.
 // Projections: orthographic for distant lights (depth along the direction of travel),
 // perspective for spot lights and a cube of six perspective faces for point lights (depth =
 // distance from the light, so optical depth is linear in depth in homogeneous media).
@@ -27,7 +30,7 @@ public:
 
     struct Settings {
         int resolution = 256;       // texels per side (per face for cube maps)
-        float tolerance = 0.002f;   // max transmittance error of the compression
+        float tolerance = 0.002f;   // max relative transmittance error of the compression
         float stepFraction = 1.0f;  // light-ray march step, voxels
     };
 
@@ -58,8 +61,10 @@ public:
     // The uncompressed march along a light ray: a vertex at the start of every span and at the
     // end of every step (midpoint rule), optical depth accumulated from the ray origin.
     static void marchRay(const VolumeSet& volumes, float3 o, float3 d, float stepFraction, std::vector<Vertex>& raw);
-    // Greedy piecewise-linear compression of `raw` whose transmittance stays within
-    // `tolerance` of raw's at every raw vertex (and so everywhere between them).
+    // Greedy piecewise-linear compression of `raw` whose transmittance T' stays within
+    // |T' - T| <= tolerance * max(T, kRelativeFloor) of raw's at every raw vertex (and so
+    // everywhere between them, both being linear in between).
+    static constexpr float kRelativeFloor = 0.01f;
     static void compress(const std::vector<Vertex>& raw, float tolerance, std::vector<Vertex>& out);
 
 private:

@@ -49,6 +49,17 @@ std::string unreachableReason(const Light& l, const NbLight& k, const Bbox& boun
     return {};
 }
 
+// A distant light of apparent diameter `angle` blurs shadows by at most
+// (distance through the volumes) * tan(angle / 2); when that stays under the finest voxel the
+// blur is invisible and a shadow map of the disc's centre is exact to the grid's resolution.
+bool sunSharperThanAVoxel(const Light& l, const VolumeSet& volumes)
+{
+    if (l.type != LightType::Distant || volumes.empty())
+        return false;
+    float across = length(volumes.worldBounds().extent());
+    return across * std::tan(0.5 * l.angle * M_PI / 180.0) < volumes.minVoxelSize();
+}
+
 }  // namespace
 
 std::unique_ptr<RenderContext> RenderContext::create(const Scene& scene, bool buildShadowMaps)
@@ -106,8 +117,12 @@ std::unique_ptr<RenderContext> RenderContext::create(const Scene& scene, bool bu
         if (!why.empty()) {
             e.used = lp.used = false;
             lp.reason = why;
-        } else if (nbLightIsDelta(e.light)) {
+        } else if (nbLightIsDelta(e.light) || sunSharperThanAVoxel(l, ctx->volumes)) {
+            e.delta = true;
             lp.shadowMap = true;
+            if (!nbLightIsDelta(e.light))
+                plan.notes.push_back("light " + lp.name + ": its " + std::to_string(l.angle) +
+                                     " deg disc casts penumbrae under one voxel here: shadow-mapped as a point on the sky");
             lp.resolution = scene.render.shadowMapResolution;
             lp.projection = l.type == LightType::Distant ? "orthographic"
                             : (l.type == LightType::Spot && l.coneAngle <= 120.0f) ? "perspective"
@@ -142,6 +157,10 @@ Rgb RenderContext::incident(size_t i, float3 p, float u0, float u1, float3& wi) 
 {
     const LightEntry& e = lights[i];
     NbLightSample s = nbLightSample(e.light, p, u0, u1);
+    if (e.delta && e.light.type == NB_LIGHT_DISTANT) {
+        s.wi = -nbLoad3(e.light.direction);
+        s.weight = nbLoad3(e.light.color);
+    }
     wi = s.wi;
     if (nbMaxComponent(s.weight) <= 0.0f)
         return splat(0.0f);

@@ -18,6 +18,9 @@ struct LightEntry {
     NbLight light;
     std::string aov;  // "light_<name>"
     bool used = true;
+    // One fixed sample per step suffices: a delta light, or a distant light whose penumbra
+    // across the whole volume is under a voxel (then its disc is treated as its centre).
+    bool delta = false;
     std::optional<DeepShadowMap> shadowMap;  // set for delta lights that reach a volume
 };
 

@@ -1,5 +1,6 @@
 #include "RenderPlan.h"
 
+#include <algorithm>
 #include <cstdio>
 #include <sstream>
 
@@ -35,6 +36,13 @@ std::string RenderPlan::describe() const
         if (v.clampedVoxels)
             s << "; " << v.clampedVoxels << " bad voxel values clamped";
         s << "\n";
+        if (wkb.enabled && wkb.l2plus) {
+            s << "      L2+ light grid: " << v.lightGrid << " (" << v.lightVoxelFactor << " density voxels each), "
+              << v.mipLevels << " mip levels, " << bytes(v.pyramidBytes) << "; ";
+            char buf[96];
+            std::snprintf(buf, sizeof buf, "%.2g", v.l2plusBound);
+            s << (v.l2plus ? "L2+ sources on" : "L2+ sources off") << " (bound " << buf << " E/4pi)\n";
+        }
     }
     s << "  lights:\n";
     if (lights.empty())
@@ -50,6 +58,23 @@ std::string RenderPlan::describe() const
         } else if (l.sampled)
             s << "sampled with shadow rays (" << l.reason << ")";
         s << "\n";
+        if (wkb.enabled && !l.l2plus.empty())
+            s << "      L2+: " << l.l2plus << "\n";
+    }
+    if (wkb.enabled) {
+        char buf[200];
+        if (wkb.l2plus) {
+            std::snprintf(buf, sizeof buf, "K %.3g, l step %.3g, orders <= %d, %d channels per light voxel", wkb.blurK,
+                          wkb.lStep, wkb.orderCap, wkb.channels);
+            s << "  L2+ (wkb): kernel " << wkb.kernel << "; source " << wkb.source << "; " << buf << "\n";
+            std::snprintf(buf, sizeof buf, " (%.2f x, budget %.2f x)",
+                          double(wkb.pyramidBytes) / double(std::max<size_t>(wkb.densityBytes, 1)), wkb.memoryBudget);
+            s << "    light pyramids " << bytes(wkb.pyramidBytes) << " for density grids of " << bytes(wkb.densityBytes)
+              << buf << "\n";
+        } else {
+            std::snprintf(buf, sizeof buf, "%.2g", wkb.l2plusBound);
+            s << "  L2+ (wkb): not computed (bound " << buf << " E/4pi)\n";
+        }
     }
     for (auto& n : notes)
         s << "  " << n << "\n";

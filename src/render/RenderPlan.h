@@ -21,6 +21,9 @@ struct LightPlan {
     // Filled after the build:
     size_t shadowMapBytes = 0;
     double shadowMapSeconds = 0;
+    // wkb: how this light feeds L2+ (empty for other methods), e.g. "E = weight * T from the
+    // deep shadow map" or "SH order 2 (27 channels)" or "skipped: <why>".
+    std::string l2plus;
 };
 
 struct VolumePlan {
@@ -34,12 +37,33 @@ struct VolumePlan {
     float opticalDepthAcross = 0;        // max sigma_t * (bounding-box diagonal), an upper bound
     size_t clampedVoxels = 0;
     std::string bounds;
+    // wkb light pyramid (docs/wkb.md "render plan"):
+    bool l2plus = false;         // light channels built for this volume
+    double l2plusBound = 0;      // bound on this volume's share of L2+, in units of E / (4 pi)
+    int lightVoxelFactor = 0;    // light-grid voxel = this many density voxels per axis
+    int mipLevels = 0;
+    std::string lightGrid;       // level-0 size, e.g. "20 x 14 x 18 voxels, 24 bricks"
+    size_t pyramidBytes = 0;
+};
+
+// The multiple-scattering term's choices (method wkb).
+struct WkbPlan {
+    bool enabled = false;      // method wkb
+    bool l2plus = false;       // false: L2+ skipped for the whole scene (its bound is below tolerance)
+    double l2plusBound = 0;    // bound on L2+ in units of the brightest source's E / (4 pi)
+    std::string kernel, source;
+    float blurK = 0, lStep = 0;
+    int orderCap = 0;
+    int channels = 0;          // per light-grid voxel: density + 3 per delta source + 3 (J+1)^2 per SH source
+    size_t pyramidBytes = 0, densityBytes = 0;
+    float memoryBudget = 0;
 };
 
 struct RenderPlan {
     Method method = Method::Single;
     std::vector<LightPlan> lights;
     std::vector<VolumePlan> volumes;
+    WkbPlan wkb;
     std::vector<std::string> notes;      // other omissions and decisions, one line each
     std::vector<std::pair<std::string, double>> stageSeconds;
 

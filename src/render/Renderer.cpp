@@ -4,6 +4,8 @@
 #include "../core/Log.h"
 #include "../pathtracer/Pathtracer.h"
 #include "../scene/KernelScene.h"
+#include "../scene/SceneValidate.h"
+#include "../wkb/WkbIntegrator.h"
 #include "RenderContext.h"
 #include "SingleScatter.h"
 
@@ -50,7 +52,10 @@ std::string settingsSummary(const Scene& s)
 
 // The L0 + L1 (+ L2+) camera-ray integrators share this driver: tiles in parallel, each
 // pixel's samples drawn from (seed, pixel, sample) so any thread count gives the same image.
-void renderMarched(const RenderContext& ctx, Film& film, const RenderOptions& options)
+// `wkb`, when given, adds L2+ to each camera sample after marchSingle, continuing its random
+// stream, so that wkb's L0 and L1 are exactly single's.
+void renderMarched(const RenderContext& ctx, Film& film, const RenderOptions& options,
+                   const wkb::WkbIntegrator* wkb = nullptr)
 {
     const Scene& scene = *ctx.scene;
     const NbCamera cam = makeNbCamera(scene.camera);
@@ -92,6 +97,8 @@ void renderMarched(const RenderContext& ctx, Film& film, const RenderOptions& op
                         CameraSample cs;
                         std::fill(perLight.begin(), perLight.end(), 0.0f);
                         marchSingle(ctx, o, d, rng, cs, perLight.data());
+                        if (wkb)
+                            wkb->march(o, d, rng, cs, perLight.data());
                         sum.L0 += cs.L0;
                         sum.L1 += cs.L1;
                         sum.L2plus += cs.L2plus;
@@ -153,10 +160,17 @@ std::vector<std::string> aovNames(const Scene& scene, Method method)
     return names;
 }
 
-RenderPlan planRender(const Scene& scene) { return RenderContext::create(scene, false)->plan; }
+RenderPlan planRender(const Scene& scene)
+{
+    auto ctx = RenderContext::create(scene, false);
+    if (scene.render.method == Method::Wkb)
+        wkb::planWkb(*ctx, ctx->plan);
+    return ctx->plan;
+}
 
 RenderResult render(const Scene& scene, const RenderOptions& options)
 {
+    validateScene(scene);  // API clients reach here without the JSON loader's checks
     auto start = std::chrono::steady_clock::now();
     std::unique_ptr<tbb::global_control> threads;
     if (scene.render.threads > 0)
@@ -175,8 +189,16 @@ RenderResult render(const Scene& scene, const RenderOptions& options)
         result.plan = ctx->plan;
         break;
     }
-    case Method::Wkb:
-        throw Error(std::string("method '") + methodName(scene.render.method) + "' is not available in this build yet");
+    case Method::Wkb: {
+        auto ctx = RenderContext::create(scene, true);
+        wkb::WkbIntegrator l2plus(*ctx, ctx->plan);  // light volumes and pyramids; their stage times
+        auto t = std::chrono::steady_clock::now();
+        renderMarched(*ctx, result.film, options, &l2plus);
+        ctx->plan.stageSeconds.push_back(
+            {"march", std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count()});
+        result.plan = ctx->plan;
+        break;
+    }
     case Method::Pathtrace: {
         auto ctx = RenderContext::create(scene, false);  // no shadow maps: NEE traces shadow rays
         auto t = std::chrono::steady_clock::now();

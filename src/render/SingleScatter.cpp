@@ -57,7 +57,7 @@ void marchSingle(const RenderContext& ctx, float3 o, float3 d, NbRng& rng, Camer
                 for (size_t i = 0; i < nLights; ++i) {
                     if (!ctx.lights[i].used)
                         continue;
-                    const bool delta = nbLightIsDelta(ctx.lights[i].light);
+                    const bool delta = ctx.lights[i].delta;
                     const int ns = delta ? 1 : lightSamples;
                     Rgb sum = splat(0.0f);
                     for (int s = 0; s < ns; ++s) {

@@ -131,6 +131,7 @@ TEST(Tolerated, AllLightTypesFiniteAndCrop)
     rect.type = LightType::Rect;
     rect.center = make_float3(0, 0, -4);
     rect.normal = make_float3(0, 0, 1);
+    rect.up = make_float3(0, 1, 0);
     rect.radiance = splat(1);
     Light sphere;
     sphere.name = "ball";

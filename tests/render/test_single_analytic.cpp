@@ -6,6 +6,7 @@
 #include "render/DeepShadowMap.h"
 #include "render/RenderContext.h"
 #include "render/Renderer.h"
+#include "../../kernels/shared/rng.h"
 #include "scene/KernelScene.h"
 
 #include <boost/math/quadrature/gauss_kronrod.hpp>
@@ -37,8 +38,12 @@ bool boxInterval(float3 o, float3 d, float3 h, double& s0, double& s1)
 
 // Skanberg sec. 7.1, eq. 44: a homogeneous block lit from above by a distant light and viewed
 // from the side: L = sigma_s rho E e^{-sigma_t d} (1 - e^{-sigma_t t}) / sigma_t. A perspective
-// camera tilts the rays slightly, so d grows linearly along the ray; the same integral stays in
-// closed form (eq. 43 with d(s) = d0 + k s), evaluated per pixel in double precision.
+// camera tilts the rays, so d changes linearly along the ray; the same integral stays in
+// closed form (eq. 43 with d(s) = d0 + k s), evaluated per ray in double precision.
+// The camera sits inside the block (Skanberg's x0 at t = 0): a voxelised face perpendicular to
+// the view is a one-voxel density ramp, and light reaching the ramp travels parallel to it
+// through half the density, ~0.7% more light at a 1/32 m voxel, a property of the grid and not
+// of the closed form. Faces parallel to the light (top) integrate exactly.
 TEST(SingleAnalytic, SkanbergBoxMatchesEq44)
 {
     const float half = 1.0f;
@@ -46,16 +51,16 @@ TEST(SingleAnalytic, SkanbergBoxMatchesEq44)
     const Rgb E = make_float3(1.0f, 2.0f, 3.0f);
     const float g = 0.3f;
     Scene scene = emptyScene(48, 48);
-    scene.volumes.push_back(homogeneousBox(2 * half, 2 * half, 2 * half, 1.0f / 32, sigma_s, sigma_a, g));
+    scene.volumes.push_back(homogeneousBox(2 * half, 2 * half, 2 * half, 1.0f / 64, sigma_s, sigma_a, g));
     Light sun;
     sun.type = LightType::Distant;
     sun.direction = make_float3(0, -1, 0);
     sun.irradiance = E;
     sun.name = "sun";
     scene.lights.push_back(sun);
-    scene.camera.from = make_float3(0, 0, 30);
+    scene.camera.from = make_float3(0, 0, 0.9f);
     scene.camera.to = make_float3(0, 0, 0);
-    scene.camera.fov = 4.0f;  // the box fills ~the frame
+    scene.camera.fov = 50.0f;
     scene.render.spp = 4;
     scene.render.step = 0.5f;
 
@@ -64,43 +69,59 @@ TEST(SingleAnalytic, SkanbergBoxMatchesEq44)
     ASSERT_NE(L1, nullptr);
     const NbCamera cam = makeNbCamera(scene.camera);
     const Rgb sigma_t = sigma_s + sigma_a;
-    const double rho = nbHgEval(g, 0.0f);  // light travels down, the view ray along -z: cos = 0
 
+    // The closed form along one camera ray, per channel; -1 if eq. 44 does not apply to it: the
+    // ray must leave through the back face at least 4 voxels from the top and the sides.
+    auto closedForm = [&](float3 o, float3 d, int c) {
+        double s0, s1;
+        if (!boxInterval(o, d, splat(half), s0, s1))
+            return -1.0;
+        float3 pin = o + d * float(s0), pout = o + d * float(s1);
+        const float margin = 4.0f / 32;
+        if (s0 != 0.0 || std::fabs(pout.z + half) > 1e-3f)
+            return -1.0;
+        if (std::max(std::fabs(pin.x), std::fabs(pout.x)) > half - margin ||
+            std::max(std::fabs(pin.y), std::fabs(pout.y)) > half - margin)
+            return -1.0;
+        // exponent(s) = sigma_t [ (half - y(s)) + (s - s0) ] = A + B s; light travels down.
+        double rho = nbHgEval(g, -d.y);
+        double st = channel(sigma_t, c);
+        double A = st * (half - o.y - s0), B = st * (1.0 - d.y);
+        double integral = (std::exp(-(A + B * s0)) - std::exp(-(A + B * s1))) / B;
+        return channel(sigma_s, c) * rho * channel(E, c) * integral;
+    };
+
+    // The renderer averages spp jittered rays per pixel; replay the same rays (the sample
+    // positions are a pure function of seed, pixel and sample) and average their closed forms.
     int checked = 0;
     double worst = 0;
     for (int y = 0; y < scene.camera.height; ++y)
         for (int x = 0; x < scene.camera.width; ++x) {
-            float3 o, d;
-            nbCameraRay(cam, x + 0.5f, y + 0.5f, scene.camera.width, scene.camera.height, 0.0f, &o, &d);
-            double s0, s1;
-            if (!boxInterval(o, d, splat(half), s0, s1))
-                continue;
-            // Only where eq. 44 applies: the ray enters through the front face and leaves through
-            // the back face, at least 4 voxels from the top and the sides (the box edge is a
-            // one-voxel linear ramp in the grid, invisible to the optical depth but not to a
-            // pixel straddling it).
-            float3 pin = o + d * float(s0), pout = o + d * float(s1);
-            const float margin = 4.0f / 32;
-            if (std::fabs(pin.z - half) > 1e-3f || std::fabs(pout.z + half) > 1e-3f)
-                continue;
-            if (std::max(std::fabs(pin.x), std::fabs(pout.x)) > half - margin ||
-                std::max(std::fabs(pin.y), std::fabs(pout.y)) > half - margin)
+            double expected[3] = {0, 0, 0};
+            bool applies = true;
+            for (int s = 0; s < scene.render.spp && applies; ++s) {
+                NbRng rng = nbRngStart(scene.render.seed, nb_uint(y * scene.camera.width + x), nb_uint(s));
+                float jx = nbRngNext(&rng), jy = nbRngNext(&rng), time = nbRngNext(&rng);
+                float3 o, d;
+                nbCameraRay(cam, x + jx, y + jy, scene.camera.width, scene.camera.height, time, &o, &d);
+                for (int c = 0; c < 3; ++c) {
+                    double v = closedForm(o, d, c);
+                    applies = applies && v >= 0;
+                    expected[c] += v / scene.render.spp;
+                }
+            }
+            if (!applies)
                 continue;
             const float* px = L1->pixels.data() + (size_t(y) * scene.camera.width + x) * 3;
             for (int c = 0; c < 3; ++c) {
-                // exponent(s) = sigma_t [ (half - y(s)) + (s - s0) ] = A + B s
-                double st = channel(sigma_t, c);
-                double A = st * (half - o.y - s0), B = st * (1.0 - d.y);
-                double integral = (std::exp(-(A + B * s0)) - std::exp(-(A + B * s1))) / B;
-                double expected = channel(sigma_s, c) * rho * channel(E, c) * integral;
-                double err = std::fabs(px[c] - expected) / expected;
+                double err = std::fabs(px[c] - expected[c]) / expected[c];
                 worst = std::max(worst, err);
                 EXPECT_LT(err, 0.005) << "pixel (" << x << "," << y << ") channel " << c << ": " << px[c]
-                                      << " vs closed form " << expected;
+                                      << " vs closed form " << expected[c];
             }
             ++checked;
         }
-    EXPECT_GT(checked, 500);
+    EXPECT_GT(checked, 800);
     std::printf("eq. 44 box: %d pixels, worst relative error %.2e\n", checked, worst);
 }
 
@@ -124,7 +145,7 @@ TEST(SingleAnalytic, PointLightInHomogeneousMediumMatchesQuadrature)
     scene.camera.fov = 0.001f;  // one pixel, one ray (jitter moves it by < 1e-4 m)
     scene.render.spp = 64;
     scene.render.step = 0.25f;
-    scene.render.shadowMapResolution = 512;
+    scene.render.shadowMapResolution = 64;  // optical depth is radial-linear: exact at any resolution
 
     RenderResult r = render(scene);
     const float value = r.film.find("L1")->pixels[0];
@@ -197,14 +218,16 @@ TEST(SingleAnalytic, ShadowMapTransmittanceMatchesBeerLambert)
             float3 entry = p + back * lenToTop;
             if (std::fabs(entry.x) > half - 0.1f || std::fabs(entry.z) > half - 0.1f)
                 continue;
-            double exact = std::exp(-2.0 * lenToTop);
-            worstSun = std::max(worstSun, std::fabs(dsm.transmittance(p).x - exact));
-            double exactBulb = std::exp(-2.0 * length(p));
-            worstBulb = std::max(worstBulb, std::fabs(cube.transmittance(p).x - exactBulb));
+            // Relative error (the map's contract), absolute below its floor.
+            auto relErr = [](double got, double exact) {
+                return std::fabs(got - exact) / std::max(exact, double(DeepShadowMap::kRelativeFloor));
+            };
+            worstSun = std::max(worstSun, relErr(dsm.transmittance(p).x, std::exp(-2.0 * lenToTop)));
+            worstBulb = std::max(worstBulb, relErr(cube.transmittance(p).x, std::exp(-2.0 * length(p))));
             ++n;
         }
         EXPECT_GT(n, 1000);
-        // The stated tolerance, plus float rounding of optical depths ~ 1e-6 relative.
+        // The stated tolerance, plus float rounding of optical depths (~1e-6 relative in T).
         EXPECT_LE(worstSun, tolerance + 1e-5) << "distant, tolerance " << tolerance;
         EXPECT_LE(worstBulb, tolerance + 1e-5) << "point, tolerance " << tolerance;
         std::printf("DSM tol %.3f: distant worst %.2e, point worst %.2e (%zu and %zu vertices)\n", tolerance, worstSun,

@@ -1,0 +1,173 @@
+// bench_pathtrace: path samples per second of the OpenCL path tracer on a procedural 128^3
+// cloud, with the brick majorant grid (local majorants, DDA) and with one global majorant per
+// volume, the same seed and samples for both. Built with the tests, never run by ctest.
+//
+//   bench_pathtrace [spp=16] [size=128] [device=""] [cloud=dense|wispy]
+//
+// "dense": a cumulus-like blob whose core is saturated (density 1), wispy at the edges;
+// "wispy": the same blob modulated by high-contrast noise (smoke-like: the maximum far above
+// the mean), where one global majorant wastes most collisions.
+// Prints one line per mode and the speed-up; both images estimate the same radiance, so their
+// mean beauty must agree within noise (printed as a sanity check).
+#include "../../kernels/shared/rng.h"
+#include "pathtracer/Pathtracer.h"
+#include "render/RenderContext.h"
+#include "scene/KernelScene.h"
+#include "volume/VolumeData.h"
+
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <memory>
+#include <string>
+
+using namespace nimbus;
+
+namespace {
+
+// Value noise with a smooth interpolant, hashed lattice (deterministic, no dependencies).
+float lattice(int x, int y, int z)
+{
+    uint32_t h = uint32_t(x) * 73856093u ^ uint32_t(y) * 19349663u ^ uint32_t(z) * 83492791u;
+    h = nbPcgHash(h);
+    return float(h >> 8) / 16777216.0f;
+}
+
+float valueNoise(float3 p)
+{
+    int x = int(std::floor(p.x)), y = int(std::floor(p.y)), z = int(std::floor(p.z));
+    float fx = p.x - x, fy = p.y - y, fz = p.z - z;
+    auto s = [](float t) { return t * t * (3 - 2 * t); };
+    float sx = s(fx), sy = s(fy), sz = s(fz);
+    float v = 0;
+    for (int k = 0; k < 2; ++k)
+        for (int j = 0; j < 2; ++j)
+            for (int i = 0; i < 2; ++i)
+                v += (i ? sx : 1 - sx) * (j ? sy : 1 - sy) * (k ? sz : 1 - sz) * lattice(x + i, y + j, z + k);
+    return v;
+}
+
+// A cumulus-like blob: fBm eroding a sphere, zero outside (so many bricks are empty).
+bool gWispy = false;
+
+float cloud(float3 u)  // u in [0,1]^3
+{
+    float3 p = u * 2.0f - splat(1.0f);
+    float r = length(p * make_float3(1.0f, 1.4f, 1.0f));
+    float n = 0, amp = 0.5f, freq = 4.0f;
+    for (int o = 0; o < 5; ++o, amp *= 0.5f, freq *= 2.0f)
+        n += amp * valueNoise(p * freq + splat(17.0f * o));
+    float d = std::max(0.0f, std::min(1.0f, (0.85f - r) * 3.0f + (n - 0.5f) * 2.5f));
+    if (gWispy) {
+        float m = valueNoise(p * 9.0f + splat(3.0f));
+        d *= m * m * m * m;
+    }
+    return d;
+}
+
+std::shared_ptr<VolumeData> makeCloud(int n)
+{
+    const int nb = n / 8;
+    auto v = std::make_shared<VolumeData>();
+    v->name = "cloud";
+    v->density.reset({0, 0, 0}, {nb, nb, nb}, 1);
+    const int S = BrickGrid::kStored;
+    std::vector<float> field(size_t(n + 1) * (n + 1) * (n + 1));
+    for (int k = 0; k <= n; ++k)
+        for (int j = 0; j <= n; ++j)
+            for (int i = 0; i <= n; ++i)
+                field[(size_t(k) * (n + 1) + j) * (n + 1) + i] =
+                    (i < n && j < n && k < n) ? cloud(make_float3((i + 0.5f) / n, (j + 0.5f) / n, (k + 0.5f) / n)) : 0.0f;
+    for (int bz = 0; bz < nb; ++bz)
+        for (int by = 0; by < nb; ++by)
+            for (int bx = 0; bx < nb; ++bx) {
+                float* vals = v->density.allocateBrick(bx, by, bz);
+                for (int z = 0; z < S; ++z)
+                    for (int y = 0; y < S; ++y)
+                        for (int x = 0; x < S; ++x)
+                            vals[(z * S + y) * S + x] =
+                                field[(size_t(bz * 8 + z) * (n + 1) + by * 8 + y) * (n + 1) + bx * 8 + x];
+            }
+    v->density.pruneZeroBricks();
+    const double voxel = 2.0 / n;
+    v->worldFromIndex = Transform::translate(-1, -1, -1) * Transform::scale(voxel, voxel, voxel);
+    v->indexFromWorld = v->worldFromIndex.inverse();
+    v->worldBounds = v->worldFromIndex.box(v->density.activeIndexBounds());
+    v->voxelSize = float(voxel);
+    v->medium.sigma_s = splat(gWispy ? 60.0f : 12.0f);  // ~20 optical depths across the core
+    v->medium.sigma_a = splat(0.05f);
+    v->medium.phase = NbPhase{0.8f, 0, 0, 0};
+    std::printf("%s cloud: %d^3 voxels, %zu of %d bricks allocated (%.0f%%), %.1f MiB\n", gWispy ? "wispy" : "dense", n, v->density.brickCount(),
+                nb * nb * nb, 100.0 * v->density.brickCount() / (nb * nb * nb), v->density.memoryBytes() / 1048576.0);
+    return v;
+}
+
+}  // namespace
+
+int main(int argc, char** argv)
+{
+    const int spp = argc > 1 ? std::atoi(argv[1]) : 16;
+    const int size = argc > 2 ? std::atoi(argv[2]) : 128;
+    const std::string device = argc > 3 ? argv[3] : "";
+    gWispy = argc > 4 && std::string(argv[4]) == "wispy";
+    try {
+        Scene scene;
+        scene.camera.width = 128;
+        scene.camera.height = 128;
+        scene.camera.from = make_float3(0.4f, 0.3f, 3.6f);
+        scene.camera.to = make_float3(0, 0, 0);
+        scene.camera.fov = 40;
+        scene.render.method = Method::Pathtrace;
+        scene.render.spp = spp;
+        scene.render.maxDepth = 64;
+        Light sun;
+        sun.name = "sun";
+        sun.type = LightType::Distant;
+        sun.direction = normalize(make_float3(0.4f, -1, -0.3f));
+        sun.irradiance = splat(3.0f);
+        scene.lights.push_back(sun);
+        Light sky;
+        sky.name = "sky";
+        sky.type = LightType::Environment;
+        sky.radiance = make_float3(0.2f, 0.3f, 0.5f);
+        scene.lights.push_back(sky);
+
+        RenderContext ctx;
+        ctx.scene = &scene;
+        ctx.volumes = VolumeSet({makeCloud(size)}, scene.render.step);
+        for (size_t i = 0; i < scene.lights.size(); ++i) {
+            LightEntry e;
+            e.light = makeNbLight(scene.lights[i], int(i));
+            e.aov = "light_" + scene.lights[i].name;
+            ctx.lights.push_back(std::move(e));
+        }
+        ctx.background = sky.radiance;
+
+        double rate[2] = {0, 0};
+        for (int mode = 0; mode < 2; ++mode) {
+            PathtraceStats stats;
+            PathtraceOptions pt;
+            pt.device = device;
+            pt.globalMajorant = mode == 1;
+            pt.stats = &stats;
+            Film film;
+            renderPathtrace(ctx, film, RenderOptions{}, pt);
+            double mean = 0;
+            const Aov* b = film.find("beauty");
+            for (size_t i = 0; i < b->pixels.size(); i += 4)
+                mean += (b->pixels[i] + b->pixels[i + 1] + b->pixels[i + 2]) / 3.0;
+            mean /= double(b->pixels.size() / 4);
+            rate[mode] = stats.pathsPerSecond();
+            std::printf("%-16s %8.0f path samples/s  (%lld spp, %dx%d, %.2f s, build %.2f s%s)  mean beauty %.5f\n",
+                        mode ? "global majorant" : "majorant grid", rate[mode], stats.samplesPerPixel, film.width,
+                        film.height, stats.renderSeconds, stats.buildSeconds, stats.kernelFromCache ? " cached" : "", mean);
+            if (mode == 0)
+                std::printf("device: %s\n", stats.device.c_str());
+        }
+        std::printf("speed-up of the majorant grid: %.2fx\n", rate[1] > 0 ? rate[0] / rate[1] : 0.0);
+    } catch (const std::exception& e) {
+        std::fprintf(stderr, "bench_pathtrace: %s\n", e.what());
+        return 1;
+    }
+    return 0;
+}

@@ -1,0 +1,184 @@
+// bench_single_vs_vdb_render: nimbus `single` against OpenVDB's vdb_render (Debian's
+// libopenvdb-tools), the speed floor for single scattering (issue 2).
+//
+// Both render the same VDB cloud (written by nimbus's generator) at the same resolution and the
+// same primary step in voxels, each from its own process, timed side by side in one run
+// (median of repeats). Each renderer's step-size error is measured against its own render at a
+// 1/8-voxel step: normalised RMS error = sqrt(mean (a - ref)^2) / mean(ref) over beauty RGB,
+// which is independent of the two renderers' different light units.
+//
+// Usage: bench_single_vs_vdb_render NIMBUS_BINARY [docs/benchmarks.md] [--quick]
+#include "BenchReport.h"
+
+#include "volume/Procedural.h"
+
+#include <OpenImageIO/imageio.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+namespace fs = std::filesystem;
+
+namespace {
+
+std::vector<float> readRgb(const std::string& path, const char* layerPrefix)
+{
+    auto in = OIIO::ImageInput::open(path);
+    if (!in)
+        throw std::runtime_error("cannot read " + path);
+    const OIIO::ImageSpec& spec = in->spec();
+    std::vector<float> all(size_t(spec.width) * spec.height * spec.nchannels);
+    in->read_image(0, 0, 0, spec.nchannels, OIIO::TypeDesc::FLOAT, all.data());
+    int c0 = -1;
+    for (int c = 0; c < spec.nchannels; ++c)
+        if (spec.channelnames[c] == std::string(layerPrefix) + "R") {
+            c0 = c;
+            break;
+        }
+    if (c0 < 0)
+        throw std::runtime_error(path + ": no channel " + layerPrefix + "R");
+    std::vector<float> rgb(size_t(spec.width) * spec.height * 3);
+    for (size_t p = 0; p < size_t(spec.width) * spec.height; ++p)
+        for (int c = 0; c < 3; ++c)
+            rgb[p * 3 + c] = all[p * spec.nchannels + c0 + c];
+    return rgb;
+}
+
+double normalisedRmse(const std::vector<float>& a, const std::vector<float>& ref)
+{
+    double se = 0, mean = 0;
+    for (size_t i = 0; i < ref.size(); ++i) {
+        se += double(a[i] - ref[i]) * (a[i] - ref[i]);
+        mean += ref[i];
+    }
+    mean /= double(ref.size());
+    return std::sqrt(se / double(ref.size())) / std::max(mean, 1e-30);
+}
+
+double timeCommand(const std::string& cmd)
+{
+    auto t0 = std::chrono::steady_clock::now();
+    int rc = std::system(cmd.c_str());
+    double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    if (rc != 0)
+        throw std::runtime_error("command failed (" + std::to_string(rc) + "): " + cmd);
+    return s;
+}
+
+double median(std::vector<double> v)
+{
+    std::sort(v.begin(), v.end());
+    return v[v.size() / 2];
+}
+
+}  // namespace
+
+int main(int argc, char** argv)
+{
+    if (argc < 2) {
+        std::fprintf(stderr, "usage: %s NIMBUS_BINARY [docs/benchmarks.md] [--quick]\n", argv[0]);
+        return 2;
+    }
+    const std::string nimbus = argv[1];
+    const std::string report = argc > 2 && argv[2][0] != '-' ? argv[2] : "";
+    const bool quick = std::string(argv[argc - 1]) == "--quick";
+    const int repeats = quick ? 1 : 3;
+    const int width = quick ? 320 : 640, height = quick ? 180 : 360;
+
+    try {
+        fs::path dir = fs::temp_directory_path() / ("nimbus-bench-" + std::to_string(::getpid()));
+        fs::create_directories(dir);
+        const std::string vdb = (dir / "cloud.vdb").string();
+
+        nimbus::VolumeSource src;
+        src.type = nimbus::SourceType::Procedural;
+        src.generator = "cloud";
+        nimbus::writeProceduralVdb(src, vdb);
+
+        // Camera and light shared by both: vdb_render's -fov is horizontal, nimbus's vertical.
+        const double vfov = 40.0, aspect = double(width) / height;
+        const double hfov = 2.0 * std::atan(aspect * std::tan(vfov * M_PI / 360.0)) * 180.0 / M_PI;
+        const char* eye = "0,1.2,8.5";
+        // vdb_render's -light is the direction toward the light; nimbus's is the direction of travel.
+        const char* toLight = "-1,1,0.7";
+
+        auto sceneFor = [&](double step, const std::string& out) {
+            std::ostringstream j;
+            j << R"({"camera": {"from": [0, 1.2, 8.5], "to": [0, 0, 0], "up": [0, 1, 0], "fov": )" << vfov
+              << R"(, "resolution": [)" << width << ", " << height << R"(]},
+ "lights": [{"name": "key", "type": "distant", "direction": [1, -1, -0.7], "irradiance": [3, 3, 3]}],
+ "volumes": [{"name": "cloud", "source": {"type": "vdb", "file": ")"
+              << vdb << R"("},
+   "medium": {"sigma_s": [1.5, 1.5, 1.5], "sigma_a": [0.1, 0.1, 0.1], "phase": {"type": "hg", "g": 0}}}],
+ "render": {"method": "single", "spp": 1, "step": )"
+              << step << R"(, "shadow_step": 3, "shadow_map_resolution": 256},
+ "output": {"file": ")" << out << R"(", "aovs": ["beauty"]}})";
+            std::string path = (dir / ("scene_" + std::to_string(step) + ".json")).string();
+            std::ofstream(path) << j.str();
+            return path;
+        };
+        auto nimbusCmd = [&](double step) {
+            std::string out = (dir / ("nimbus_" + std::to_string(step) + ".exr")).string();
+            return std::make_pair(nimbus + " render -q " + sceneFor(step, out), out);
+        };
+        auto vdbCmd = [&](double step) {
+            std::string out = (dir / ("vdb_" + std::to_string(step) + ".exr")).string();
+            std::ostringstream c;
+            c << "vdb_render " << vdb << " " << out << " -res " << width << "x" << height << " -fov " << hfov
+              << " -translate " << eye << " -lookat 0,0,0 -up 0,1,0 -light " << toLight << ",1,1,1"
+              << " -scatter 1.5,1.5,1.5 -absorb 0.1,0.1,0.1 -step " << step << " -shadowstep 3 -cpus 0"
+              << " > /dev/null 2>&1";
+            return std::make_pair(c.str(), out);
+        };
+
+        const double step = 1.0;
+        std::vector<double> tn, tv;
+        auto [nCmd, nOut] = nimbusCmd(step);
+        auto [vCmd, vOut] = vdbCmd(step);
+        for (int r = 0; r < repeats; ++r) {  // interleaved, so both see the same machine load
+            tn.push_back(timeCommand(nCmd));
+            tv.push_back(timeCommand(vCmd));
+        }
+        auto [nRefCmd, nRefOut] = nimbusCmd(step / 8);
+        auto [vRefCmd, vRefOut] = vdbCmd(step / 8);
+        double tnRef = timeCommand(nRefCmd), tvRef = timeCommand(vRefCmd);
+
+        double errN = normalisedRmse(readRgb(nOut, "beauty."), readRgb(nRefOut, "beauty."));
+        double errV = normalisedRmse(readRgb(vOut, ""), readRgb(vRefOut, ""));
+        double speedup = median(tv) / median(tn);
+
+        std::ostringstream md;
+        char line[512];
+        md << "Same VDB cloud (nimbus's `cloud` generator, written to a .vdb), " << width << "x" << height
+           << ", primary step " << step << " voxel, shadow step 3 voxels, one ray per pixel, all cores; wall time "
+           << "per process (load + render + write), median of " << repeats << ". Step error: normalised RMSE of "
+           << "beauty against the same renderer at a 1/8-voxel step.\n\n";
+        md << "| renderer | time (s) | time at 1/8 step (s) | step error |\n|---|---|---|---|\n";
+        std::snprintf(line, sizeof line, "| nimbus single | %.3f | %.3f | %.4f |\n", median(tn), tnRef, errN);
+        md << line;
+        std::snprintf(line, sizeof line, "| vdb_render | %.3f | %.3f | %.4f |\n", median(tv), tvRef, errV);
+        md << line;
+        std::snprintf(line, sizeof line, "\n**nimbus is %.2fx faster** (target: at least 3x) with %s step error "
+                                         "(%.4f vs %.4f).\n\n",
+                      speedup, errN <= errV ? "equal or lower" : "HIGHER", errN, errV);
+        md << line;
+        md << "Rerun: `build/tests/bench/bench_single_vs_vdb_render build/bin/nimbus docs/benchmarks.md`.\n";
+        std::fputs(md.str().c_str(), stdout);
+        if (!report.empty())
+            nimbus::bench::replaceSection(report, "single-vs-vdb_render", md.str());
+        fs::remove_all(dir);
+    } catch (const std::exception& e) {
+        std::fprintf(stderr, "bench_single_vs_vdb_render: %s\n", e.what());
+        return 1;
+    }
+    return 0;
+}

@@ -1,0 +1,2 @@
+// bench_wkb.cpp: placeholder, written below.
+int main() { return 0; }
