@@ -162,10 +162,10 @@ class Cli(unittest.TestCase):
     def assert_clean_render(self, scene):
         code, out, err = run("render", self.scene_file(scene), "-q")
         self.assertEqual(code, 0, err)
-        names, px, _ = read_exr(self.out)
+        names, px, meta = read_exr(self.out)
         self.assertTrue(np.all(np.isfinite(px)), "non-finite pixels")
         self.assertTrue(np.all(px >= 0), "negative pixels")
-        return names, px, err
+        return names, px, meta
 
     def test_bad_voxels_clamped_with_one_warning(self):
         vdb_path = os.path.join(self.d, "bad.vdb")
