@@ -46,7 +46,7 @@ TEST(PathtraceAnalytic, SkanbergBoxEq44)
     // that much across the image, symmetrically, a second-order change of ~1e-5 relative.
     lookAt(w.scene, make_float3(0, -depth, 50), make_float3(0, -depth, 0), 0.02f);
     w.scene.render.maxDepth = 1;
-    w.scene.render.spp = 256;
+    w.scene.render.spp = 2048;
     w.scene.render.seed = 3;
     Film f = w.render();
 
@@ -92,7 +92,7 @@ TEST(PathtraceAnalytic, BeerLambertRamp)
                                   medium(splat(0.0f), sigma_a), [](float3 u) { return 0.2f + 0.8f * u.z; }));
     w.scene.background = bg;
     lookAt(w.scene, make_float3(0, 0, 50), make_float3(0, 0, 0), 0.05f);
-    w.scene.render.spp = 256;
+    w.scene.render.spp = 1024;
     Film f = w.render();
     double tAvg = 0;
     for (int c = 0; c < 3; ++c) {
@@ -117,7 +117,7 @@ TEST(PathtraceAnalytic, BeerLambertHomogeneousChromatic)
     w.volumes.push_back(boxVolume(make_float3(-1, -1, -1), make_float3(1, 1, 1), {1, 1, 1}, medium(splat(0.0f), sigma_a)));
     w.scene.background = bg;
     lookAt(w.scene, make_float3(0, 0, 50), make_float3(0, 0, 0), 0.05f);
-    w.scene.render.spp = 256;
+    w.scene.render.spp = 1024;
     Film f = w.render();
     for (int c = 0; c < 3; ++c) {
         PixelStats s = pixelStats(f, "beauty", c);
@@ -166,7 +166,7 @@ TEST(PathtraceAnalytic, WhiteFurnaceChromaticOverlapping)
     addFurnaceVolumes(w, make_float3(1.0f, 2.0f, 3.0f), splat(0.0f), make_float3(2.0f, 1.0f, 0.5f), splat(0.0f));
     w.addLight(environmentLight(L));
     w.scene.render.maxDepth = 100000;
-    w.scene.render.spp = 64;
+    w.scene.render.spp = 256;
     lookAt(w.scene, make_float3(0.3f, 0.2f, 4), make_float3(0, 0, 0), 30);
     expectFurnace(w.render(), L, "furnace outside");
     lookAt(w.scene, make_float3(0.1f, -0.2f, 0.3f), make_float3(1, 0.5f, -1), 60);
@@ -188,7 +188,7 @@ TEST(PathtraceAnalytic, EmissionAbsorptionFurnace)
                                   [&](float3 u) { return sigma_a * L * (0.5f * cloudDensity(u)); }));
     w.addLight(environmentLight(L));
     w.scene.render.maxDepth = 100000;
-    w.scene.render.spp = 64;
+    w.scene.render.spp = 256;
     lookAt(w.scene, make_float3(0.3f, 0.2f, 4), make_float3(0, 0, 0), 30);
     expectFurnace(w.render(), L, "kirchhoff furnace");
 }
