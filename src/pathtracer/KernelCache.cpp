@@ -54,18 +54,32 @@ struct Hasher {
     }
 };
 
-// The first line of a build log that names an error, else its first non-empty line.
-std::string firstErrorLine(const std::string& log)
+// The first line of a build log that names an error, else its first non-empty line. Compilers
+// that build from a temporary copy of the source (PoCL: ".../kcache/tempfile_XXXX.cl") have that
+// path replaced by the kernel's file name.
+std::string firstErrorLine(const std::string& log, const std::string& fileName)
 {
     std::istringstream in(log);
     std::string line, first;
     while (std::getline(in, line)) {
         if (first.empty() && line.find_first_not_of(" \t\r") != std::string::npos)
             first = line;
-        if (line.find("error") != std::string::npos)
-            return line;
+        if (line.find("error") != std::string::npos) {
+            first = line;
+            break;
+        }
     }
-    return first.empty() ? "(empty build log)" : first;
+    if (first.empty())
+        return "(empty build log)";
+    size_t t = first.find("tempfile_");
+    if (t != std::string::npos) {
+        size_t begin = first.rfind(' ', t);
+        begin = begin == std::string::npos ? 0 : begin + 1;
+        size_t end = first.find(".cl", t);
+        if (end != std::string::npos)
+            first.replace(begin, end + 3 - begin, fileName);
+    }
+    return first;
 }
 
 std::string buildLog(cl_program program, cl_device_id device)
@@ -193,7 +207,7 @@ ProgramBuild buildProgram(const ocl::Context& ctx, const std::string& file, cons
         if (err != CL_SUCCESS) {
             std::string log = buildLog(p, device);
             throw Error("OpenCL: building " + path.filename().string() + " for " + dev.name + " failed: " +
-                        firstErrorLine(log));
+                        firstErrorLine(log, path.filename().string()));
         }
         out.program = std::move(prog);
         if (!cacheFile.empty()) {
