@@ -1,0 +1,284 @@
+// VDB files through buildVolumes: tiles versus voxels, placement, roles and their errors, bad
+// values, empty grids, and emission through the default shader.
+#include "VolumeTestUtil.h"
+#include "volume/Procedural.h"
+
+#include <openvdb/io/File.h>
+#include <openvdb/openvdb.h>
+
+#include <cmath>
+#include <limits>
+
+using namespace nimbus;
+using namespace nimbus::test;
+using openvdb::Coord;
+using openvdb::CoordBBox;
+using openvdb::FloatGrid;
+
+namespace {
+
+FloatGrid::Ptr floatGrid(const std::string& name, double voxelSize = 1.0)
+{
+    FloatGrid::Ptr g = FloatGrid::create(0.0f);
+    g->setName(name);
+    g->setGridClass(openvdb::GRID_FOG_VOLUME);
+    g->setTransform(openvdb::math::Transform::createLinearTransform(voxelSize));
+    return g;
+}
+
+void writeVdb(const std::string& path, openvdb::GridPtrVec grids)
+{
+    openvdb::initialize();
+    openvdb::io::File(path).write(grids);
+}
+
+// A deterministic point in [lo, hi] (a low-discrepancy sequence, so failures replay).
+float3 samplePoint(int s, float3 lo, float3 hi)
+{
+    float u = std::fmod(s * 0.6180339887f, 1.0f), v = std::fmod(s * 0.7548776662f, 1.0f),
+          w = std::fmod(s * 0.5698402910f, 1.0f);
+    return lo + (hi - lo) * make_float3(u, v, w);
+}
+
+}  // namespace
+
+TEST(VdbLoad, ActiveTilesRenderLikeVoxels)
+{
+    ScratchDir dir;
+    FloatGrid::Ptr tiles = floatGrid("density", 0.25);
+    auto& tree = tiles->tree();
+    tree.fill(CoordBBox(Coord(-128, 0, 0), Coord(-1, 127, 127)), 0.5f, true);  // a 128^3 internal-node tile
+    tree.fill(CoordBBox(Coord(-20, -5, 3), Coord(40, 30, 50)), 1.25f, true);   // 8^3 tiles and partial leaves
+    tree.fill(CoordBBox(Coord(64, 64, 64), Coord(71, 71, 71)), 2.0f, true);    // one isolated 8^3 tile
+    for (int i = 0; i < 50; ++i)
+        tree.setValue(Coord(i, 2 * i - 10, 60 - i), 0.1f * (i % 7));           // voxels beside tiles
+    tree.fill(CoordBBox(Coord(100, 0, 0), Coord(107, 7, 7)), 9.0f, false);     // inactive: not density
+    ASSERT_GT(tree.activeTileCount(), 0u);
+    FloatGrid::Ptr voxels = tiles->deepCopy();
+    voxels->tree().voxelizeActiveTiles();
+    ASSERT_EQ(voxels->tree().activeTileCount(), 0u);
+    writeVdb(dir / "tiles.vdb", {tiles});
+    writeVdb(dir / "voxels.vdb", {voxels});
+
+    auto a = buildOne(vdbScene(dir / "tiles.vdb"));
+    auto b = buildOne(vdbScene(dir / "voxels.vdb"));
+    EXPECT_EQ(a->density.brickCount(), b->density.brickCount());
+    EXPECT_EQ(a->density.maxValue(), 2.0f);
+    EXPECT_EQ(a->density.majorants(), b->density.majorants());
+    EXPECT_EQ(a->worldBounds.lo.x, b->worldBounds.lo.x);
+    EXPECT_EQ(a->worldBounds.hi.z, b->worldBounds.hi.z);
+    const float3 lo = make_float3(-34, -3, -3), hi = make_float3(20, 34, 34);  // world: index * 0.25
+    for (int s = 0; s < 20000; ++s) {
+        float3 p = samplePoint(s, lo, hi);
+        ASSERT_EQ(densityAt(*a, p), densityAt(*b, p)) << "sample " << s << " at " << p.x << " " << p.y << " " << p.z;
+    }
+    // Inside each tile the density is the tile's value; the inactive block reads 0.
+    EXPECT_EQ(densityAt(*a, make_float3(-10, 10, 10)), 0.5f);
+    EXPECT_EQ(densityAt(*a, make_float3(16.9f, 16.9f, 16.9f)), 2.0f);
+    EXPECT_EQ(densityAt(*a, make_float3(25.9f, 0.9f, 0.9f)), 0.0f);
+}
+
+TEST(VdbLoad, PlacementComposesGridAndVolumeTransforms)
+{
+    ScratchDir dir;
+    FloatGrid::Ptr g = floatGrid("density", 0.5);
+    g->transform().postTranslate(openvdb::Vec3d(1, 0, 0));  // the grid's own offset
+    g->tree().fill(CoordBBox(Coord(0), Coord(3)), 1.0f, true);  // voxel centres at 1 + [0, 1.5]
+    writeVdb(dir / "g.vdb", {g});
+    Scene scene = vdbScene(dir / "g.vdb");
+    scene.volumes[0].transform = Transform::translate(10, -2, 3);
+    auto v = buildOne(scene);
+    EXPECT_FLOAT_EQ(v->voxelSize, 0.5f);
+    // Voxel (i,j,k) lands at (11 + i/2, -2 + j/2, 3 + k/2).
+    float3 ip = v->indexFromWorld.point(make_float3(11.75f, -1.25f, 3.75f));
+    EXPECT_NEAR(ip.x, 1.5f, 1e-5f);
+    EXPECT_NEAR(ip.y, 1.5f, 1e-5f);
+    EXPECT_NEAR(ip.z, 1.5f, 1e-5f);
+    EXPECT_EQ(densityAt(*v, make_float3(11.75f, -1.25f, 3.75f)), 1.0f);
+    EXPECT_EQ(densityAt(*v, make_float3(1.75f, 0.75f, 0.75f)), 0.0f);  // where it would be untransformed
+    float3 w = v->worldFromIndex.point(make_float3(2, 0, 0));
+    EXPECT_NEAR(w.x, 12.0f, 1e-5f);
+    EXPECT_NEAR(w.y, -2.0f, 1e-5f);
+    // The bound is that of the active bricks: index [-8, 8]^3.
+    EXPECT_NEAR(v->worldBounds.lo.x, 11.0f - 4.0f, 1e-4f);
+    EXPECT_NEAR(v->worldBounds.hi.x, 11.0f + 4.0f, 1e-4f);
+    EXPECT_NEAR(v->worldBounds.lo.y, -2.0f - 4.0f, 1e-4f);
+    EXPECT_NEAR(v->worldBounds.hi.z, 3.0f + 4.0f, 1e-4f);
+
+    // A scaled and rotated volume: the smallest world edge is the voxel size.
+    scene.volumes[0].transform = Transform::rotateDegrees(30, 0, 1, 0) * Transform::scale(2, 3, 4);
+    v = buildOne(scene);
+    EXPECT_NEAR(v->voxelSize, 1.0f, 1e-5f);
+}
+
+TEST(VdbLoad, RelativePathResolvesAgainstTheSceneFile)
+{
+    ScratchDir dir;
+    FloatGrid::Ptr g = floatGrid("density");
+    g->tree().setValue(Coord(1, 2, 3), 1.0f);
+    writeVdb(dir / "rel.vdb", {g});
+    Scene scene = vdbScene("rel.vdb");
+    scene.sourcePath = dir / "scene.json";
+    auto v = buildOne(scene);
+    EXPECT_EQ(v->density.voxel(1, 2, 3), 1.0f);
+    EXPECT_EQ(v->gridsRead, std::vector<std::string>{"density"});
+}
+
+TEST(VdbLoad, MissingFileAndGridsAreOneLineInputErrors)
+{
+    ScratchDir dir;
+    EXPECT_EQ(inputError(vdbScene("/x/cloud.vdb")),
+              "scene.json: volumes[0].source.file: cannot open '/x/cloud.vdb': no such file");
+
+    FloatGrid::Ptr d = floatGrid("density"), t = floatGrid("temperature");
+    d->tree().setValue(Coord(0), 1.0f);
+    writeVdb(dir / "c.vdb", {d, t});
+    const std::string file = dir / "c.vdb";
+    EXPECT_EQ(inputError(vdbScene(file, {{"density", "dens"}})),
+              "scene.json: volumes[0].source.grids.density: grid 'dens' not found in '" + file +
+                  "' (grids: density, temperature)");
+    EXPECT_EQ(inputError(vdbScene(file, {{"flame", "fire"}})),
+              "scene.json: volumes[0].source.grids.flame: grid 'fire' not found in '" + file +
+                  "' (grids: density, temperature)");
+    EXPECT_NE(inputError(vdbScene(file, {{"heat", "fire"}})).find("volumes[0].source.grids.heat: grid 'fire'"),
+              std::string::npos);
+
+    Scene unnamed = vdbScene(file);
+    unnamed.sourcePath.clear();
+    writeVdb(dir / "t.vdb", {t});
+    unnamed.volumes[0].source.file = dir / "t.vdb";
+    EXPECT_EQ(inputError(unnamed).rfind("scene: volumes[0].source.grids.density: grid 'density' not found", 0), 0u);
+
+    writeText(dir / "junk.vdb", "not a vdb file");
+    std::string junk = inputError(vdbScene(dir / "junk.vdb"));
+    EXPECT_EQ(junk.rfind("scene.json: volumes[0].source.file: cannot open '", 0), 0u) << junk;
+    EXPECT_EQ(junk.find('\n'), std::string::npos);
+}
+
+TEST(VdbLoad, OptionalRolesAbsentByDefaultAreSkipped)
+{
+    ScratchDir dir;
+    FloatGrid::Ptr d = floatGrid("smoke");
+    d->tree().setValue(Coord(0), 1.0f);
+    writeVdb(dir / "s.vdb", {d});
+    auto v = buildOne(vdbScene(dir / "s.vdb", {{"density", "smoke"}}));
+    EXPECT_EQ(v->density.voxel(0, 0, 0), 1.0f);
+    EXPECT_FALSE(v->hasEmission());
+}
+
+TEST(VdbLoad, FrustumTransformIsRejected)
+{
+    ScratchDir dir;
+    FloatGrid::Ptr g = floatGrid("density");
+    g->setTransform(openvdb::math::Transform::createFrustumTransform(
+        openvdb::BBoxd(openvdb::Vec3d(0), openvdb::Vec3d(10)), 0.5, 10.0, 1.0));
+    g->tree().setValue(Coord(1), 1.0f);
+    writeVdb(dir / "f.vdb", {g});
+    std::string e = inputError(vdbScene(dir / "f.vdb"));
+    EXPECT_NE(e.find("volumes[0].source.grids.density"), std::string::npos) << e;
+    EXPECT_NE(e.find("non-linear"), std::string::npos) << e;
+}
+
+TEST(VdbLoad, BadValuesAreClampedAndCountedOnce)
+{
+    ScratchDir dir;
+    FloatGrid::Ptr g = floatGrid("density");
+    auto& tree = g->tree();
+    tree.fill(CoordBBox(Coord(0), Coord(31)), 1.0f, true);
+    for (int i = 0; i < 5; ++i)
+        tree.setValue(Coord(i, 1, 1), -0.5f);
+    tree.setValue(Coord(2, 2, 2), std::numeric_limits<float>::quiet_NaN());
+    tree.setValue(Coord(3, 3, 3), std::numeric_limits<float>::quiet_NaN());
+    tree.setValue(Coord(4, 4, 4), std::numeric_limits<float>::infinity());
+    tree.setValue(Coord(5, 5, 5), -std::numeric_limits<float>::infinity());
+    tree.addTile(1, Coord(64, 0, 0), -3.0f, true);  // 512 negative voxels as one tile
+    writeVdb(dir / "bad.vdb", {g});
+
+    LogCatcher log;
+    auto v = buildOne(vdbScene(dir / "bad.vdb"));
+    EXPECT_EQ(v->clampedVoxels, 5u + 2u + 2u + 512u);
+    ASSERT_EQ(log.warnings.size(), 1u);
+    EXPECT_EQ(log.warnings[0], "volume 'cloud': clamped 521 voxel values (517 negative, 2 NaN, 2 infinite) to 0 [density]");
+    EXPECT_EQ(v->density.voxel(2, 2, 2), 0.0f);
+    EXPECT_EQ(v->density.voxel(4, 4, 4), 0.0f);
+    EXPECT_EQ(v->density.voxel(6, 6, 6), 1.0f);
+    EXPECT_EQ(v->density.maxValue(), 1.0f);
+    EXPECT_EQ(densityAt(*v, make_float3(66, 3, 3)), 0.0f);
+    for (float m : v->density.majorants())
+        EXPECT_TRUE(std::isfinite(m));
+    for (int s = 0; s < 2000; ++s)
+        ASSERT_TRUE(std::isfinite(densityAt(*v, samplePoint(s, make_float3(-2, -2, -2), make_float3(34, 34, 34)))));
+}
+
+TEST(VdbLoad, EmptyGridIsAnEmptyVolume)
+{
+    ScratchDir dir;
+    writeVdb(dir / "empty.vdb", {floatGrid("density")});
+    auto v = buildOne(vdbScene(dir / "empty.vdb"));
+    EXPECT_TRUE(v->density.empty());
+    EXPECT_TRUE(v->worldBounds.empty());
+    EXPECT_FALSE(v->hasEmission());
+    EXPECT_EQ(densityAt(*v, make_float3(0, 0, 0)), 0.0f);
+}
+
+TEST(VdbLoad, TemperatureEmitsThroughTheDefaultShader)
+{
+    ScratchDir dir;
+    FloatGrid::Ptr d = floatGrid("density", 0.1), t = floatGrid("temperature", 0.1);
+    d->tree().fill(CoordBBox(Coord(0), Coord(15)), 1.0f, true);
+    t->tree().fill(CoordBBox(Coord(0), Coord(7)), 1500.0f, true);
+    t->tree().fill(CoordBBox(Coord(8, 0, 0), Coord(15, 7, 7)), 3000.0f, true);
+    writeVdb(dir / "fire.vdb", {d, t});
+    auto v = buildOne(vdbScene(dir / "fire.vdb"));
+    ASSERT_TRUE(v->hasEmission());
+    EXPECT_EQ(v->gridsRead, (std::vector<std::string>{"density", "temperature"}));
+    float3 e1500 = emissionAt(*v, make_float3(0.35f, 0.35f, 0.35f));  // voxel (3.5, 3.5, 3.5)
+    float3 e3000 = emissionAt(*v, make_float3(1.15f, 0.35f, 0.35f));
+    EXPECT_TRUE(isFinite(e1500) && isFinite(e3000));
+    EXPECT_GT(e1500.x, 0.0f);
+    EXPECT_GT(e1500.x, e1500.y);  // a 1500 K blackbody is orange-red
+    EXPECT_GE(e1500.z, 0.0f);
+    // At the 1500 K reference the luminance is 1 before the gamut clamp (blue -0.066 -> 0):
+    // R, G = 3.1754, 0.46070 (docs/volumes.md). Hotter is brighter and bluer.
+    EXPECT_NEAR(e1500.x, 3.1754f, 1e-3f);
+    EXPECT_NEAR(e1500.y, 0.46070f, 1e-4f);
+    EXPECT_EQ(e1500.z, 0.0f);
+    EXPECT_GT(e3000.y, 1000.0f * e1500.y);
+    EXPECT_GT(e3000.z / e3000.x, e1500.z / e1500.x);
+    EXPECT_EQ(emissionAt(*v, make_float3(0.35f, 1.15f, 0.35f)).x, 0.0f);  // no temperature there
+    EXPECT_EQ(densityAt(*v, make_float3(0.35f, 1.15f, 0.35f)), 1.0f);
+
+    // With a flame grid (named "heat" in the file), emission is flame times the blackbody.
+    FloatGrid::Ptr f = floatGrid("heat", 0.1);
+    f->tree().fill(CoordBBox(Coord(0), Coord(7)), 0.5f, true);
+    writeVdb(dir / "flame.vdb", {d, t, f});
+    v = buildOne(vdbScene(dir / "flame.vdb"));
+    float3 half = emissionAt(*v, make_float3(0.35f, 0.35f, 0.35f));
+    EXPECT_NEAR(half.x, 0.5f * e1500.x, 1e-4f);
+    EXPECT_EQ(emissionAt(*v, make_float3(1.15f, 0.35f, 0.35f)).x, 0.0f);  // flame 0 there
+}
+
+TEST(VdbLoad, CoarserTemperatureIsResampledOntoTheDensityVoxels)
+{
+    ScratchDir dir;
+    FloatGrid::Ptr d = floatGrid("density", 0.5), t = floatGrid("temperature", 1.0);
+    d->tree().fill(CoordBBox(Coord(0), Coord(31)), 1.0f, true);
+    t->tree().fill(CoordBBox(Coord(0), Coord(7)), 2000.0f, true);  // world [0, 7]
+    writeVdb(dir / "mixed.vdb", {d, t});
+    auto v = buildOne(vdbScene(dir / "mixed.vdb", {}, "blackbody"));
+    EXPECT_GT(emissionAt(*v, make_float3(3, 3, 3)).x, 10.0f);
+    EXPECT_EQ(emissionAt(*v, make_float3(12, 12, 12)).x, 0.0f);
+}
+
+TEST(VdbLoad, ProceduralGridsAreFloatGridsWithTiles)
+{
+    VolumeSource box;
+    box.generator = "box";
+    box.params = {{"size", 4.0}, {"voxel_size", 0.0625}};  // 64^3 voxels
+    openvdb::FloatGrid::Ptr g = makeProceduralGrid(box, "volumes[0].source");
+    EXPECT_EQ(g->getName(), "density");
+    EXPECT_GT(g->tree().activeTileCount(), 0u);
+    EXPECT_EQ(g->tree().activeVoxelCount(), 64u * 64u * 64u);
+    EXPECT_EQ(g->tree().leafCount(), 0u);  // 64 is a multiple of 8: tiles only
+    EXPECT_NEAR(g->transform().indexToWorld(Coord(0)).x(), -2.0 + 0.03125, 1e-12);
+}
