@@ -5,7 +5,14 @@
 #include <algorithm>
 #include <cctype>
 #include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <mutex>
 #include <sstream>
+
+#if defined(__linux__)
+#include <dlfcn.h>
+#endif
 
 namespace nimbus::ocl {
 
@@ -42,6 +49,45 @@ std::string lower(std::string s)
 {
     std::transform(s.begin(), s.end(), s.begin(), [](unsigned char c) { return char(std::tolower(c)); });
     return s;
+}
+
+// nimbus links OpenVDB AX, which brings its own LLVM (libLLVM-14 on Debian 12) into the global
+// symbol scope at start-up; PoCL compiles kernels with another LLVM (libLLVM-15). When the ICD
+// loader dlopens PoCL normally, LLVM-15's calls bind to LLVM-14's same-named symbols and the
+// kernel compiler crashes. Loading every ICD first with RTLD_DEEPBIND gives each driver's
+// dependency group precedence over the global scope (RTLD_LOCAL keeps it out of everyone else's);
+// the ICD loader's own dlopen then gets the already-loaded library. Set
+// NIMBUS_OPENCL_NO_DEEPBIND=1 to skip this.
+void isolateOpenClDrivers()
+{
+#if defined(__linux__) && defined(RTLD_DEEPBIND)
+    static std::once_flag once;
+    std::call_once(once, [] {
+        if (const char* off = std::getenv("NIMBUS_OPENCL_NO_DEEPBIND"); off && *off && *off != '0')
+            return;
+        namespace fs = std::filesystem;
+        std::vector<fs::path> icds;
+        std::error_code ec;
+        std::string dir = "/etc/OpenCL/vendors";
+        if (const char* env = std::getenv("OCL_ICD_VENDORS"); env && *env)
+            dir = env;
+        if (fs::is_regular_file(dir, ec))
+            icds.push_back(dir);
+        else
+            for (const auto& e : fs::directory_iterator(dir, ec))
+                if (e.path().extension() == ".icd")
+                    icds.push_back(e.path());
+        for (const fs::path& icd : icds) {
+            std::ifstream in(icd);
+            std::string lib;
+            std::getline(in, lib);
+            while (!lib.empty() && std::isspace(static_cast<unsigned char>(lib.back())))
+                lib.pop_back();
+            if (!lib.empty())
+                dlopen(lib.c_str(), RTLD_NOW | RTLD_LOCAL | RTLD_DEEPBIND);  // failure: the loader reports it
+        }
+    });
+#endif
 }
 
 }  // namespace
@@ -99,6 +145,7 @@ std::string DeviceInfo::describe() const
 
 std::vector<DeviceInfo> enumerateDevices()
 {
+    isolateOpenClDrivers();
     cl_uint np = 0;
     cl_int err = clGetPlatformIDs(0, nullptr, &np);
     if (err == CL_PLATFORM_NOT_FOUND_KHR_VALUE || np == 0)

@@ -130,7 +130,17 @@ TEST_P(DevicePhase, SamplerMatchesEvaluatorChiSquare)
 INSTANTIATE_TEST_SUITE_P(Lobes, DevicePhase,
                          ::testing::Values(NbPhase{0.0f, 0, 0, 0}, NbPhase{0.5f, 0, 0, 0}, NbPhase{0.9f, 0, 0, 0},
                                            NbPhase{-0.7f, 0, 0, 0}, NbPhase{0.99f, 0, 0, 0},
-                                           NbPhase{0.8f, -0.4f, 0.3f, 0}, NbPhase{0.9f, -0.6f, 0.5f, 0}));
+                                           NbPhase{0.8f, -0.4f, 0.3f, 0}, NbPhase{0.9f, -0.6f, 0.5f, 0}),
+                         [](const ::testing::TestParamInfo<NbPhase>& i) {
+                             auto f = [](float v) {
+                                 std::string s = std::to_string(int(std::lround(100 * v)));
+                                 return s[0] == '-' ? "m" + s.substr(1) : s;
+                             };
+                             std::string name = "g" + f(i.param.g);
+                             if (i.param.blend > 0)
+                                 name += "_g2" + f(i.param.g2) + "_w" + f(i.param.blend);
+                             return name;
+                         });
 
 // The OpenCL port of the brick grid (kernels/shared/brickgrid.h) reads BrickGrid's arrays as
 // BrickGrid does: the same values at random points, inside, on brick faces and outside, on the

@@ -93,7 +93,11 @@ TEST_P(SlabMultiple, RadianceAndFluxesMatchIndependentSolution)
 }
 
 INSTANTIATE_TEST_SUITE_P(Isotropic, SlabMultiple,
-                         ::testing::Values(SlabCase{1.0f, 0.9f, 0.0f}, SlabCase{2.0f, 1.0f, 0.0f}));
+                         ::testing::Values(SlabCase{1.0f, 0.9f, 0.0f}, SlabCase{2.0f, 1.0f, 0.0f}),
+                         [](const ::testing::TestParamInfo<SlabCase>& i) {
+                             return "tau" + std::to_string(int(i.param.tau0)) + "_albedo" +
+                                    std::to_string(int(std::lround(100 * i.param.albedo)));
+                         });
 
 // Single scattering (max depth 1) in an HG slab, normal incidence, closed forms per channel:
 //   reflected   I(mu) = a p(-mu) E (1 - e^{-tau0 (1 + 1/mu)}) / (1 + mu)
