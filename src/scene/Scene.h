@@ -91,6 +91,13 @@ struct Volume {
 
 enum class Method { Single, Wkb, Pathtrace };
 
+// WKB multiple scattering (docs/wkb.md). The angular kernel per Legendre order j: Tessendorf's
+// Gaussian-phase (e^l - 1) A_j(l) (eq. 62-63) or the exact infinite-medium e^{l p_j} - 1.
+enum class WkbKernel { Gaussian, Exact };
+// Where and how blurred the source Lblur is read for a scattering length l: Tessendorf's
+// straight line (sec. 6.3.6) or the mean displacement of an angular random walk.
+enum class WkbSource { Straight, RandomWalk };
+
 const char* methodName(Method m);
 
 struct RenderSettings {
@@ -105,6 +112,15 @@ struct RenderSettings {
     int lightSamples = 1;      // area, sphere and environment light samples per march step
     int maxDepth = 64;         // pathtrace: 1 = single scattering
     double timeLimit = 0.0;    // pathtrace: seconds, 0 = none
+    // wkb (docs/wkb.md has the derivation of each):
+    WkbKernel wkbKernel = WkbKernel::Gaussian;
+    WkbSource wkbSource = WkbSource::Straight;
+    float wkbBlurK = 24.0f;          // K in the blur width s sqrt(K mu l), Tessendorf eq. 79
+    float wkbLStep = 0.25f;          // l-march step, scattering lengths; grows as l_step * l past l = 1
+    int wkbOrderMax = 128;           // cap on the Legendre order j of the angular sum (eq. 88)
+    int wkbShOrderMax = 2;           // cap on the SH order of area, environment and emission light volumes
+    int lightVolumeResolution = 0;   // light-grid voxels across a volume's largest extent; 0: the plan picks
+    float wkbMemoryBudget = 1.0f;    // all light pyramids / all density grids, bytes (automatic resolution)
 };
 
 struct OutputSettings {

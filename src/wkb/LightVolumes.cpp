@@ -1,0 +1,251 @@
+#include "LightVolumes.h"
+
+#include "../../kernels/shared/rng.h"
+#include "SphericalHarmonics.h"
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+
+namespace nimbus::wkb {
+
+namespace {
+
+constexpr int kS = BrickGrid::kStored;
+// Light samples per voxel for an SH source, and directions per voxel for emission: a stratified
+// (Fibonacci) set, shifted per voxel so that neighbouring voxels do not share its pattern.
+constexpr int kShSamples = 32;
+constexpr int kEmissionDirections = 32;
+constexpr float kGoldenFraction = 0.61803398875f;
+
+double secondsSince(std::chrono::steady_clock::time_point t)
+{
+    return std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count();
+}
+
+float fract(float x) { return x - std::floor(x); }
+
+// Emitted radiance arriving at x from direction u (i.e. travelling along -u): the integral of
+// T * emission along x + t u (Tessendorf eq. 26, the source term), midpoint steps.
+Rgb emittedRadiance(const VolumeSet& vs, float3 x, float3 u, float stepFraction)
+{
+    thread_local std::vector<Span> spans;
+    vs.spans(x, u, 0.0f, 1e30f, stepFraction, spans);
+    Rgb L = splat(0.0f), T = splat(1.0f);
+    for (const Span& s : spans) {
+        float len = s.t1 - s.t0;
+        int n = std::max(1, int(std::ceil(len / s.step)));
+        float dt = len / float(n);
+        for (int k = 0; k < n; ++k) {
+            MediumSample m = vs.sample(x + u * (s.t0 + (k + 0.5f) * dt));
+            Rgb w = make_float3(m.sigma_t.x > 0 ? -std::expm1(-m.sigma_t.x * dt) / m.sigma_t.x : dt,
+                                m.sigma_t.y > 0 ? -std::expm1(-m.sigma_t.y * dt) / m.sigma_t.y : dt,
+                                m.sigma_t.z > 0 ? -std::expm1(-m.sigma_t.z * dt) / m.sigma_t.z : dt);
+            L += T * w * m.emission;
+            T = T * exp(-m.sigma_t * dt);
+            if (nbMaxComponent(T) < 1e-4f)
+                return L;
+        }
+    }
+    return L;
+}
+
+}  // namespace
+
+Rgb LightVolumes::deltaE(const SourcePlan& source, size_t sourceIndex, float3 y, float rMin) const
+{
+    Rgb weight;
+    if (source.directional) {
+        weight = nbLoad3(source.light.color);  // irradiance on a surface facing the sun
+    } else {
+        NbLightSample s = nbLightSample(source.light, y, 0.5f, 0.5f);
+        weight = s.weight;
+        // Point-like sources: 1/r^2 averaged over a light voxel stays finite (a light inside the
+        // volume); flooring r at half a voxel keeps E(y) from growing without bound.
+        float3 d = y - nbLoad3(source.light.position);
+        float r2 = dot(d, d);
+        if (r2 < rMin * rMin)
+            weight = weight * (r2 / (rMin * rMin));
+    }
+    if (nbMaxComponent(weight) <= 0.0f)
+        return splat(0.0f);
+    const DeepShadowMap* map = mMaps[sourceIndex];
+    return map ? weight * map->transmittance(y) : weight;
+}
+
+float3 LightVolumes::deltaDirection(const SourcePlan& source, float3 y)
+{
+    if (source.directional)
+        return normalize(nbLoad3(source.light.direction));
+    float3 d = y - nbLoad3(source.light.position);
+    float r = length(d);
+    return r > 0.0f ? d / r : make_float3(0, -1, 0);
+}
+
+size_t LightVolumes::memoryBytes() const
+{
+    size_t b = 0;
+    for (const LightPyramid& p : mPyramids)
+        b += p.memoryBytes();
+    return b;
+}
+
+void LightVolumes::build(const RenderContext& ctx, WkbSetup& setup, RenderPlan& plan)
+{
+    mPyramids.assign(setup.volumes.size(), LightPyramid());
+    mOwnMaps.assign(setup.sources.size(), std::nullopt);
+    mMaps.assign(setup.sources.size(), nullptr);
+    if (!setup.active)
+        return;
+    auto t0 = std::chrono::steady_clock::now();
+    DeepShadowMap::Settings dsm;
+    dsm.resolution = ctx.scene->render.shadowMapResolution;
+    dsm.tolerance = ctx.scene->render.tolerance;
+    dsm.stepFraction = ctx.scene->render.shadowStep;
+    for (size_t i = 0; i < setup.sources.size(); ++i) {
+        const SourcePlan& sp = setup.sources[i];
+        if (sp.mode != SourceMode::Delta)
+            continue;
+        if (!sp.needsOwnShadowMap) {
+            mMaps[i] = &*ctx.lights[sp.lightIndex].shadowMap;
+            continue;
+        }
+        NbLight shadowLight = sp.light;
+        if (!sp.directional) {  // a small area light: its shadows as seen from its centre
+            shadowLight.type = NB_LIGHT_POINT;
+        }
+        mOwnMaps[i] = DeepShadowMap::build(shadowLight, ctx.volumes, dsm);
+        mMaps[i] = &*mOwnMaps[i];
+        if (sp.lightIndex >= 0 && size_t(sp.lightIndex) < plan.lights.size())
+            plan.lights[sp.lightIndex].l2plus += ", " + std::to_string(mOwnMaps[i]->memoryBytes() / 1024) + " KiB";
+    }
+    for (size_t v = 0; v < setup.volumes.size(); ++v) {
+        const VolumeSetup& vs = setup.volumes[v];
+        mPyramids[v].allocateLevel0(lightGridBricks(ctx.volumes.volumes()[v]->density, vs.factor), vs.channels);
+        fillLevel0(ctx, setup, v);
+    }
+    plan.stageSeconds.push_back({"light volumes", secondsSince(t0)});
+
+    auto t1 = std::chrono::steady_clock::now();
+    size_t total = 0;
+    for (size_t v = 0; v < setup.volumes.size(); ++v) {
+        VolumeSetup& vs = setup.volumes[v];
+        mPyramids[v].buildLevels(vs.maxSigma, LightPyramid::kMaxLevels);
+        vs.levels = mPyramids[v].levels();
+        vs.bytes = mPyramids[v].memoryBytes();
+        total += vs.bytes;
+        if (v < plan.volumes.size()) {
+            plan.volumes[v].mipLevels = vs.levels;
+            plan.volumes[v].pyramidBytes = vs.bytes;
+        }
+    }
+    plan.wkb.pyramidBytes = total;
+    plan.stageSeconds.push_back({"light pyramids", secondsSince(t1)});
+}
+
+void LightVolumes::fillLevel0(const RenderContext& ctx, const WkbSetup& setup, size_t v)
+{
+    const VolumeData& vol = *ctx.volumes.volumes()[v];
+    const VolumeSetup& vs = setup.volumes[v];
+    LightPyramid& pyr = mPyramids[v];
+    const int C = pyr.channels();
+    const float f = float(vs.factor);
+    const float rMin = 0.5f * vs.lightVoxel;
+    const float shadowStep = ctx.scene->render.shadowStep * f;  // light rays at the light grid's scale
+    int maxShOrder = 0;
+    for (const SourcePlan& sp : setup.sources)
+        if (sp.mode == SourceMode::Sh)
+            maxShOrder = std::max(maxShOrder, sp.order);
+
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, pyr.level0BrickCount()), [&](const tbb::blocked_range<size_t>& r) {
+        std::vector<double> acc(static_cast<size_t>(C));
+        std::vector<double> y(static_cast<size_t>(shCount(maxShOrder)));
+        for (size_t bi = r.begin(); bi != r.end(); ++bi) {
+            const Int3 b = pyr.level0Brick(bi);
+            float* out = pyr.level0Values(bi);
+            for (int z = 0; z < kS; ++z)
+                for (int yy = 0; yy < kS; ++yy)
+                    for (int x = 0; x < kS; ++x) {
+                        float* o = out + (size_t((z * kS + yy) * kS + x)) * C;
+                        const int qi = b.x * BrickGrid::kBrick + x, qj = b.y * BrickGrid::kBrick + yy,
+                                  qk = b.z * BrickGrid::kBrick + z;
+                        const float3 centre = make_float3(qi * f, qj * f, qk * f);  // density index space
+                        // Eight sub-samples at the centres of the voxel's octants.
+                        float3 pos[8];
+                        float rho[8];
+                        double rhoSum = 0.0;
+                        for (int s = 0; s < 8; ++s) {
+                            pos[s] = centre + make_float3(s & 1 ? 0.25f * f : -0.25f * f, s & 2 ? 0.25f * f : -0.25f * f,
+                                                          s & 4 ? 0.25f * f : -0.25f * f);
+                            rho[s] = std::max(0.0f, vol.density.sample(pos[s]));
+                            rhoSum += rho[s];
+                        }
+                        std::fill(o, o + C, 0.0f);
+                        const double rhoMean = rhoSum / 8.0;
+                        if (!(rhoMean > 0.0))
+                            continue;
+                        o[0] = float(rhoMean);
+                        if (!vs.l2plus)
+                            continue;
+                        std::fill(acc.begin(), acc.end(), 0.0);
+                        const float3 wc = vol.worldFromIndex.point(centre);
+                        const nb_uint voxelKey = nb_uint(qi * 73856093) ^ nb_uint(qj * 19349663) ^ nb_uint(qk * 83492791);
+                        for (size_t si = 0; si < setup.sources.size(); ++si) {
+                            const SourcePlan& sp = setup.sources[si];
+                            if (sp.mode == SourceMode::Delta) {
+                                for (int s = 0; s < 8; ++s) {
+                                    if (rho[s] <= 0.0f)
+                                        continue;
+                                    Rgb E = deltaE(sp, si, vol.worldFromIndex.point(pos[s]), rMin);
+                                    acc[sp.offset + 0] += rho[s] * E.x;
+                                    acc[sp.offset + 1] += rho[s] * E.y;
+                                    acc[sp.offset + 2] += rho[s] * E.z;
+                                }
+                                for (int c = 0; c < 3; ++c)
+                                    acc[sp.offset + c] /= 8.0;
+                            } else if (sp.mode == SourceMode::Sh) {
+                                NbRng rng = nbRngStart(0x5eedu + nb_uint(si), voxelKey, 0u);
+                                const float r0 = nbRngNext(&rng), r1 = nbRngNext(&rng);
+                                const int n = sp.emission ? kEmissionDirections : kShSamples;
+                                const int count = shCount(sp.order);
+                                for (int k = 0; k < n; ++k) {
+                                    const float u0 = fract((k + 0.5f) / n + r0), u1 = fract(k * kGoldenFraction + r1);
+                                    Rgb L;
+                                    float3 travel;  // the direction the light propagates, n'
+                                    if (sp.emission) {
+                                        float3 u = nbSampleSphereUniform(u0, u1);
+                                        L = emittedRadiance(ctx.volumes, wc, u, shadowStep) * (4.0f * NB_PI);
+                                        travel = -u;
+                                    } else {
+                                        NbLightSample ls = nbLightSample(sp.light, wc, u0, u1);
+                                        if (nbMaxComponent(ls.weight) <= 0.0f)
+                                            continue;
+                                        Rgb tau = ctx.volumes.opticalDepth(wc, ls.wi, 0.0f, std::min(ls.distance, 1e30f),
+                                                                           shadowStep);
+                                        L = ls.weight * exp(-tau);  // L_i / pdf
+                                        travel = -ls.wi;
+                                    }
+                                    if (nbMaxComponent(L) <= 0.0f)
+                                        continue;
+                                    shEvaluate(sp.order, travel, y.data());
+                                    for (int jm = 0; jm < count; ++jm) {
+                                        acc[sp.offset + 3 * jm + 0] += y[jm] * L.x / n;
+                                        acc[sp.offset + 3 * jm + 1] += y[jm] * L.y / n;
+                                        acc[sp.offset + 3 * jm + 2] += y[jm] * L.z / n;
+                                    }
+                                }
+                                for (int c = 0; c < sp.channelCount; ++c)
+                                    acc[sp.offset + c] *= rhoMean;
+                            }
+                        }
+                        for (int c = 1; c < C; ++c)
+                            o[c] = float(acc[c]);
+                    }
+        }
+    });
+}
+
+}  // namespace nimbus::wkb

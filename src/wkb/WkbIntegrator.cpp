@@ -1,0 +1,395 @@
+#include "WkbIntegrator.h"
+
+#include "SphericalHarmonics.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+// The l-march (Tessendorf sec. 6.3.4, eq. 89; docs/wkb.md "the march").
+//
+// One shared step for RGB, per-channel weights. The march variable is lhat, the mean of the three
+// channels' scattering lengths, and every stretch of the (l, s) table carries all three channels'
+// l and absorption depth exactly. The quantities that change a lot between channels in real
+// media, the attenuation e^{-tau_a} and the angular kernels R_j(l_c), are therefore evaluated per
+// channel; only the quadrature points and the source placement and blur (geometric, and
+// insensitive to the few percent by which b differs between channels in clouds and smoke) are
+// shared. A per-channel march would triple the source lookups, the dominant cost, for no
+// visible gain; a strongly chromatic b costs only quadrature accuracy here, never a bias in T.
+//
+// Steps. A node covers lhat -> lhat + l_step max(1, lhat) (equal steps in l, growing by l_step
+// relative past l = 1, where the integrand varies on the scale of l), but at most half the
+// current blur width (or half a light voxel) in distance, so the source never jumps a feature it
+// can resolve. Per node: the weight T(0,s)(e^l - 1) integrated exactly over the node
+// (weightIntegral), times sum_j p_j R_j(l) ... at the node's midpoint in l, times Lblur read
+// where the placement model says.
+//
+// Medium sampling. While the blur is under a light voxel the stretches are the L1 march's
+// jittered sub-steps (exact coefficients). Past that, the march reads the density from the light
+// pyramid's channel 0 at the blur's own level, in stretches of half the blur width: the mip-mapped
+// march Tessendorf describes ("the blur is used to accelerate ray marching"). The blurred density
+// gives the right mean scattering length; what it loses is sub-blur structure that L2+ cannot
+// show anyway.
+
+namespace nimbus::wkb {
+
+namespace {
+
+constexpr double kInv4Pi = 0.079577471545947667884;
+constexpr int kMaxNodes = 100000;
+constexpr double kNodeSpatial = 0.5;  // node length, in blur widths (or light voxels)
+
+}  // namespace
+
+struct WkbIntegrator::Piece {
+    double len = 0.0;
+    double b[3] = {0, 0, 0};
+    double a[3] = {0, 0, 0};
+    bool gap = false;
+};
+
+struct WkbIntegrator::Cursor {
+    size_t span = 0;
+    bool coarse = false;
+    int fineN = 0, fineK = 0;
+    double fineDt = 0.0;
+    float jitter = 0.5f;
+};
+
+struct WkbIntegrator::Scratch {
+    std::vector<Span> spans;
+    ScatteringTable table;
+    std::vector<float> phaseWeights;
+    std::vector<double> pieceW, nodeW;  // per volume scattering weight: of the pending piece (1/m), of the node
+    std::vector<float> channels;
+    std::vector<double> coef, legendre, pj, shY, sums;
+    Piece pending;
+    bool hasPending = false;
+    double muLast = kMuMax;
+    double sEntry = -1.0;
+};
+
+WkbIntegrator::WkbIntegrator(const RenderContext& ctx, RenderPlan& plan) : mCtx(&ctx)
+{
+    mSetup = planWkb(ctx, plan);
+    mModel = mSetup.randomWalk ? PlacementModel::RandomWalk : PlacementModel::Straight;
+    for (auto& v : ctx.volumes.volumes()) {
+        mSigmaS.push_back(v->sigmaS());
+        mSigmaA.push_back(fmax(v->sigmaT() - v->sigmaS(), splat(0.0f)));
+        const NbPhase& p = v->medium.phase;
+        mPhase.push_back(PhaseMoments{p.g, p.g2, p.blend > 0.0f ? double(p.blend) : 0.0});
+    }
+    mLights.build(ctx, mSetup, plan);
+    mMinLightVoxel = 1e30f;
+    for (const VolumeSetup& vs : mSetup.volumes)
+        mMinLightVoxel = std::min(mMinLightVoxel, vs.lightVoxel);
+    if (mSetup.volumes.empty())
+        mMinLightVoxel = 1.0f;
+    for (const SourcePlan& sp : mSetup.sources)
+        if (sp.mode == SourceMode::Sh)
+            mMaxShOrder = std::max(mMaxShOrder, sp.order);
+}
+
+bool WkbIntegrator::nextPiece(Cursor& cur, Scratch& sc, float3 o, float3 d, double maxLen, double sigmaMarch) const
+{
+    const VolumeSet& vs = mCtx->volumes;
+    const double s = sc.table.back().s;
+    Piece& p = sc.pending;
+    p = Piece();
+    while (cur.span < sc.spans.size()) {
+        const Span& span = sc.spans[cur.span];
+        const double t0 = span.t0, t1 = span.t1;
+        const double eps = 1e-7 * std::max(1.0, std::fabs(t1));
+        if (s >= t1 - eps) {
+            ++cur.span;
+            cur.fineN = 0;
+            continue;
+        }
+        if (s < t0 - eps) {
+            p.gap = true;
+            p.len = t0 - s;
+            return true;
+        }
+        if (!cur.coarse && sigmaMarch >= mMinLightVoxel)
+            cur.coarse = true;
+        if (!cur.coarse) {
+            if (cur.fineN == 0) {
+                cur.fineN = std::max(1, int(std::ceil((t1 - t0) / span.step)));
+                cur.fineDt = (t1 - t0) / cur.fineN;
+                cur.fineK = std::min(cur.fineN - 1, std::max(0, int(std::floor((s - t0) / cur.fineDt))));
+            }
+            const double a = t0 + cur.fineK * cur.fineDt;
+            const double end = cur.fineK + 1 >= cur.fineN ? t1 : a + cur.fineDt;
+            if (++cur.fineK >= cur.fineN) {
+                ++cur.span;
+                cur.fineN = 0;
+            }
+            if (end <= s + eps)
+                continue;
+            MediumSample m = vs.sample(o + d * float(a + cur.jitter * cur.fineDt), sc.phaseWeights.data());
+            p.len = end - s;
+            const Rgb sa = fmax(m.sigma_t - m.sigma_s, splat(0.0f));
+            p.b[0] = m.sigma_s.x, p.b[1] = m.sigma_s.y, p.b[2] = m.sigma_s.z;
+            p.a[0] = sa.x, p.a[1] = sa.y, p.a[2] = sa.z;
+            for (size_t v = 0; v < sc.pieceW.size(); ++v)
+                sc.pieceW[v] = sc.phaseWeights[v];
+            return true;
+        }
+        // Coarse: the density from the pyramids at the blur's level, one sample per stretch.
+        p.len = std::min(maxLen, t1 - s);
+        const float3 x = o + d * float(s + 0.5 * p.len);
+        for (size_t v = 0; v < mSetup.volumes.size(); ++v) {
+            const VolumeSetup& vsu = mSetup.volumes[v];
+            const VolumeData& vol = *vs.volumes()[v];
+            float rho = 0.0f;
+            const float3 pl = vol.indexFromWorld.point(x) * (1.0f / float(vsu.factor));
+            mLights.pyramid(v).fetch(pl, float(sigmaMarch) / vsu.lightVoxel, 0, 1, 1.0f, &rho);
+            rho = std::max(rho, 0.0f);
+            for (int c = 0; c < 3; ++c) {
+                p.b[c] += double(component(mSigmaS[v], c)) * rho;
+                p.a[c] += double(component(mSigmaA[v], c)) * rho;
+            }
+            sc.pieceW[v] = double(nbAverage(mSigmaS[v])) * rho;
+        }
+        return true;
+    }
+    return false;
+}
+
+bool WkbIntegrator::readSources(float3 x, double sigma, float* out) const
+{
+    const int C = mSetup.channels;
+    std::fill(out, out + C, 0.0f);
+    const auto& vols = mCtx->volumes.volumes();
+    for (size_t v = 0; v < mSetup.volumes.size(); ++v) {
+        const VolumeSetup& vs = mSetup.volumes[v];
+        if (!vs.l2plus)
+            continue;
+        // Weight each volume's density by its mean scattering coefficient: the channels then
+        // sum to b and b * source, and their ratio is the b-weighted source (docs/wkb.md).
+        const float3 pl = vols[v]->indexFromWorld.point(x) * (1.0f / float(vs.factor));
+        mLights.pyramid(v).fetch(pl, float(sigma) / vs.lightVoxel, 0, C, nbAverage(mSigmaS[v]), out);
+    }
+    return out[0] > 1e-30f;
+}
+
+void WkbIntegrator::evaluateNode(Scratch& sc, float3 o, float3 d, const TableEntry& e0, const TableEntry& e1,
+                                 double* L, double& remaining) const
+{
+    const ScatteringTable& table = sc.table;
+    const TableEntry m = table.at(table.sAt(0.5 * (e0.lhat + e1.lhat)));
+
+    // Phase moments of the node: the scattering-weighted mixture of the volumes it crossed.
+    double wsum = 0.0, gmax = 0.0;
+    for (size_t v = 0; v < sc.nodeW.size(); ++v) {
+        wsum += sc.nodeW[v];
+        if (sc.nodeW[v] > 0.0)
+            gmax = std::max(gmax, mPhase[v].gmax());
+    }
+    if (!(wsum > 0.0))
+        return;
+    auto moment = [&](int j) {
+        double p = 0.0;
+        for (size_t v = 0; v < sc.nodeW.size(); ++v)
+            if (sc.nodeW[v] > 0.0)
+                p += sc.nodeW[v] * mPhase[v].moment(j);
+        return p / wsum;
+    };
+    const double p1 = moment(1);
+    const double mu = gaussianMu(p1);
+    sc.muLast = mu;
+
+    // Weight per channel, exact over the node with the node's mean albedo.
+    double W[3];
+    double lmin = m.l[0];
+    for (int c = 0; c < 3; ++c) {
+        const double dl = e1.l[c] - e0.l[c], dta = e1.tauA[c] - e0.tauA[c];
+        const double omega = dl > 0.0 ? dl / (dl + std::max(dta, 0.0)) : 0.0;
+        W[c] = weightIntegral(e0.l[c], e0.tauA[c], dl, omega);
+        lmin = std::min(lmin, m.l[c]);
+    }
+    const Truncation tr = truncateOrders(mSetup.kernel, lmin, mu, gmax, mSetup.tolerance, mSetup.orderCap);
+    double rem = 0.0;
+    for (int c = 0; c < 3; ++c)
+        rem = std::max(rem, remainingWeightBound(e1.l[c], e1.tauA[c], mSetup.omegaMax));
+    remaining = rem * tr.total / kInv4Pi;
+    if (!(std::max(W[0], std::max(W[1], W[2])) > 0.0))
+        return;
+
+    // coef[c][j] = p_j R_j(l_c) at the node's midpoint.
+    const int J = tr.order;
+    sc.pj.resize(size_t(J) + 1);
+    for (int j = 0; j <= J; ++j)
+        sc.pj[j] = moment(j);
+    sc.coef.resize(3 * (size_t(J) + 1));
+    const bool grey = m.l[0] == m.l[1] && m.l[1] == m.l[2];
+    for (int c = 0; c < 3; ++c) {
+        double* k = sc.coef.data() + size_t(c) * (J + 1);
+        if (c > 0 && grey) {
+            std::copy(sc.coef.begin(), sc.coef.begin() + (J + 1), k);
+            continue;
+        }
+        if (mSetup.kernel == KernelType::Gaussian) {
+            const double q = std::exp(-muL(mu, m.l[c]));  // A_{j+1} / A_j = q^{j+1}
+            double A = 1.0, qpow = 1.0;
+            for (int j = 0; j <= J; ++j) {
+                k[j] = sc.pj[j] * A;
+                qpow *= q;
+                A *= qpow;
+            }
+        } else {
+            for (int j = 0; j <= J; ++j)
+                k[j] = sc.pj[j] * exactRatio(sc.pj[j], m.l[c]);
+        }
+    }
+
+    // Where the source is read, and how blurred.
+    PlacementInput in;
+    in.table = &table;
+    in.at = m;
+    in.sEntry = sc.sEntry;
+    in.mu = mu;
+    in.g = p1;
+    in.blurK = mSetup.blurK;
+    const SourceRead src = placeSource(mModel, in);
+    const float3 x = o + d * float(src.s);
+    float* ch = sc.channels.data();
+    if (!readSources(x, src.sigma, ch))
+        return;
+    const double inv = 1.0 / double(ch[0]);
+    const float3 n = -d;  // the direction the light travels toward the camera
+
+    for (size_t si = 0; si < mSetup.sources.size(); ++si) {
+        const SourcePlan& sp = mSetup.sources[si];
+        if (sp.mode == SourceMode::Skip)
+            continue;
+        double S[3] = {0, 0, 0};
+        if (sp.mode == SourceMode::Delta) {
+            // Addition theorem: sum_m Y_jm(n) Y*_jm(N) = (2j+1)/(4 pi) P_j(n . N).
+            const double x0 = std::max(-1.0, std::min(1.0, double(dot(n, LightVolumes::deltaDirection(sp, x)))));
+            double Pm = 0.0, P = 1.0;
+            for (int j = 0; j <= J; ++j) {
+                const double f = double(2 * j + 1) * kInv4Pi * P;
+                for (int c = 0; c < 3; ++c)
+                    S[c] += f * sc.coef[size_t(c) * (J + 1) + j];
+                const double next = (double(2 * j + 1) * x0 * P - double(j) * Pm) / double(j + 1);
+                Pm = P;
+                P = next;
+            }
+            for (int c = 0; c < 3; ++c)
+                S[c] *= double(ch[sp.offset + c]) * inv;
+        } else {
+            const int Jsh = std::min(J, sp.order);
+            for (int j = 0; j <= Jsh; ++j)
+                for (int mm = -j; mm <= j; ++mm) {
+                    const int jm = shIndex(j, mm);
+                    for (int c = 0; c < 3; ++c)
+                        S[c] += sc.coef[size_t(c) * (J + 1) + j] * sc.shY[jm] * double(ch[sp.offset + 3 * jm + c]) * inv;
+                }
+        }
+        // A truncated order sum can ring below zero where the true angular distribution is small;
+        // radiance cannot.
+        for (int c = 0; c < 3; ++c)
+            L[3 * si + c] += W[c] * std::max(0.0, S[c]);
+    }
+}
+
+void WkbIntegrator::march(float3 o, float3 d, NbRng& rng, CameraSample& out, float* perLight) const
+{
+    if (!mSetup.active)
+        return;
+    thread_local Scratch sc;
+    const VolumeSet& vs = mCtx->volumes;
+    const size_t nv = vs.volumes().size();
+    const float jitter = nbRngNext(&rng);
+    vs.spans(o, d, 0.0f, 1e30f, mCtx->scene->render.step, sc.spans);
+    if (sc.spans.empty())
+        return;
+    sc.phaseWeights.assign(nv, 0.0f);
+    sc.pieceW.assign(nv, 0.0);
+    sc.nodeW.assign(nv, 0.0);
+    sc.channels.assign(size_t(mSetup.channels), 0.0f);
+    sc.sums.assign(3 * mSetup.sources.size(), 0.0);
+    if (mMaxShOrder >= 0) {
+        sc.shY.resize(size_t(shCount(mMaxShOrder)));
+        shEvaluate(mMaxShOrder, -d, sc.shY.data());
+    }
+    sc.table.reset(sc.spans.front().t0);
+    sc.hasPending = false;
+    sc.muLast = kMuMax;
+    sc.sEntry = -1.0;
+    Cursor cur;
+    cur.jitter = jitter;
+    const double zero[3] = {0, 0, 0};
+    double lastB = 0.0;
+
+    for (int node = 0; node < kMaxNodes; ++node) {
+        const TableEntry e0 = sc.table.back();
+        const double lTarget = e0.lhat + mSetup.lStep * std::max(1.0, e0.lhat);
+        const double sigmaMarch = std::sqrt(std::max(0.0, 0.5 * mSetup.blurK * sc.muLast * e0.P));
+        double budget = kNodeSpatial * std::max(sigmaMarch, double(mMinLightVoxel));
+        std::fill(sc.nodeW.begin(), sc.nodeW.end(), 0.0);
+        bool done = false;
+        while (sc.table.back().lhat < lTarget && budget > 0.0) {
+            if (!sc.hasPending) {
+                double maxLen = budget;
+                if (lastB > 0.0)
+                    maxLen = std::min(maxLen, (lTarget - sc.table.back().lhat) / lastB);
+                maxLen = std::max(maxLen, 1e-3 * budget);
+                if (!nextPiece(cur, sc, o, d, maxLen, sigmaMarch)) {
+                    done = true;
+                    break;
+                }
+                sc.hasPending = true;
+            }
+            Piece& p = sc.pending;
+            if (p.gap) {
+                sc.table.append(p.len, zero, zero);
+                sc.hasPending = false;
+                continue;
+            }
+            const double bhat = (p.b[0] + p.b[1] + p.b[2]) / 3.0;
+            double take = std::min(p.len, budget);
+            if (bhat > 0.0)
+                take = std::min(take, (lTarget - sc.table.back().lhat) / bhat);
+            // Round-off must not leave slivers: finish a piece that is all but consumed.
+            if (p.len - take <= 1e-9 * p.len)
+                take = p.len;
+            if (sc.sEntry < 0.0 && bhat > 0.0)
+                sc.sEntry = sc.table.back().s;
+            sc.table.append(take, p.b, p.a);
+            for (size_t v = 0; v < nv; ++v)
+                sc.nodeW[v] += sc.pieceW[v] * take;
+            p.len -= take;
+            budget -= take;
+            lastB = bhat;
+            if (p.len <= 0.0)
+                sc.hasPending = false;
+        }
+        const TableEntry& e1 = sc.table.back();
+        double remaining = std::numeric_limits<double>::infinity();
+        if (e1.lhat > e0.lhat) {
+            evaluateNode(sc, o, d, e0, e1, sc.sums.data(), remaining);
+            // Nothing the rest of the ray can add exceeds the tolerance (in units of E / 4 pi).
+            if (remaining <= mSetup.tolerance)
+                break;
+        }
+        if (done)
+            break;
+    }
+
+    Rgb total = splat(0.0f);
+    for (size_t si = 0; si < mSetup.sources.size(); ++si) {
+        const Rgb v = make_float3(float(sc.sums[3 * si]), float(sc.sums[3 * si + 1]), float(sc.sums[3 * si + 2]));
+        total += v;
+        const int li = mSetup.sources[si].lightIndex;
+        if (li >= 0 && perLight) {
+            perLight[3 * li + 0] += v.x;
+            perLight[3 * li + 1] += v.y;
+            perLight[3 * li + 2] += v.z;
+        }
+    }
+    out.L2plus += total;
+}
+
+}  // namespace nimbus::wkb

@@ -1,0 +1,55 @@
+// WkbIntegrator.h: the L2+ term of method "wkb" (Tessendorf eqs. 88-89; DESIGN "L2+, WKB
+// multiple scattering"). Built once per render from a RenderContext: the plan (WkbPlanner), the
+// light volumes and their pyramids (LightVolumes); then `march` adds L2+ to one camera ray.
+//
+// The camera ray's L0 and L1 come from marchSingle, unchanged; the renderer calls `march` after
+// it with the same random stream, so wkb's L0 + L1 are exactly single's.
+#pragma once
+
+#include "../render/SingleScatter.h"
+#include "LightVolumes.h"
+#include "SourcePlacement.h"
+#include "WkbPlanner.h"
+
+#include <memory>
+#include <vector>
+
+namespace nimbus::wkb {
+
+class WkbIntegrator {
+public:
+    // Plans and builds; writes the wkb parts of `plan` and the stage times.
+    WkbIntegrator(const RenderContext& ctx, RenderPlan& plan);
+
+    bool active() const { return mSetup.active; }
+    const WkbSetup& setup() const { return mSetup; }
+    const LightVolumes& lightVolumes() const { return mLights; }
+
+    // Adds L2+ along the camera ray o + t d (d unit, t >= 0) to out.L2plus and each light's part
+    // to perLight[3 i + c] (emission's part goes to L2plus only). Draws one number from rng.
+    void march(float3 o, float3 d, NbRng& rng, CameraSample& out, float* perLight) const;
+
+private:
+    // A stretch of the ray with constant coefficients (one medium sample).
+    struct Piece;
+    struct Scratch;
+    struct Cursor;
+
+    bool nextPiece(Cursor& cur, Scratch& sc, float3 o, float3 d, double maxLen, double sigmaMarch) const;
+    void evaluateNode(Scratch& sc, float3 o, float3 d, const TableEntry& e0, const TableEntry& e1, double* L,
+                      double& remaining) const;
+    // Density-weighted source channels at world point x blurred by sigma (metres); false if no
+    // medium is near. out: setup.channels floats, channel 0 the weight.
+    bool readSources(float3 x, double sigma, float* out) const;
+
+    const RenderContext* mCtx;
+    WkbSetup mSetup;
+    LightVolumes mLights;
+    PlacementModel mModel = PlacementModel::Straight;
+    float mMinLightVoxel = 1.0f;
+    std::vector<Rgb> mSigmaS, mSigmaA;  // per volume, 1/m at density 1 (density scale included)
+    std::vector<PhaseMoments> mPhase;  // per volume
+    int mMaxShOrder = -1;
+};
+
+}  // namespace nimbus::wkb

@@ -1,0 +1,70 @@
+// WkbPlanner.h: what the L2+ term of a scene needs, decided before any heavy work (DESIGN "leave
+// out what a scene does not need"; issue 3 "render plan").
+//
+// Per light: how its L0 enters the light volumes (a delta-direction source E(y) from a deep shadow
+// map, or spherical-harmonic coefficients of L0(y, n') for lights too wide to be a direction),
+// and the SH order. Per volume: whether its L2+ share is above the tolerance, the light grid's
+// voxel (a power-of-two multiple of the density voxel) and the pyramid's levels and memory. For
+// the scene: whether L2+ is needed at all, with its bound (docs/wkb.md "render plan").
+#pragma once
+
+#include "../render/RenderContext.h"
+#include "AngularKernel.h"
+
+#include <string>
+#include <vector>
+
+namespace nimbus::wkb {
+
+enum class SourceMode { Skip, Delta, Sh };
+
+// One source of the light volumes: a scene light, or the volumes' own emission.
+struct SourcePlan {
+    SourceMode mode = SourceMode::Skip;
+    int lightIndex = -1;         // in RenderContext::lights; -1 for emission
+    bool emission = false;
+    int order = 0;               // SH order (mode Sh)
+    int offset = 0;              // first channel in the light volumes
+    int channelCount = 0;        // 3 (delta) or 3 (order+1)^2 (SH)
+    NbLight light{};             // as evaluated for E(y): may stand in for a small area light
+    bool directional = false;    // delta source whose direction N is the same everywhere
+    bool needsOwnShadowMap = false;  // delta source without a map in RenderContext
+    std::string description;
+};
+
+struct VolumeSetup {
+    bool l2plus = false;   // light channels built (else only the density channel, for the march)
+    int factor = 2;        // light voxel = factor density voxels per axis
+    float lightVoxel = 0;  // world size of a level-0 light voxel, metres
+    int channels = 1;
+    int levels = 0;
+    float maxSigma = 0;    // blur (level-0 voxels) at which the pyramid stops
+    size_t bytes = 0;      // estimated (plan) or measured (after the build)
+    double bound = 0;
+};
+
+struct WkbSetup {
+    bool active = false;  // false: L2+ is zero for this scene (no volume, no light, or below tolerance)
+    KernelType kernel = KernelType::Gaussian;
+    bool randomWalk = false;
+    float blurK = 24.0f, lStep = 0.25f, tolerance = 0.002f;
+    int orderCap = 128;
+    int channels = 1;
+    double omegaMax = 0.0;  // largest albedo over volumes and channels
+    std::vector<SourcePlan> sources;
+    std::vector<VolumeSetup> volumes;  // index-aligned with RenderContext::volumes.volumes()
+};
+
+// Plans L2+ for the context's scene and writes the decisions into `plan` (plan.wkb, the wkb fields
+// of plan.lights and plan.volumes). Cheap: reads the brick tables, builds nothing.
+WkbSetup planWkb(const RenderContext& ctx, RenderPlan& plan);
+
+// The level-0 bricks of a light grid whose voxel is `factor` density voxels: the light bricks
+// holding every active density brick's cells (the light grid follows the density's sparsity).
+std::vector<Int3> lightGridBricks(const BrickGrid& density, int factor);
+
+// Estimated memory of the pyramid of a volume with light-voxel factor `factor` and `channels`
+// channels, and its level count (exposed for tests; the same rule LightPyramid::buildLevels uses).
+size_t estimatePyramidBytes(const BrickGrid& density, int factor, int channels, float maxSigma, int* levels);
+
+}  // namespace nimbus::wkb
