@@ -26,7 +26,8 @@
  *  - Transmittance to lights: ratio tracking (Cramer 1978; Novak et al. 2014) over the same
  *    majorant walk, T_c *= 1 - sigma_t,c / mu per tentative collision, with Russian roulette
  *    once every channel is below 0.1.
- *  - Next-event estimation at every scattering vertex for every light (nbLightSample). Camera
+ *  - Next-event estimation at every scattering vertex for every light (nbLightSample; the
+ *    uniform environment draws its direction from the phase function instead). Camera
  *    rays that escape see the background (L0); scattered rays that escape add nothing, since
  *    NEE already accounts for every light: nothing is counted twice.
  *  - Directions from the phase function (nbPhaseSample, pdf = phase, weight 1).
@@ -262,11 +263,25 @@ inline void nbTracePath(float3 o, float3 d, __global const NbPtParams* P, __glob
         for (int i = 0; i < P->lightCount && i < NB_NUM_LIGHTS; ++i) {
             NbLight l = lights[i];
             float u0 = nbRngNext(rng), u1 = nbRngNext(rng);
-            NbLightSample s = nbSampleLight(l, p, u0, u1);
-            if (!(nbMaxComponent(s.weight) > 0.0f))
-                continue;
-            float f = nbPhaseEval(phase, dot(s.wi, d));
-            if (!(f > 0.0f))
+            NbLightSample s;
+            float f;
+#if NB_HAS_LIGHT_ENVIRONMENT
+            if (l.type == NB_LIGHT_ENVIRONMENT) {
+                /* Uniform radiance L from every direction: draw wi from the phase function
+                 * instead of uniformly (nbLightSample), so p / pdf = 1 and the estimate is L T.
+                 * Unbiased either way; with a forward-peaked phase function uniform directions
+                 * would mostly land where p is tiny. */
+                s.wi = nbPhaseSample(phase, d, u0, u1, nbRngNext(rng));
+                s.distance = NB_INF;
+                s.weight = make_float3(l.color[0], l.color[1], l.color[2]);
+                f = 1.0f;
+            } else
+#endif
+            {
+                s = nbSampleLight(l, p, u0, u1);
+                f = nbPhaseEval(phase, dot(s.wi, d));
+            }
+            if (!(nbMaxComponent(s.weight) > 0.0f) || !(f > 0.0f))
                 continue;
             float3 T = nbRatioTransmittance(p, s.wi, s.distance, vols, volumeCount, tables, pools, majorants, rng);
             float3 c = w * s.weight * T * f;
