@@ -242,8 +242,25 @@ Context::~Context()
         clReleaseContext(mContext);
 }
 
+namespace {
+
+// Devices cap single allocations (CL_DEVICE_MAX_MEM_ALLOC_SIZE, often a quarter of the memory):
+// say so in one line rather than fail with CL_INVALID_BUFFER_SIZE.
+void checkAllocation(const DeviceInfo& device, size_t bytes)
+{
+    cl_ulong maxAlloc = 0;
+    if (clGetDeviceInfo(device.device, CL_DEVICE_MAX_MEM_ALLOC_SIZE, sizeof maxAlloc, &maxAlloc, nullptr) == CL_SUCCESS &&
+        maxAlloc > 0 && bytes > maxAlloc)
+        throw Error("OpenCL: a " + std::to_string(bytes >> 20) + " MiB buffer exceeds the largest allocation " +
+                    std::to_string(maxAlloc >> 20) + " MiB on " + device.name +
+                    " (coarser or fewer volumes, or another device)");
+}
+
+}  // namespace
+
 Mem Context::upload(const void* data, size_t bytes) const
 {
+    checkAllocation(mDevice, bytes);
     cl_int err = CL_SUCCESS;
     const unsigned char pad[16] = {};
     if (bytes == 0 || !data) {
@@ -257,13 +274,20 @@ Mem Context::upload(const void* data, size_t bytes) const
 
 Mem Context::allocate(size_t bytes) const
 {
+    checkAllocation(mDevice, bytes);
     cl_int err = CL_SUCCESS;
     bytes = std::max<size_t>(bytes, 16);
     cl_mem m = clCreateBuffer(mContext, CL_MEM_READ_WRITE, bytes, nullptr, &err);
     check(err, "clCreateBuffer");
     Mem out(m);
-    std::vector<unsigned char> zeros(bytes, 0);
-    write(out, zeros.data(), bytes);
+    const cl_uint zero = 0;  // bytes is a multiple of 4 for every buffer nimbus allocates
+    if (bytes % sizeof zero == 0) {
+        check(clEnqueueFillBuffer(mQueue, m, &zero, sizeof zero, 0, bytes, 0, nullptr, nullptr), "clEnqueueFillBuffer");
+        check(clFinish(mQueue), "clFinish");
+    } else {
+        std::vector<unsigned char> zeros(bytes, 0);
+        write(out, zeros.data(), bytes);
+    }
     return out;
 }
 
