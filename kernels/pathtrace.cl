@@ -51,6 +51,8 @@
 #ifndef NB_NUM_LIGHTS
 #define NB_NUM_LIGHTS 0
 #endif
+/* Helpers are `static inline`: under C99 inline rules a plain `inline` function that a compiler
+ * chooses not to inline has no external definition, which some OpenCL drivers reject at link. */
 #ifndef NB_TWO_LOBE
 #define NB_TWO_LOBE 1
 #endif
@@ -59,22 +61,22 @@
 #endif
 
 /* Uniform in (0, 1]: safe for -log. */
-inline float nbRngOpen(__private NbRng* rng) { return 1.0f - nbRngNext(rng); }
+static inline float nbRngOpen(__private NbRng* rng) { return 1.0f - nbRngNext(rng); }
 
 /* t + dt, but at least one ulp past t: a majorant so large that dt falls below t's precision
  * must not stall the walk (the shift is far below a voxel for any sane scene). */
-inline float nbAdvance(float t, float dt)
+static inline float nbAdvance(float t, float dt)
 {
     float tn = t + dt;
     return tn > t ? tn : nextafter(t, NB_INF);
 }
 
-inline float3 nbSigmaS(__global const NbVolumeDesc* vd) { return make_float3(vd->sigma_s[0], vd->sigma_s[1], vd->sigma_s[2]); }
-inline float3 nbSigmaT(__global const NbVolumeDesc* vd) { return make_float3(vd->sigma_t[0], vd->sigma_t[1], vd->sigma_t[2]); }
+static inline float3 nbSigmaS(__global const NbVolumeDesc* vd) { return make_float3(vd->sigma_s[0], vd->sigma_s[1], vd->sigma_s[2]); }
+static inline float3 nbSigmaT(__global const NbVolumeDesc* vd) { return make_float3(vd->sigma_t[0], vd->sigma_t[1], vd->sigma_t[2]); }
 
 /* Channel average of w * v: the "history-aware" weights of spectral tracking. Grey media need
  * one channel only. */
-inline float nbWeighted(float3 w, float3 v)
+static inline float nbWeighted(float3 w, float3 v)
 {
 #if NB_CHROMATIC
     return nbAverage(w * v);
@@ -85,7 +87,7 @@ inline float nbWeighted(float3 w, float3 v)
 
 /* One light sample. With the types a scene has known at compile time, each case calls
  * nbLightSample with a constant type, so the compiler drops the branches for the others. */
-inline NbLightSample nbSampleLight(NbLight l, float3 p, float u0, float u1)
+static inline NbLightSample nbSampleLight(NbLight l, float3 p, float u0, float u1)
 {
     NbLightSample s;
     s.wi = make_float3(0.0f, 1.0f, 0.0f);
@@ -117,7 +119,7 @@ inline NbLightSample nbSampleLight(NbLight l, float3 p, float u0, float u1)
 
 /* Ratio-tracking transmittance along o + t d, t in [0, tMax] (Novak et al. 2014, eq. 6): an
  * unbiased estimate of exp(-int sigma_t) per channel. */
-inline float3 nbRatioTransmittance(float3 o, float3 d, float tMax, __global const NbVolumeDesc* vols, int volumeCount,
+static inline float3 nbRatioTransmittance(float3 o, float3 d, float tMax, __global const NbVolumeDesc* vols, int volumeCount,
                                    __global const int* tables, __global const float* pools,
                                    __global const float* majorants, __private NbRng* rng)
 {
@@ -163,7 +165,7 @@ typedef struct {
 #endif
 } NbPathSample;
 
-inline void nbTracePath(float3 o, float3 d, __global const NbPtParams* P, __global const NbLight* lights,
+static inline void nbTracePath(float3 o, float3 d, __global const NbPtParams* P, __global const NbLight* lights,
                         __global const NbVolumeDesc* vols, __global const int* tables, __global const float* pools,
                         __global const float* majorants, __private NbRng* rng, __private NbPathSample* out)
 {
