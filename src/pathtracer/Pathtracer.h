@@ -7,40 +7,12 @@
 #include "../render/Film.h"
 #include "../render/RenderContext.h"
 #include "../render/Renderer.h"
+#include "PathtraceOptions.h"
 
-#include <functional>
 #include <string>
 #include <vector>
 
 namespace nimbus {
-
-// What a render did, for logs, benchmarks and tests.
-struct PathtraceStats {
-    long long samplesPerPixel = 0;
-    long long pathSamples = 0;  // camera paths traced (pixels x samples)
-    double renderSeconds = 0;   // kernel launches and read-backs, not the build or the upload
-    double buildSeconds = 0;    // kernel build or cache load
-    bool kernelFromCache = false;
-    int passes = 0;
-    long long badSamples = 0;   // non-finite samples dropped (should be 0)
-    std::string device;
-    std::string defines;
-    double pathsPerSecond() const { return renderSeconds > 0 ? double(pathSamples) / renderSeconds : 0.0; }
-};
-
-struct PathtraceOptions {
-    // OpenCL device: "" (the NIMBUS_DEVICE environment variable, else the first GPU, else the
-    // first device), an index into listOpenClDevices(), or a substring of its name.
-    std::string device;
-    // When both are set, onCheckpoint receives the running estimate at most every
-    // checkpointSeconds (after the launch that crosses the interval). The CLI writes its EXR.
-    double checkpointSeconds = 0;
-    std::function<void(const Film&)> onCheckpoint;
-    size_t localSize = 0;        // OpenCL work-group size; 0 lets the runtime choose
-    int samplesPerPass = 0;      // samples per pixel per launch; 0: adaptive, ~0.5 s launches
-    bool globalMajorant = false; // one majorant per volume instead of per brick (benchmarks)
-    PathtraceStats* stats = nullptr;
-};
 
 // Renders ctx's scene into `film`. The film's AOVs are filled by name (beauty, L0, L1, L2plus,
 // alpha, depth, variance, light_<name>); a film with no AOVs gets all of them, sized from the
