@@ -16,6 +16,7 @@
 
 #include "../core/Error.h"
 #include "../core/Log.h"
+#include "PluginSource.h"
 #include "Procedural.h"
 #include "VolumeShader.h"
 
@@ -453,7 +454,7 @@ std::shared_ptr<VolumeData> buildVolume(const Scene& scene, size_t index, const 
         grids.push_back({"density", makeProceduralGrid(volume.source, where.key(".source"))});
         data->gridsRead.push_back("density (" + volume.source.generator + ")");
     } else {
-        throw InputError(where.key(".source.type") + ": plugin volume sources are not supported by this build");
+        grids.push_back({"density", makePluginGrid(volume.source, sceneDir, where.key(".source"), data->gridsRead)});
     }
 
     // Clamp what comes in (counting file voxels, before any resampling), so a shader never sees
