@@ -83,8 +83,17 @@ NB_FN float clamp(float v, float lo, float hi) { return v < lo ? lo : (v > hi ? 
 #define NB_PI 3.14159265358979323846f
 #define NB_INV_4PI 0.07957747154594767f
 
-NB_FN float nbMaxComponent(float3 v) { return fmax(v.x, fmax(v.y, v.z)); }
-NB_FN float nbMinComponent(float3 v) { return fmin(v.x, fmin(v.y, v.z)); }
+/* Plain comparisons rather than fmax/fmin: C++ compilers call libm for those (NaN rules). */
+NB_FN float nbMaxComponent(float3 v)
+{
+    float m = v.x > v.y ? v.x : v.y;
+    return m > v.z ? m : v.z;
+}
+NB_FN float nbMinComponent(float3 v)
+{
+    float m = v.x < v.y ? v.x : v.y;
+    return m < v.z ? m : v.z;
+}
 NB_FN float nbAverage(float3 v) { return (v.x + v.y + v.z) * (1.0f / 3.0f); }
 
 /* float[4] storage in plain-data structs to float3 (OpenCL float3 is 16 bytes in buffers). */

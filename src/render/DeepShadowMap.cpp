@@ -233,23 +233,53 @@ bool DeepShadowMap::project(float3 p, int& face, float& u, float& v, float& z) c
     return true;
 }
 
-Rgb DeepShadowMap::texelOpticalDepth(int face, int ix, int iy, float z) const
+Rgb DeepShadowMap::lookup(uint32_t texel, float z, Cursor* cursor) const
 {
-    size_t t = (size_t(face) * mRes + iy) * mRes + ix;
-    const Vertex* begin = mVertices.data() + mOffsets[t];
-    const Vertex* end = mVertices.data() + mOffsets[t + 1];
-    if (begin == end || z <= begin->z)
+    const uint32_t first = mOffsets[texel], last = mOffsets[texel + 1];
+    if (first == last)
         return splat(0.0f);
-    if (z >= (end - 1)->z)
-        return make_float3((end - 1)->tau[0], (end - 1)->tau[1], (end - 1)->tau[2]);
-    const Vertex* hiV = std::upper_bound(begin, end, z, [](float zz, const Vertex& v) { return zz < v.z; });
-    const Vertex* loV = hiV - 1;
-    float w = (z - loV->z) / std::max(hiV->z - loV->z, 1e-30f);
-    return make_float3(loV->tau[0] + w * (hiV->tau[0] - loV->tau[0]), loV->tau[1] + w * (hiV->tau[1] - loV->tau[1]),
-                       loV->tau[2] + w * (hiV->tau[2] - loV->tau[2]));
+    const Vertex* v = mVertices.data();
+    if (z <= v[first].z)
+        return splat(0.0f);
+    if (z >= v[last - 1].z)
+        return make_float3(v[last - 1].tau[0], v[last - 1].tau[1], v[last - 1].tau[2]);
+    // Find i with v[i].z <= z < v[i+1].z: walk from the cursor's vertex for this texel, else
+    // bisect.
+    int slot = -1;
+    if (cursor)
+        for (int k = 0; k < 4; ++k)
+            if (cursor->texel[k] == texel)
+                slot = k;
+    uint32_t i;
+    if (slot >= 0) {
+        i = cursor->vertex[slot];
+        while (v[i + 1].z <= z)
+            ++i;
+        while (v[i].z > z)
+            --i;
+    } else {
+        const Vertex* hi = std::upper_bound(v + first, v + last, z, [](float zz, const Vertex& x) { return zz < x.z; });
+        i = uint32_t(hi - v) - 1;
+        if (cursor) {
+            slot = int(cursor->next++ & 3u);
+            cursor->texel[slot] = texel;
+        }
+    }
+    if (cursor)
+        cursor->vertex[slot] = i;
+    const Vertex& a = v[i];
+    const Vertex& b = v[i + 1];
+    float w = (z - a.z) / (b.z - a.z);
+    return make_float3(a.tau[0] + w * (b.tau[0] - a.tau[0]), a.tau[1] + w * (b.tau[1] - a.tau[1]),
+                       a.tau[2] + w * (b.tau[2] - a.tau[2]));
 }
 
-Rgb DeepShadowMap::transmittance(float3 p) const
+Rgb DeepShadowMap::texelOpticalDepth(int face, int ix, int iy, float z) const
+{
+    return lookup(uint32_t((size_t(face) * mRes + iy) * mRes + ix), z, nullptr);
+}
+
+Rgb DeepShadowMap::transmittance(float3 p, Cursor* cursor) const
 {
     int face;
     float u, v, z;
@@ -262,8 +292,11 @@ Rgb DeepShadowMap::transmittance(float3 p) const
     float wx = fx - x0, wy = fy - y0;
     auto clampI = [&](int i) { return std::min(std::max(i, 0), mRes - 1); };
     int xa = clampI(x0), xb = clampI(x0 + 1), ya = clampI(y0), yb = clampI(y0 + 1);
-    Rgb tau = texelOpticalDepth(face, xa, ya, z) * ((1 - wx) * (1 - wy)) + texelOpticalDepth(face, xb, ya, z) * (wx * (1 - wy)) +
-              texelOpticalDepth(face, xa, yb, z) * ((1 - wx) * wy) + texelOpticalDepth(face, xb, yb, z) * (wx * wy);
+    const uint32_t base = uint32_t(face) * uint32_t(mRes) * uint32_t(mRes);
+    Rgb tau = lookup(base + ya * mRes + xa, z, cursor) * ((1 - wx) * (1 - wy)) +
+              lookup(base + ya * mRes + xb, z, cursor) * (wx * (1 - wy)) +
+              lookup(base + yb * mRes + xa, z, cursor) * ((1 - wx) * wy) +
+              lookup(base + yb * mRes + xb, z, cursor) * (wx * wy);
     return exp(-tau);
 }
 

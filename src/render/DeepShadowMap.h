@@ -37,9 +37,17 @@ public:
     // Builds the map for a point, spot or distant light over the volumes (TBB-parallel).
     static DeepShadowMap build(const NbLight& light, const VolumeSet& volumes, const Settings& settings);
 
+    // Where the last lookups in four texels ended: consecutive lookups along one camera ray hit
+    // the same texels at nearby depths, so a search can start there instead of bisecting.
+    struct Cursor {
+        uint32_t texel[4] = {~0u, ~0u, ~0u, ~0u};
+        uint32_t vertex[4] = {0, 0, 0, 0};
+        uint32_t next = 0;
+    };
+
     // Transmittance (RGB) from the light to world point p. Points outside the map's footprint
-    // see no volume between them and the light and get 1.
-    Rgb transmittance(float3 p) const;
+    // see no volume between them and the light and get 1. `cursor` is optional.
+    Rgb transmittance(float3 p, Cursor* cursor = nullptr) const;
 
     Projection projection() const { return mProjection; }
     int resolution() const { return mRes; }
@@ -75,6 +83,7 @@ private:
     };
 
     bool project(float3 p, int& face, float& u, float& v, float& z) const;
+    Rgb lookup(uint32_t texel, float z, Cursor* cursor) const;
     void buildTexel(const VolumeSet& volumes, int face, int ix, int iy, std::vector<Vertex>& out) const;
 
     Projection mProjection = Projection::Orthographic;

@@ -145,15 +145,30 @@ std::unique_ptr<RenderContext> RenderContext::create(const Scene& scene, bool bu
             if (!plan.lights[i].shadowMap)
                 continue;
             ctx->lights[i].shadowMap = DeepShadowMap::build(ctx->lights[i].light, ctx->volumes, s);
+            ctx->lights[i].cache = LightCache::bake(*ctx->lights[i].shadowMap, ctx->volumes);
             plan.lights[i].shadowMapBytes = ctx->lights[i].shadowMap->memoryBytes();
             plan.lights[i].shadowMapSeconds = ctx->lights[i].shadowMap->buildSeconds();
+            plan.lights[i].cacheBytes = ctx->lights[i].cache->memoryBytes();
+            plan.lights[i].cacheSeconds = ctx->lights[i].cache->seconds();
         }
         plan.stageSeconds.push_back({"shadow maps", secondsSince(t1)});
     }
     return ctx;
 }
 
-Rgb RenderContext::incident(size_t i, float3 p, float u0, float u1, float3& wi) const
+Rgb RenderContext::deltaWeight(size_t i, float3 p, float3& wi) const
+{
+    const LightEntry& e = lights[i];
+    if (e.light.type == NB_LIGHT_DISTANT) {  // also a soft sun shadow-mapped as its centre
+        wi = -nbLoad3(e.light.direction);
+        return nbLoad3(e.light.color);
+    }
+    NbLightSample s = nbLightSample(e.light, p, 0.5f, 0.5f);
+    wi = s.wi;
+    return s.weight;
+}
+
+Rgb RenderContext::incident(size_t i, float3 p, float u0, float u1, float3& wi, DeepShadowMap::Cursor* cursor) const
 {
     const LightEntry& e = lights[i];
     NbLightSample s = nbLightSample(e.light, p, u0, u1);
@@ -165,7 +180,7 @@ Rgb RenderContext::incident(size_t i, float3 p, float u0, float u1, float3& wi) 
     if (nbMaxComponent(s.weight) <= 0.0f)
         return splat(0.0f);
     if (e.shadowMap)
-        return s.weight * e.shadowMap->transmittance(p);
+        return s.weight * e.shadowMap->transmittance(p, cursor);
     float tMax = std::min(s.distance, 1e30f);
     Rgb tau = volumes.opticalDepth(p, s.wi, 0.0f, tMax, scene->render.shadowStep);
     return s.weight * exp(-tau);

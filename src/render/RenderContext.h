@@ -4,6 +4,7 @@
 
 #include "../scene/Scene.h"
 #include "DeepShadowMap.h"
+#include "LightCache.h"
 #include "RenderPlan.h"
 #include "VolumeSet.h"
 
@@ -22,6 +23,7 @@ struct LightEntry {
     // across the whole volume is under a voxel (then its disc is treated as its centre).
     bool delta = false;
     std::optional<DeepShadowMap> shadowMap;  // set for delta lights that reach a volume
+    std::optional<LightCache> cache;         // the shadow map baked on the voxels
 };
 
 struct RenderContext {
@@ -36,7 +38,12 @@ struct RenderContext {
 
     // Transmittance-weighted light arriving at p from light i, as L_i / pdf (see light.h), and
     // the direction toward the light. Uses the shadow map where there is one, else a shadow ray.
-    Rgb incident(size_t i, float3 p, float u0, float u1, float3& wi) const;
+    // L_i / pdf for a light treated as a delta (one fixed sample), before transmittance, and
+    // the direction toward it.
+    Rgb deltaWeight(size_t i, float3 p, float3& wi) const;
+
+    // `cursor`, if given, speeds up shadow-map lookups along one ray.
+    Rgb incident(size_t i, float3 p, float u0, float u1, float3& wi, DeepShadowMap::Cursor* cursor = nullptr) const;
 };
 
 }  // namespace nimbus

@@ -54,7 +54,8 @@ std::string RenderPlan::describe() const
         else if (l.shadowMap) {
             s << "deep shadow map, " << l.projection << ", " << l.resolution << "^2 texels";
             if (l.shadowMapBytes)
-                s << ", " << bytes(l.shadowMapBytes) << ", built in " << l.shadowMapSeconds << " s";
+                s << ", " << bytes(l.shadowMapBytes) << ", built in " << l.shadowMapSeconds << " s; baked on the voxels, "
+                  << bytes(l.cacheBytes) << ", " << l.cacheSeconds << " s";
         } else if (l.sampled)
             s << "sampled with shadow rays (" << l.reason << ")";
         s << "\n";

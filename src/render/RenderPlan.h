@@ -21,6 +21,8 @@ struct LightPlan {
     // Filled after the build:
     size_t shadowMapBytes = 0;
     double shadowMapSeconds = 0;
+    size_t cacheBytes = 0;  // the shadow map baked on the voxels (LightCache)
+    double cacheSeconds = 0;
     // wkb: how this light feeds L2+ (empty for other methods), e.g. "E = weight * T from the
     // deep shadow map" or "SH order 2 (27 channels)" or "skipped: <why>".
     std::string l2plus;

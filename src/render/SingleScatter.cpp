@@ -7,17 +7,118 @@ namespace nimbus {
 
 namespace {
 
-// The integral over a step of length dt of exp(-sigma_t s) ds, per channel:
-// (1 - e^{-sigma_t dt}) / sigma_t, written with expm1 so that thin steps keep their precision
-// and stiff ones (sigma_t dt ~ 1e4) give 1/sigma_t without overflow.
-inline float stepWeight(float sigma, float dt)
+// Transmittance of one step and the integral over the step of exp(-sigma_t s) ds,
+// (1 - e^{-sigma_t dt}) / sigma_t, per channel. One exp per channel; for optically thin steps
+// (sigma_t dt < 1e-3) the series 1 - x/2 + x^2/6 keeps full float precision where 1 - e^{-x}
+// would cancel, and stiff steps (sigma_t dt ~ 1e4) give 1/sigma_t without overflow.
+inline void stepTerms(float sigma, float dt, float& transmit, float& weight)
 {
-    return sigma > 0.0f ? -std::expm1(-sigma * dt) / sigma : dt;
+    float x = sigma * dt;
+    if (x < 1e-3f) {
+        transmit = 1.0f - x * (1.0f - 0.5f * x);
+        weight = dt * (1.0f - x * (0.5f - x * (1.0f / 6.0f)));
+    } else {
+        transmit = std::exp(-x);
+        weight = (1.0f - transmit) / sigma;
+    }
 }
 
-// Below this transmittance in every channel the rest of the ray cannot change a pixel by more
-// than ~1e-6 of the light already gathered; stop marching.
-constexpr float kMinTransmittance = 1e-6f;
+// The common case in a tight loop: one volume, every used light shadow-mapped and baked on its
+// voxels. The march steps in the grid's index space (no matrix per step); one stencil reads
+// the density and every light's transmittance; a distant light's phase and weight are constant
+// along the ray. Same estimator as the general loop below, step for step.
+bool marchSingleFast(const RenderContext& ctx, float3 o, float3 d, const std::vector<Span>& spanList, float jitter,
+                     CameraSample& out, float* perLight)
+{
+    const VolumeSet& vs = ctx.volumes;
+    if (vs.volumes().size() != 1)
+        return false;
+    const size_t nLights = ctx.lights.size();
+    for (const LightEntry& e : ctx.lights)
+        if (e.used && !e.cache)
+            return false;
+    const VolumeData& vol = *vs.volumes()[0];
+    const BrickGrid& density = vol.density;
+    const Rgb kS = vol.sigmaS(), kT = vol.sigmaT();
+    const bool grey = kT.x == kT.y && kT.y == kT.z;
+    const bool emission = vol.hasEmission();
+    const NbPhase phase = vol.medium.phase;
+    const float3 oi = vol.indexFromWorld.point(o), di = vol.indexFromWorld.vector(d);
+    const float cutoff = ctx.scene->render.tolerance;
+
+    thread_local std::vector<Rgb> rayWeight;  // distant lights: L_i * phase, constant per ray
+    thread_local std::vector<int> active;
+    rayWeight.assign(nLights, splat(0.0f));
+    active.clear();
+    for (size_t i = 0; i < nLights; ++i) {
+        const LightEntry& e = ctx.lights[i];
+        if (!e.used)
+            continue;
+        active.push_back(int(i));
+        if (e.light.type == NB_LIGHT_DISTANT)
+            rayWeight[i] = nbLoad3(e.light.color) * nbPhaseEval(phase, dot(nbLoad3(e.light.direction), d));
+    }
+
+    Rgb T = splat(1.0f);
+    float depthSum = 0.0f;
+    for (const Span& span : spanList) {
+        float len = span.t1 - span.t0;
+        int n = std::max(1, int(std::ceil(len / span.step)));
+        float dt = len / float(n);
+        for (int k = 0; k < n; ++k) {
+            float t = span.t0 + (k + jitter) * dt;
+            BrickGrid::Stencil st = density.stencil(oi + di * t);
+            float rho = density.interpolate(st);
+            Rgb em = emission ? vol.emission.sample3(oi + di * t) * vol.medium.emissionScale : splat(0.0f);
+            if (rho <= 0.0f && !(emission && nbMaxComponent(em) > 0.0f))
+                continue;
+            rho = std::max(rho, 0.0f);
+            Rgb stepT, w;
+            stepTerms(kT.x * rho, dt, stepT.x, w.x);
+            if (grey) {
+                stepT.y = stepT.z = stepT.x;
+                w.y = w.z = w.x;
+            } else {
+                stepTerms(kT.y * rho, dt, stepT.y, w.y);
+                stepTerms(kT.z * rho, dt, stepT.z, w.z);
+            }
+            Rgb Tw = T * w;
+            if (emission)
+                out.L0 += Tw * em;
+            if (rho > 0.0f) {
+                Rgb TwS = Tw * kS * rho;
+                for (int i : active) {
+                    const LightEntry& e = ctx.lights[i];
+                    Rgb Li;
+                    if (e.light.type == NB_LIGHT_DISTANT) {
+                        Li = rayWeight[i];
+                    } else {
+                        float3 wi;
+                        Rgb weight = ctx.deltaWeight(size_t(i), o + d * t, wi);  // sets wi first
+                        Li = weight * nbPhaseEval(phase, dot(-wi, d));
+                    }
+                    Rgb c = TwS * Li * e.cache->transmittance(&st);
+                    out.L1 += c;
+                    perLight[3 * i] += c.x, perLight[3 * i + 1] += c.y, perLight[3 * i + 2] += c.z;
+                }
+            }
+            float before = nbAverage(T);
+            T = T * stepT;
+            depthSum += (before - nbAverage(T)) * t;
+            if (nbMaxComponent(T) < cutoff) {
+                T = splat(0.0f);
+                break;
+            }
+        }
+        if (nbMaxComponent(T) <= 0.0f)
+            break;
+    }
+    out.L0 += T * ctx.background;
+    out.transmittance = T;
+    float alpha = 1.0f - nbAverage(T);
+    out.depth = alpha > 0.0f ? depthSum / alpha : 0.0f;
+    return true;
+}
 
 }  // namespace
 
@@ -25,55 +126,102 @@ void marchSingle(const RenderContext& ctx, float3 o, float3 d, NbRng& rng, Camer
 {
     const Scene& scene = *ctx.scene;
     const VolumeSet& vs = ctx.volumes;
-    const size_t nVolumes = vs.volumes().size();
+    const auto& volumes = vs.volumes();
+    const size_t nVolumes = volumes.size();
     const size_t nLights = ctx.lights.size();
     thread_local std::vector<Span> spanList;
     thread_local std::vector<float> phaseWeights;
+    // Phase values that are constant along the ray: a distant light's direction does not change,
+    // nor does the camera ray's, so p(cos) per (light, volume) is evaluated once per ray.
+    thread_local std::vector<float> rayPhase;
+    thread_local std::vector<char> rayPhaseValid;
+    thread_local std::vector<DeepShadowMap::Cursor> cursors;
+    thread_local std::vector<BrickGrid::Stencil> stencils;
+    cursors.assign(nLights, DeepShadowMap::Cursor());
+    stencils.resize(nVolumes);
     phaseWeights.resize(nVolumes);
+    rayPhase.assign(nLights * nVolumes, 0.0f);
+    rayPhaseValid.assign(nLights, 0);
+    for (size_t i = 0; i < nLights; ++i) {
+        const LightEntry& e = ctx.lights[i];
+        if (!e.used || !e.delta || e.light.type != NB_LIGHT_DISTANT)
+            continue;
+        float cosTheta = dot(nbLoad3(e.light.direction), d);  // light travels along its direction, then along d
+        for (size_t v = 0; v < nVolumes; ++v)
+            rayPhase[i * nVolumes + v] = nbPhaseEval(volumes[v]->medium.phase, cosTheta);
+        rayPhaseValid[i] = 1;
+    }
 
     vs.spans(o, d, 0.0f, 1e30f, scene.render.step, spanList);
     const float jitter = nbRngNext(&rng);
+    if (marchSingleFast(ctx, o, d, spanList, jitter, out, perLight))
+        return;
     const int lightSamples = std::max(1, scene.render.lightSamples);
+    // Stop where every channel's transmittance is below the tolerance: what lies behind can
+    // change the pixel by at most that fraction of the light it would send unattenuated
+    // (DESIGN: term cut-offs follow render.tolerance; vdb_render stops at 0.005).
+    const float cutoff = scene.render.tolerance;
     Rgb T = splat(1.0f);
     float depthSum = 0.0f;
+    bool done = false;
 
     for (const Span& span : spanList) {
         float len = span.t1 - span.t0;
         int n = std::max(1, int(std::ceil(len / span.step)));
         float dt = len / float(n);
-        for (int k = 0; k < n; ++k) {
+        for (int k = 0; k < n && !done; ++k) {
             float t = span.t0 + (k + jitter) * dt;
             float3 p = o + d * t;
-            MediumSample m = vs.sample(p, phaseWeights.data());
+            MediumSample m = vs.sample(p, phaseWeights.data(), stencils.data());
             if (nbMaxComponent(m.sigma_t) <= 0.0f && nbMaxComponent(m.emission) <= 0.0f)
                 continue;
-            Rgb w = make_float3(stepWeight(m.sigma_t.x, dt), stepWeight(m.sigma_t.y, dt), stepWeight(m.sigma_t.z, dt));
-            Rgb Tw = T * w;  // int over the step of T(0, s) ds
+            Rgb stepT, w;
+            stepTerms(m.sigma_t.x, dt, stepT.x, w.x);
+            if (m.sigma_t.y == m.sigma_t.x && m.sigma_t.z == m.sigma_t.x) {  // grey medium
+                stepT.y = stepT.z = stepT.x;
+                w.y = w.z = w.x;
+            } else {
+                stepTerms(m.sigma_t.y, dt, stepT.y, w.y);
+                stepTerms(m.sigma_t.z, dt, stepT.z, w.z);
+            }
+            Rgb Tw = T * w;  // int over the step of T(0, s) ds (Tessendorf eq. 31 per step)
             out.L0 += Tw * m.emission;
             if (nbMaxComponent(m.sigma_s) > 0.0f) {
                 float weightSum = 0.0f;
                 for (size_t v = 0; v < nVolumes; ++v)
                     weightSum += phaseWeights[v];
+                const float invWeightSum = 1.0f / std::max(weightSum, 1e-30f);
                 for (size_t i = 0; i < nLights; ++i) {
                     if (!ctx.lights[i].used)
                         continue;
                     const bool delta = ctx.lights[i].delta;
                     const int ns = delta ? 1 : lightSamples;
                     Rgb sum = splat(0.0f);
+                    const LightEntry& light = ctx.lights[i];
                     for (int s = 0; s < ns; ++s) {
-                        float u0 = delta ? 0.5f : nbRngNext(&rng), u1 = delta ? 0.5f : nbRngNext(&rng);
                         float3 wi;
-                        Rgb Li = ctx.incident(i, p, u0, u1, wi);
+                        Rgb Li;
+                        if (light.cache) {
+                            Li = ctx.deltaWeight(i, p, wi) * light.cache->transmittance(stencils.data());
+                        } else {
+                            float u0 = delta ? 0.5f : nbRngNext(&rng), u1 = delta ? 0.5f : nbRngNext(&rng);
+                            Li = ctx.incident(i, p, u0, u1, wi, &cursors[i]);
+                        }
                         if (nbMaxComponent(Li) <= 0.0f)
                             continue;
-                        // Light travels along -wi, then scatters into d (Tessendorf eq. 31).
-                        float cosTheta = dot(-wi, d);
+                        // Light travels along -wi, then scatters into d (Tessendorf eq. 31); with
+                        // several volumes here, their phases mix by scattering coefficient.
                         float phase = 0.0f;
-                        for (size_t v = 0; v < nVolumes; ++v)
-                            if (phaseWeights[v] > 0.0f)
-                                phase += phaseWeights[v] * nbPhaseEval(vs.volumes()[v]->medium.phase, cosTheta);
-                        phase /= std::max(weightSum, 1e-30f);
-                        sum += Li * phase;
+                        if (rayPhaseValid[i]) {
+                            for (size_t v = 0; v < nVolumes; ++v)
+                                phase += phaseWeights[v] * rayPhase[i * nVolumes + v];
+                        } else {
+                            float cosTheta = dot(-wi, d);
+                            for (size_t v = 0; v < nVolumes; ++v)
+                                if (phaseWeights[v] > 0.0f)
+                                    phase += phaseWeights[v] * nbPhaseEval(volumes[v]->medium.phase, cosTheta);
+                        }
+                        sum += Li * (phase * invWeightSum);
                     }
                     Rgb contribution = Tw * m.sigma_s * sum / float(ns);
                     out.L1 += contribution;
@@ -83,14 +231,14 @@ void marchSingle(const RenderContext& ctx, float3 o, float3 d, NbRng& rng, Camer
                 }
             }
             float before = nbAverage(T);
-            T = T * exp(-m.sigma_t * dt);
+            T = T * stepT;
             depthSum += (before - nbAverage(T)) * t;
-            if (nbMaxComponent(T) < kMinTransmittance) {
+            if (nbMaxComponent(T) < cutoff) {
                 T = splat(0.0f);
-                break;
+                done = true;
             }
         }
-        if (nbMaxComponent(T) <= 0.0f)
+        if (done)
             break;
     }
     out.L0 += T * ctx.background;

@@ -18,6 +18,16 @@ VolumeSet::VolumeSet(std::vector<std::shared_ptr<VolumeData>> volumes, float)
     }
     if (mVolumes.empty())
         mMinVoxel = 1.0f;
+    for (auto& v : mVolumes) {
+        Hot h;
+        for (int r = 0; r < 3; ++r)
+            for (int c = 0; c < 4; ++c)
+                h.m[r * 4 + c] = float(v->indexFromWorld.at(r, c));
+        h.sigmaS = v->sigmaS();
+        h.sigmaT = v->sigmaT();
+        h.emissionScale = v->medium.emissionScale;
+        mHot.push_back(h);
+    }
 }
 
 namespace {
@@ -109,23 +119,51 @@ void VolumeSet::spans(float3 o, float3 d, float tmin, float tmax, float stepFrac
     }
 }
 
+MediumSample VolumeSet::sample(float3 p, float* phaseWeights, BrickGrid::Stencil* stencils) const
+{
+    MediumSample m;
+    for (size_t i = 0; i < mVolumes.size(); ++i) {
+        const VolumeData& v = *mVolumes[i];
+        const Hot& h = mHot[i];
+        float w = 0.0f;
+        BrickGrid::Stencil st;
+        if (v.worldBounds.contains(p)) {
+            float3 ip = h.index(p);
+            st = v.density.stencil(ip);
+            float rho = v.density.interpolate(st);
+            if (rho > 0.0f) {
+                Rgb s = h.sigmaS * rho;
+                m.sigma_s += s;
+                m.sigma_t += h.sigmaT * rho;
+                w = nbAverage(s);
+            }
+            if (v.hasEmission())
+                m.emission += v.emission.sample3(ip) * h.emissionScale;
+        }
+        phaseWeights[i] = w;
+        stencils[i] = st;
+    }
+    return m;
+}
+
 MediumSample VolumeSet::sample(float3 p, float* phaseWeights) const
 {
     MediumSample m;
     for (size_t i = 0; i < mVolumes.size(); ++i) {
         const VolumeData& v = *mVolumes[i];
+        const Hot& h = mHot[i];
         float w = 0.0f;
         if (v.worldBounds.contains(p)) {
-            float3 ip = v.indexFromWorld.point(p);
+            float3 ip = h.index(p);
             float rho = v.density.sample(ip);
             if (rho > 0.0f) {
-                Rgb s = v.sigmaS() * rho;
+                Rgb s = h.sigmaS * rho;
                 m.sigma_s += s;
-                m.sigma_t += v.sigmaT() * rho;
+                m.sigma_t += h.sigmaT * rho;
                 w = nbAverage(s);
             }
             if (v.hasEmission())
-                m.emission += v.emission.sample3(ip) * v.medium.emissionScale;
+                m.emission += v.emission.sample3(ip) * h.emissionScale;
         }
         if (phaseWeights)
             phaseWeights[i] = w;

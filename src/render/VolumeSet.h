@@ -44,12 +44,29 @@ public:
     // Coefficients at world point p. `phaseOut`, if given, receives per-volume sigma_s weights
     // (index-aligned with volumes()) for mixing phase functions.
     MediumSample sample(float3 p, float* phaseWeights = nullptr) const;
+    // The same, also returning each volume's density stencil at p (brick -1 where the volume
+    // does not reach p), through which grids sharing its topology are read.
+    MediumSample sample(float3 p, float* phaseWeights, BrickGrid::Stencil* stencils) const;
 
     // Optical depth (RGB) along the segment o + t d, t in [t0, t1], by midpoint marching at
     // `stepFraction` voxels over the non-empty spans. Used by shadow maps and shadow rays.
     Rgb opticalDepth(float3 o, float3 d, float t0, float t1, float stepFraction) const;
 
 private:
+    // Per-volume constants of the hot loop: the index-from-world matrix in float (the double
+    // Transform is exact for placement; a step needs 1e-7 relative, not 1e-16) and the
+    // coefficients at density 1.
+    struct Hot {
+        float m[12];
+        Rgb sigmaS, sigmaT;
+        float emissionScale;
+        float3 index(float3 p) const
+        {
+            return make_float3(m[0] * p.x + m[1] * p.y + m[2] * p.z + m[3], m[4] * p.x + m[5] * p.y + m[6] * p.z + m[7],
+                               m[8] * p.x + m[9] * p.y + m[10] * p.z + m[11]);
+        }
+    };
+    std::vector<Hot> mHot;
     std::vector<std::shared_ptr<VolumeData>> mVolumes;
     Bbox mBounds;
     bool mHasEmission = false;

@@ -77,11 +77,14 @@ size_t BrickGrid::memoryBytes() const
 void BrickGrid::updateActiveBounds()
 {
     Bbox b;
+    mBrickOrigins.assign(mBrickCount, Int3{});
     for (int z = 0; z < mDims.z; ++z)
         for (int y = 0; y < mDims.y; ++y)
             for (int x = 0; x < mDims.x; ++x) {
-                if (mTable[(size_t(z) * mDims.y + y) * mDims.x + x] < 0)
+                int32_t brick = mTable[(size_t(z) * mDims.y + y) * mDims.x + x];
+                if (brick < 0)
                     continue;
+                mBrickOrigins[brick] = {(mBrickLo.x + x) * kBrick, (mBrickLo.y + y) * kBrick, (mBrickLo.z + z) * kBrick};
                 float3 lo = make_float3(float((mBrickLo.x + x) * kBrick), float((mBrickLo.y + y) * kBrick),
                                         float((mBrickLo.z + z) * kBrick));
                 b.expand(lo);
@@ -131,6 +134,14 @@ float BrickGrid::sample(float3 p, int c) const
     float c0 = c00 + ty * (c10 - c00);
     float c1 = c01 + ty * (c11 - c01);
     return c0 + tz * (c1 - c0);
+}
+
+BrickGrid BrickGrid::sameTopology(int channels) const
+{
+    BrickGrid g = *this;
+    g.mChannels = channels;
+    g.mPool.assign(mBrickCount * kBrickValues * size_t(channels), 0.0f);
+    return g;
 }
 
 float3 BrickGrid::sample3(float3 p) const

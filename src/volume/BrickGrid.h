@@ -15,6 +15,7 @@
 #include "../core/Transform.h"
 #include "../core/Vec.h"
 
+#include <cmath>
 #include <cstdint>
 #include <vector>
 
@@ -56,6 +57,53 @@ public:
     // Nearest stored value at voxel (i, j, k).
     float voxel(int i, int j, int k, int c = 0) const;
 
+    // Where a trilinear lookup at index position p reads: the brick and the cell's corner inside
+    // it, plus the weights. Grids that share this grid's topology (sameTopology) can be read
+    // through the same stencil, so several quantities on one lattice cost one address
+    // computation (density and baked light transmittance in the single-scattering march).
+    struct Stencil {
+        int32_t brick = -1;   // -1: outside every allocated brick, all grids read 0
+        int32_t corner = 0;   // index of the cell's lower corner among the brick's 9^3 values
+        float tx = 0, ty = 0, tz = 0;
+    };
+    Stencil stencil(float3 p) const
+    {
+        Stencil s;
+        if (!(p.x > -1e9f && p.x < 1e9f && p.y > -1e9f && p.y < 1e9f && p.z > -1e9f && p.z < 1e9f))
+            return s;
+        float fx = std::floor(p.x), fy = std::floor(p.y), fz = std::floor(p.z);
+        int i = int(fx), j = int(fy), k = int(fz);
+        int bx = (i >> kBrickLog2) - mBrickLo.x, by = (j >> kBrickLog2) - mBrickLo.y, bz = (k >> kBrickLog2) - mBrickLo.z;
+        if (unsigned(bx) >= unsigned(mDims.x) || unsigned(by) >= unsigned(mDims.y) || unsigned(bz) >= unsigned(mDims.z))
+            return s;
+        s.brick = mTable[(size_t(bz) * mDims.y + by) * mDims.x + bx];
+        if (s.brick < 0)
+            return s;
+        s.corner = ((k & (kBrick - 1)) * kStored + (j & (kBrick - 1))) * kStored + (i & (kBrick - 1));
+        s.tx = p.x - fx, s.ty = p.y - fy, s.tz = p.z - fz;
+        return s;
+    }
+    float interpolate(const Stencil& s, int c = 0) const
+    {
+        if (s.brick < 0)
+            return 0.0f;
+        const int sx = mChannels, sy = kStored * mChannels, sz = kStored * kStored * mChannels;
+        const float* q = mPool.data() + (size_t(s.brick) * kBrickValues + s.corner) * mChannels + c;
+        float c00 = q[0] + s.tx * (q[sx] - q[0]);
+        float c10 = q[sy] + s.tx * (q[sy + sx] - q[sy]);
+        float c01 = q[sz] + s.tx * (q[sz + sx] - q[sz]);
+        float c11 = q[sz + sy] + s.tx * (q[sz + sy + sx] - q[sz + sy]);
+        float c0 = c00 + s.ty * (c10 - c00);
+        float c1 = c01 + s.ty * (c11 - c01);
+        return c0 + s.tz * (c1 - c0);
+    }
+    // A grid with this grid's bricks and table but its own zeroed values (`channels` each).
+    BrickGrid sameTopology(int channels) const;
+    // Writable values of allocated brick b (kBrickValues * channels floats).
+    float* brickValues(size_t b) { return mPool.data() + b * kBrickValues * mChannels; }
+    // Index-space position of the lower corner of allocated brick b.
+    Int3 brickOrigin(size_t b) const { return mBrickOrigins[b]; }
+
     // The majorant of the slot containing index position p (0 for empty or outside), and the
     // slot's index bounds [lo, lo + 8) for DDA / skipping.
     float majorantAt(float3 p, Int3* slotLo = nullptr) const;
@@ -78,6 +126,7 @@ private:
     size_t mBrickCount = 0;
     float mMaxValue = 0.0f;
     Bbox mActiveBounds;
+    std::vector<Int3> mBrickOrigins;  // per allocated brick, filled by updateMajorants
 };
 
 }  // namespace nimbus

@@ -26,6 +26,8 @@
 #include <string>
 #include <vector>
 
+#include <unistd.h>
+
 namespace fs = std::filesystem;
 
 namespace {
@@ -140,36 +142,89 @@ int main(int argc, char** argv)
             return std::make_pair(c.str(), out);
         };
 
+        // Render-only seconds as each renderer reports them: vdb_render -v prints its ray-tracing
+        // time; nimbus writes nimbus:render_time (volumes, shadow maps and march) into the EXR.
+        auto vdbRenderSeconds = [&](const std::string& cmd) {
+            std::string log = (dir / "vdb.log").string();
+            std::string verbose = cmd;
+            verbose.replace(verbose.find(" > /dev/null"), std::string::npos, " -v > " + log + " 2>&1");
+            timeCommand(verbose);
+            std::ifstream in(log);
+            // -v prints "...completed in X sec" after reading, ray-tracing and writing: the second.
+            std::string line;
+            std::vector<double> times;
+            while (std::getline(in, line)) {
+                size_t at = line.find("completed in ");
+                if (at != std::string::npos)
+                    times.push_back(std::stod(line.substr(at + 13)));
+            }
+            double seconds = times.size() >= 2 ? times[1] : -1.0;
+            return seconds;
+        };
+        auto nimbusRenderSeconds = [&](const std::string& exr) {
+            auto in = OIIO::ImageInput::open(exr);
+            return in ? std::stod(in->spec().get_string_attribute("nimbus:render_time", "-1")) : -1.0;
+        };
+
         const double step = 1.0;
-        std::vector<double> tn, tv;
+        std::vector<double> tn, tv, rn, rv;
         auto [nCmd, nOut] = nimbusCmd(step);
         auto [vCmd, vOut] = vdbCmd(step);
         for (int r = 0; r < repeats; ++r) {  // interleaved, so both see the same machine load
             tn.push_back(timeCommand(nCmd));
+            rn.push_back(nimbusRenderSeconds(nOut));
             tv.push_back(timeCommand(vCmd));
+            rv.push_back(vdbRenderSeconds(vCmd));
         }
         auto [nRefCmd, nRefOut] = nimbusCmd(step / 8);
         auto [vRefCmd, vRefOut] = vdbCmd(step / 8);
-        double tnRef = timeCommand(nRefCmd), tvRef = timeCommand(vRefCmd);
-
-        double errN = normalisedRmse(readRgb(nOut, "beauty."), readRgb(nRefOut, "beauty."));
+        timeCommand(nRefCmd);
+        timeCommand(vRefCmd);
+        const auto nRef = readRgb(nRefOut, "beauty.");
+        double errN = normalisedRmse(readRgb(nOut, "beauty."), nRef);
         double errV = normalisedRmse(readRgb(vOut, ""), readRgb(vRefOut, ""));
-        double speedup = median(tv) / median(tn);
+
+        // The second reading of the target: nimbus at the largest step (in voxels) whose step
+        // error is still at or below vdb_render's at one voxel.
+        double equalStep = step, equalWall = median(tn), equalRender = median(rn), equalErr = errN;
+        for (double s : {2.0, 4.0, 8.0}) {
+            auto [c, out] = nimbusCmd(s);
+            std::vector<double> w, r;
+            for (int k = 0; k < repeats; ++k) {
+                w.push_back(timeCommand(c));
+                r.push_back(nimbusRenderSeconds(out));
+            }
+            double e = normalisedRmse(readRgb(out, "beauty."), nRef);
+            if (e > errV)
+                break;
+            equalStep = s, equalWall = median(w), equalRender = median(r), equalErr = e;
+        }
 
         std::ostringstream md;
-        char line[512];
-        md << "Same VDB cloud (nimbus's `cloud` generator, written to a .vdb), " << width << "x" << height
-           << ", primary step " << step << " voxel, shadow step 3 voxels, one ray per pixel, all cores; wall time "
-           << "per process (load + render + write), median of " << repeats << ". Step error: normalised RMSE of "
-           << "beauty against the same renderer at a 1/8-voxel step.\n\n";
-        md << "| renderer | time (s) | time at 1/8 step (s) | step error |\n|---|---|---|---|\n";
-        std::snprintf(line, sizeof line, "| nimbus single | %.3f | %.3f | %.4f |\n", median(tn), tnRef, errN);
+        char line[600];
+        md << "Same VDB cloud (nimbus's `cloud` generator written to a .vdb, 144 voxels across), " << width << "x"
+           << height << ", one light, shadow step 3 voxels, one ray per pixel, all cores, median of " << repeats
+           << " interleaved runs. *Wall*: the whole process (start-up, load, render, write). *Render*: what each "
+           << "reports for itself (vdb_render -v: ray-tracing; nimbus: `nimbus:render_time` = volumes + shadow "
+           << "maps + march). Step error: normalised RMSE of beauty against the same renderer at a 1/8-voxel "
+           << "step.\n\n";
+        md << "| renderer | primary step (voxels) | wall (s) | render (s) | step error |\n|---|---|---|---|---|\n";
+        std::snprintf(line, sizeof line, "| vdb_render | %.0f | %.3f | %.3f | %.4f |\n", step, median(tv), median(rv), errV);
         md << line;
-        std::snprintf(line, sizeof line, "| vdb_render | %.3f | %.3f | %.4f |\n", median(tv), tvRef, errV);
+        std::snprintf(line, sizeof line, "| nimbus single | %.0f | %.3f | %.3f | %.4f |\n", step, median(tn), median(rn), errN);
         md << line;
-        std::snprintf(line, sizeof line, "\n**nimbus is %.2fx faster** (target: at least 3x) with %s step error "
-                                         "(%.4f vs %.4f).\n\n",
-                      speedup, errN <= errV ? "equal or lower" : "HIGHER", errN, errV);
+        if (equalStep != step) {
+            std::snprintf(line, sizeof line, "| nimbus single | %.0f | %.3f | %.3f | %.4f |\n", equalStep, equalWall,
+                          equalRender, equalErr);
+            md << line;
+        }
+        std::snprintf(line, sizeof line,
+                      "\nSame step: nimbus/vdb_render speed %.2fx (render), %.2fx (wall), step error %.4f vs %.4f.  \n"
+                      "Equal or lower step error (nimbus at %.0f voxels): %.2fx (render), %.2fx (wall).  \n"
+                      "Target: at least 3x. Start-up alone costs nimbus ~0.3 s (266 shared libraries: OpenImageIO's "
+                      "codecs, LLVM for OpenVDB AX), which the wall figure includes.\n\n",
+                      median(rv) / median(rn), median(tv) / median(tn), errN, errV, equalStep, median(rv) / equalRender,
+                      median(tv) / equalWall);
         md << line;
         md << "Rerun: `build/tests/bench/bench_single_vs_vdb_render build/bin/nimbus docs/benchmarks.md`.\n";
         std::fputs(md.str().c_str(), stdout);

@@ -1,0 +1,47 @@
+// LightCache.h: a shadow-mapped light's transmittance baked on each volume's voxel lattice.
+//
+// The deep shadow map answers T(light -> x) anywhere (Tessendorf eq. 27), but a lookup costs
+// four texel searches; the camera march asks at every step. Baking T at the voxels where the
+// density lives (the density grid's own bricks, so one trilinear stencil serves both) makes the
+// per-step cost a few loads. Interpolating T linearly between voxel centres h apart errs by at
+// most h^2/8 max|T''| = (sigma_t h)^2 / 8 relative in a homogeneous region: 5e-4 at
+// sigma_t h = 1/16. Grey media (equal RGB extinction everywhere) store one channel.
+#pragma once
+
+#include "DeepShadowMap.h"
+#include "VolumeSet.h"
+
+#include <vector>
+
+namespace nimbus {
+
+class LightCache {
+public:
+    static LightCache bake(const DeepShadowMap& map, const VolumeSet& volumes);
+
+    // Transmittance from the light at the point whose per-volume stencils are given
+    // (VolumeSet::sample fills them): the first volume holding the point answers.
+    Rgb transmittance(const BrickGrid::Stencil* stencils) const
+    {
+        for (size_t v = 0; v < mGrids.size(); ++v) {
+            if (stencils[v].brick < 0)
+                continue;
+            const BrickGrid& g = mGrids[v];
+            if (g.channels() == 1) {
+                float t = g.interpolate(stencils[v], 0);
+                return make_float3(t, t, t);
+            }
+            return make_float3(g.interpolate(stencils[v], 0), g.interpolate(stencils[v], 1), g.interpolate(stencils[v], 2));
+        }
+        return splat(1.0f);
+    }
+
+    size_t memoryBytes() const;
+    double seconds() const { return mSeconds; }
+
+private:
+    std::vector<BrickGrid> mGrids;  // per volume, sharing the density grid's topology
+    double mSeconds = 0;
+};
+
+}  // namespace nimbus
