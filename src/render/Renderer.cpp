@@ -160,17 +160,37 @@ std::vector<std::string> aovNames(const Scene& scene, Method method)
     return names;
 }
 
-RenderPlan planRender(const Scene& scene)
+namespace {
+
+// Scenes built in code reach render() without the JSON loader: give unnamed lights their index
+// as a name (as the loader does) and run the same checks.
+Scene checkedScene(const Scene& scene)
 {
+    Scene named = scene;
+    applyDefaultNames(named);
+    validateScene(named);
+    return named;
+}
+
+RenderResult renderChecked(const Scene& scene, const RenderOptions& options);
+
+}  // namespace
+
+RenderPlan planRender(const Scene& input)
+{
+    const Scene scene = checkedScene(input);
     auto ctx = RenderContext::create(scene, false);
     if (scene.render.method == Method::Wkb)
         wkb::planWkb(*ctx, ctx->plan);
     return ctx->plan;
 }
 
-RenderResult render(const Scene& scene, const RenderOptions& options)
+RenderResult render(const Scene& scene, const RenderOptions& options) { return renderChecked(checkedScene(scene), options); }
+
+namespace {
+
+RenderResult renderChecked(const Scene& scene, const RenderOptions& options)
 {
-    validateScene(scene);  // API clients reach here without the JSON loader's checks
     auto start = std::chrono::steady_clock::now();
     std::unique_ptr<tbb::global_control> threads;
     if (scene.render.threads > 0)
@@ -221,5 +241,7 @@ RenderResult render(const Scene& scene, const RenderOptions& options)
         md.push_back({"scene", scene.sourcePath});
     return result;
 }
+
+}  // namespace
 
 }  // namespace nimbus

@@ -56,7 +56,8 @@ bool marchSingleFast(const RenderContext& ctx, float3 o, float3 d, const std::ve
             continue;
         active.push_back(int(i));
         if (e.light.type == NB_LIGHT_DISTANT)
-            rayWeight[i] = nbLoad3(e.light.color) * nbPhaseEval(phase, dot(nbLoad3(e.light.direction), d));
+            // Light travels along its direction, then toward the camera (along -d).
+            rayWeight[i] = nbLoad3(e.light.color) * nbPhaseEval(phase, -dot(nbLoad3(e.light.direction), d));
     }
 
     Rgb T = splat(1.0f);
@@ -95,7 +96,7 @@ bool marchSingleFast(const RenderContext& ctx, float3 o, float3 d, const std::ve
                     } else {
                         float3 wi;
                         Rgb weight = ctx.deltaWeight(size_t(i), o + d * t, wi);  // sets wi first
-                        Li = weight * nbPhaseEval(phase, dot(-wi, d));
+                        Li = weight * nbPhaseEval(phase, dot(wi, d));  // travel -wi, then -d
                     }
                     Rgb c = TwS * Li * e.cache->transmittance(&st);
                     out.L1 += c;
@@ -146,7 +147,8 @@ void marchSingle(const RenderContext& ctx, float3 o, float3 d, NbRng& rng, Camer
         const LightEntry& e = ctx.lights[i];
         if (!e.used || !e.delta || e.light.type != NB_LIGHT_DISTANT)
             continue;
-        float cosTheta = dot(nbLoad3(e.light.direction), d);  // light travels along its direction, then along d
+        // Light travels along its direction, then toward the camera, along -d (phase.h).
+        float cosTheta = -dot(nbLoad3(e.light.direction), d);
         for (size_t v = 0; v < nVolumes; ++v)
             rayPhase[i * nVolumes + v] = nbPhaseEval(volumes[v]->medium.phase, cosTheta);
         rayPhaseValid[i] = 1;
@@ -209,14 +211,15 @@ void marchSingle(const RenderContext& ctx, float3 o, float3 d, NbRng& rng, Camer
                         }
                         if (nbMaxComponent(Li) <= 0.0f)
                             continue;
-                        // Light travels along -wi, then scatters into d (Tessendorf eq. 31); with
-                        // several volumes here, their phases mix by scattering coefficient.
+                        // Light travels along -wi, then scatters toward the camera, along -d
+                        // (Tessendorf eq. 31); with several volumes here, their phases mix by
+                        // scattering coefficient.
                         float phase = 0.0f;
                         if (rayPhaseValid[i]) {
                             for (size_t v = 0; v < nVolumes; ++v)
                                 phase += phaseWeights[v] * rayPhase[i * nVolumes + v];
                         } else {
-                            float cosTheta = dot(-wi, d);
+                            float cosTheta = dot(wi, d);  // travel -wi before, -d after
                             for (size_t v = 0; v < nVolumes; ++v)
                                 if (phaseWeights[v] > 0.0f)
                                     phase += phaseWeights[v] * nbPhaseEval(volumes[v]->medium.phase, cosTheta);

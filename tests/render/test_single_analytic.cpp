@@ -83,8 +83,9 @@ TEST(SingleAnalytic, SkanbergBoxMatchesEq44)
         if (std::max(std::fabs(pin.x), std::fabs(pout.x)) > half - margin ||
             std::max(std::fabs(pin.y), std::fabs(pout.y)) > half - margin)
             return -1.0;
-        // exponent(s) = sigma_t [ (half - y(s)) + (s - s0) ] = A + B s; light travels down.
-        double rho = nbHgEval(g, -d.y);
+        // exponent(s) = sigma_t [ (half - y(s)) + (s - s0) ] = A + B s. Light travels down,
+        // (0,-1,0), then toward the camera, -d: cos = d.y.
+        double rho = nbHgEval(g, d.y);
         double st = channel(sigma_t, c);
         double A = st * (half - o.y - s0), B = st * (1.0 - d.y);
         double integral = (std::exp(-(A + B * s0)) - std::exp(-(A + B * s1))) / B;
@@ -156,8 +157,8 @@ TEST(SingleAnalytic, PointLightInHomogeneousMediumMatchesQuadrature)
         double z = zIn - s;
         double dx = 0.1, dy = 0.3, dz = 0.2 - z;  // from the point (0,0,z) to the light
         double r2 = dx * dx + dy * dy + dz * dz, rr = std::sqrt(r2);
-        // Light travels from the bulb to the point (direction -(dx,dy,dz)/r), then along -z.
-        double cosTheta = (dz / rr);
+        // Light travels from the bulb to the point, -(dx,dy,dz)/r, then toward the camera, +z.
+        double cosTheta = -dz / rr;
         double phase = nbHgEval(g, float(cosTheta));
         // Optical depth from the bulb to the point: all inside the box.
         return std::exp(-st * s) * ss * phase * I * std::exp(-st * rr) / r2;
@@ -233,4 +234,35 @@ TEST(SingleAnalytic, ShadowMapTransmittanceMatchesBeerLambert)
         std::printf("DSM tol %.3f: distant worst %.2e, point worst %.2e (%zu and %zu vertices)\n", tolerance, worstSun,
                     worstBulb, dsm.vertexCount(), cube.vertexCount());
     }
+}
+
+// The phase convention, independently of any closed form: a volume lit from behind (the light
+// travelling toward the camera) is bright with forward scattering (the silver lining) and dim
+// with backward scattering, and the other way round when lit from the camera's side. The ratio
+// is the HG ratio p(g, 1) / p(-g, 1) in the thin limit.
+TEST(SingleAnalytic, ForwardScatteringBrightensBackLitVolumes)
+{
+    auto meanL1 = [](float g, float lightZ) {
+        Scene scene = emptyScene(8, 8);
+        scene.volumes.push_back(homogeneousBox(1, 1, 1, 1.0f / 16, splat(0.01f), splat(0.0f), g));
+        Light sun;
+        sun.type = LightType::Distant;
+        sun.direction = make_float3(0, 0, lightZ);  // +1: toward the camera (back light)
+        sun.irradiance = splat(1.0f);
+        scene.lights.push_back(sun);
+        scene.camera.from = make_float3(0, 0, 5);
+        scene.camera.fov = 0.2f;  // every ray within 0.1 deg of the axis: cos > 0.999998
+        scene.render.spp = 1;
+        RenderResult r = render(scene);
+        double sum = 0;
+        for (float v : r.film.find("L1")->pixels)
+            sum += v;
+        return sum;
+    };
+    const float g = 0.5f;
+    double backForward = meanL1(g, 1.0f), backBackward = meanL1(-g, 1.0f);
+    double frontForward = meanL1(g, -1.0f), frontBackward = meanL1(-g, -1.0f);
+    double hgRatio = nbHgEval(g, 1.0f) / nbHgEval(g, -1.0f);  // ((1+g)/(1-g))^3 = 27
+    EXPECT_NEAR(backForward / backBackward, hgRatio, 1e-3 * hgRatio);
+    EXPECT_NEAR(frontBackward / frontForward, hgRatio, 1e-3 * hgRatio);
 }
