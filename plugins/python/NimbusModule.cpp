@@ -36,16 +36,21 @@ namespace {
 
 // ---- errors -------------------------------------------------------------------------------
 
-py::object gError, gInputError, gCancelled;
+// The exception types live as long as the interpreter: raw references, never released, so that
+// no destructor runs after Python has been finalised.
+PyObject* gError = nullptr;
+PyObject* gInputError = nullptr;
+PyObject* gCancelled = nullptr;
 
 [[noreturn]] void raise(NimbusStatus status, const std::string& message)
 {
-    py::object type = gError;
+    PyObject* t = gError;
     if (status == NIMBUS_ERROR_CANCELLED)
-        type = gCancelled;
+        t = gCancelled;
     else if (status == NIMBUS_ERROR_UNKNOWN_PARAMETER || status == NIMBUS_ERROR_WRONG_TYPE ||
              status == NIMBUS_ERROR_BAD_INPUT)
-        type = gInputError;
+        t = gInputError;
+    py::object type = py::reinterpret_borrow<py::object>(t);
     py::object exc = type(message);
     exc.attr("status") = nimbus_status_name(status);
     PyErr_SetObject(type.ptr(), exc.ptr());
@@ -69,8 +74,11 @@ bool isNumber(const py::handle& v)
 std::string toJsonText(const py::handle& v) { return py::module_::import("json").attr("dumps")(v).cast<std::string>(); }
 
 // One Python value through the C setter of its type.
-void setValue(NimbusHandle h, const std::string& name, const py::handle& v)
+void setValue(NimbusHandle h, const std::string& name, const py::handle& value)
 {
+    py::object v = py::reinterpret_borrow<py::object>(value);
+    if (py::hasattr(v, "ndim") && py::hasattr(v, "item") && v.attr("ndim").cast<int>() == 0)
+        v = v.attr("item")();  // a numpy scalar: its Python number
     if (py::isinstance<py::bool_>(v) || v.is_none())
         checkPy(nimbus_set_json(h, name.c_str(), toJsonText(v).c_str()));  // the reader says what it expected
     else if (py::isinstance<py::int_>(v))
@@ -82,7 +90,7 @@ void setValue(NimbusHandle h, const std::string& name, const py::handle& v)
     else if (py::isinstance<py::dict>(v))
         checkPy(nimbus_set_json(h, name.c_str(), toJsonText(v).c_str()));
     else if (py::isinstance<py::sequence>(v) || py::hasattr(v, "tolist")) {
-        py::list items = py::hasattr(v, "tolist") ? py::list(v.attr("tolist")()) : py::list(py::reinterpret_borrow<py::object>(v));
+        py::list items = py::hasattr(v, "tolist") ? py::list(v.attr("tolist")()) : py::list(v);
         bool numbers = true, strings = true;
         for (auto item : items) {
             numbers &= isNumber(item);
@@ -357,18 +365,20 @@ PYBIND11_MODULE(nimbus, m)
     m.attr("__version__") = nimbus_version();
     m.attr("ABI_VERSION") = nimbus_abi_version();
 
-    gError = py::reinterpret_steal<py::object>(PyErr_NewExceptionWithDoc(
-        "nimbus.Error", "A nimbus call failed; .status names the C status (NIMBUS_ERROR_...).", PyExc_RuntimeError,
-        nullptr));
-    py::tuple inputBases = py::make_tuple(gError, py::reinterpret_borrow<py::object>(PyExc_ValueError));
-    gInputError = py::reinterpret_steal<py::object>(PyErr_NewExceptionWithDoc(
+    gError = PyErr_NewExceptionWithDoc("nimbus.Error",
+                                       "A nimbus call failed; .status names the C status (NIMBUS_ERROR_...).",
+                                       PyExc_RuntimeError, nullptr);
+    py::tuple inputBases = py::make_tuple(py::reinterpret_borrow<py::object>(gError),
+                                          py::reinterpret_borrow<py::object>(PyExc_ValueError));
+    gInputError = PyErr_NewExceptionWithDoc(
         "nimbus.InputError", "Bad input: unknown parameter, wrong type, value out of range, missing file.",
-        inputBases.ptr(), nullptr));
-    gCancelled = py::reinterpret_steal<py::object>(
-        PyErr_NewExceptionWithDoc("nimbus.Cancelled", "The render was cancelled.", gError.ptr(), nullptr));
-    m.attr("Error") = gError;
-    m.attr("InputError") = gInputError;
-    m.attr("Cancelled") = gCancelled;
+        inputBases.ptr(), nullptr);
+    gCancelled = PyErr_NewExceptionWithDoc("nimbus.Cancelled", "The render was cancelled.", gError, nullptr);
+    if (!gError || !gInputError || !gCancelled)
+        throw py::error_already_set();
+    m.attr("Error") = py::reinterpret_borrow<py::object>(gError);
+    m.attr("InputError") = py::reinterpret_borrow<py::object>(gInputError);
+    m.attr("Cancelled") = py::reinterpret_borrow<py::object>(gCancelled);
 
     auto camera = py::class_<PyCamera>(m, "Camera", "The view; parameters as the scene format's camera object.")
                       .def(py::init([](py::kwargs kw) {

@@ -1,0 +1,74 @@
+"""Runs inside Blender (blender -b --factory-startup --python blender_scene.py -- OUT_DIR VDB).
+
+Enables the installed add-on, builds a scene with a VDB volume (Principled Volume material) and
+a sun, renders it with nimbus into OUT_DIR/blender.exr (multilayer, float) and has the engine
+write the scene it rendered to OUT_DIR/scene.json. test_blender_addon.py checks the result."""
+import math
+import os
+import sys
+
+import addon_utils
+import bpy
+from mathutils import Vector
+
+out_dir, vdb_path = sys.argv[sys.argv.index("--") + 1:]
+
+if addon_utils.enable("nimbus_blender", default_set=True) is None:
+    sys.exit("blender_scene: the nimbus_blender add-on is not installed")
+
+for obj in list(bpy.data.objects):
+    bpy.data.objects.remove(obj, do_unlink=True)
+scene = bpy.context.scene
+scene.world = None  # lit by the sun alone
+
+volume = bpy.data.volumes.new("smoke")
+volume.filepath = vdb_path
+smoke = bpy.data.objects.new("smoke", volume)
+scene.collection.objects.link(smoke)
+smoke.location = (0.2, 0.0, 0.1)
+smoke.rotation_euler = (0.0, 0.0, 0.3)
+smoke.scale = (1.2, 1.2, 1.2)
+
+material = bpy.data.materials.new("smoke")
+material.use_nodes = True
+nodes = material.node_tree.nodes
+for node in list(nodes):
+    if node.type != "OUTPUT_MATERIAL":
+        nodes.remove(node)
+principled = nodes.new("ShaderNodeVolumePrincipled")
+principled.inputs["Color"].default_value = (0.8, 0.7, 0.6, 1.0)
+principled.inputs["Density"].default_value = 3.0
+principled.inputs["Anisotropy"].default_value = 0.3
+principled.inputs["Absorption Color"].default_value = (0.2, 0.3, 0.4, 1.0)
+output = next(n for n in nodes if n.type == "OUTPUT_MATERIAL")
+material.node_tree.links.new(principled.outputs["Volume"], output.inputs["Volume"])
+volume.materials.append(material)
+
+sun = bpy.data.lights.new("key", "SUN")
+sun.energy = 3.0
+sun.color = (1.0, 0.95, 0.9)
+sun.angle = 0.0
+sun_object = bpy.data.objects.new("key", sun)
+sun_object.rotation_euler = (math.radians(40.0), 0.0, math.radians(30.0))
+scene.collection.objects.link(sun_object)
+
+camera = bpy.data.cameras.new("camera")
+camera.lens = 40.0
+camera_object = bpy.data.objects.new("camera", camera)
+camera_object.location = (0.5, -6.0, 1.5)
+camera_object.rotation_euler = (Vector((0.2, 0.0, 0.1)) - camera_object.location).to_track_quat("-Z", "Y").to_euler()
+scene.collection.objects.link(camera_object)
+scene.camera = camera_object
+
+scene.render.engine = "NIMBUS"
+scene.render.resolution_x, scene.render.resolution_y, scene.render.resolution_percentage = 64, 48, 100
+scene.view_layers[0].use_pass_z = True
+scene.nimbus.method = "single"
+scene.nimbus.spp = 2
+scene.nimbus.export_json = os.path.join(out_dir, "scene.json")
+settings = scene.render.image_settings
+settings.file_format = "OPEN_EXR_MULTILAYER"
+settings.color_depth = "32"
+scene.render.filepath = os.path.join(out_dir, "blender.exr")
+bpy.ops.render.render(write_still=True)
+print("blender_scene: rendered", scene.render.filepath)

@@ -1,0 +1,131 @@
+"""The Blender add-on end to end, run by ctest with Debian's /usr/bin/python3:
+
+1. installs the add-on with scripts/install-blender-addon.sh into a private Blender user
+   directory (BLENDER_USER_SCRIPTS / BLENDER_USER_CONFIG: the machine's Blender is untouched);
+2. `blender -b --factory-startup --python blender_scene.py` enables it, builds a scene with a VDB
+   volume and a sun, renders with nimbus and writes the scene it rendered as JSON;
+3. `nimbus render` renders that JSON;
+4. the two images must agree: Blender keeps the float render, the CLI's EXR stores colour as
+   half, so Blender's floats rounded to half must equal the CLI's halves exactly (the same
+   scene, seed and renderer give the same floats; the only rounding is the EXR's).
+
+Usage: test_blender_addon.py BLENDER NIMBUS_CLI BUILD_DIR SOURCE_DIR"""
+import json
+import os
+import subprocess
+import sys
+import tempfile
+import time
+
+import numpy as np
+import OpenImageIO as oiio
+import pyopenvdb as vdb
+
+blender, cli, build_dir, source_dir = sys.argv[1:5]
+passed = failed = 0
+
+
+def check(condition, what):
+    global passed, failed
+    if condition:
+        passed += 1
+    else:
+        failed += 1
+        print("FAILED:", what)
+
+
+def run(cmd, env=None):
+    t0 = time.monotonic()
+    proc = subprocess.run(cmd, env=env, capture_output=True, text=True)
+    if proc.returncode != 0:
+        print(proc.stdout[-4000:], proc.stderr[-4000:])
+        sys.exit("command failed (%d): %s" % (proc.returncode, " ".join(cmd)))
+    return proc, time.monotonic() - t0
+
+
+def read_layers(path):
+    """{layer: (height, width, channels) float32}, channel suffixes in R, G, B, A / Z order."""
+    image = oiio.ImageInput.open(path)
+    assert image is not None, oiio.geterror()
+    spec = image.spec()
+    pixels = image.read_image(oiio.FLOAT)
+    image.close()
+    order = {"R": 0, "G": 1, "B": 2, "A": 3, "Z": 0, "X": 0}
+    layers = {}
+    for index, name in enumerate(spec.channelnames):
+        layer, _, channel = name.rpartition(".")
+        layers.setdefault(layer, []).append((order.get(channel, 9), index))
+    return {layer: pixels[..., [i for _, i in sorted(ch)]] for layer, ch in layers.items()}
+
+
+def smoke_vdb(path):
+    """A soft noisy ball of density, 40^3 voxels of 5 cm."""
+    n = 40
+    z, y, x = np.mgrid[0:n, 0:n, 0:n].astype(np.float32)
+    c = (n - 1) / 2.0
+    r = np.sqrt((x - c) ** 2 + (y - c) ** 2 + (z - c) ** 2) / c
+    wobble = 0.15 * np.sin(0.7 * x) * np.sin(0.5 * y + 1.0) * np.sin(0.6 * z + 2.0)
+    density = np.clip((1.0 - r + wobble) * 2.0, 0.0, 1.0).astype(np.float32)
+    grid = vdb.FloatGrid()
+    grid.copyFromArray(density, ijk=(-n // 2, -n // 2, -n // 2))
+    grid.name = "density"
+    grid.gridClass = vdb.GridClass.FOG_VOLUME
+    grid.transform = vdb.createLinearTransform(voxelSize=0.05)
+    vdb.write(path, grids=[grid])
+
+
+with tempfile.TemporaryDirectory(prefix="nimbus-blender-test-") as tmp:
+    env = dict(os.environ, BLENDER=blender, BLENDER_USER_SCRIPTS=os.path.join(tmp, "scripts"),
+               BLENDER_USER_CONFIG=os.path.join(tmp, "config"))
+    smoke = os.path.join(tmp, "smoke.vdb")
+    smoke_vdb(smoke)
+
+    _, t_install = run(["bash", os.path.join(source_dir, "scripts", "install-blender-addon.sh"), build_dir], env)
+    installed = os.path.join(tmp, "scripts", "addons", "nimbus_blender")
+    check(os.path.isfile(os.path.join(installed, "__init__.py")), "add-on installed in BLENDER_USER_SCRIPTS")
+    with open(os.path.join(installed, "paths.json")) as f:
+        check(json.load(f)["cli"] == os.path.join(build_dir, "bin", "nimbus"), "paths.json names this build")
+
+    proc, t_blender = run([blender, "-b", "--factory-startup", "--python",
+                           os.path.join(source_dir, "tests", "blender", "blender_scene.py"), "--", tmp, smoke], env)
+    check("blender_scene: rendered" in proc.stdout, "Blender rendered")
+    check("nimbus: " not in proc.stdout + proc.stderr, "no nimbus warning or error in Blender's log")
+
+    scene_json = os.path.join(tmp, "scene.json")
+    with open(scene_json) as f:
+        doc = json.load(f)
+    check([l["type"] for l in doc["lights"]] == ["distant"], "one sun exported as a distant light")
+    medium = doc["volumes"][0]["medium"]
+    # Principled Volume -> medium (docs/embedding.md): sigma_s = Color, sigma_a = (1 - Color)(1 - sqrt(Absorption)).
+    check(np.allclose(medium["sigma_s"], [0.8, 0.7, 0.6]), "sigma_s = Color")
+    check(np.allclose(medium["sigma_a"], [(1 - 0.8) * (1 - 0.2 ** 0.5), (1 - 0.7) * (1 - 0.3 ** 0.5),
+                                          (1 - 0.6) * (1 - 0.4 ** 0.5)], rtol=1e-6), "sigma_a from Absorption Color")
+    check(medium["density_scale"] == 3.0 and abs(medium["phase"]["g"] - 0.3) < 1e-6, "density and anisotropy")
+
+    cli_exr = os.path.join(tmp, "cli.exr")
+    _, t_cli = run([cli, "render", scene_json, "-o", cli_exr])
+
+    mine = read_layers(os.path.join(tmp, "blender.exr"))
+    theirs = read_layers(cli_exr)
+    combined = mine["ViewLayer.Combined"]
+    check(combined.shape == (48, 64, 4), "Combined is 64 x 48 RGBA")
+    check(combined[..., 3].max() > 0.5 and combined[..., :3].max() > 0.0, "the volume is visible and lit")
+    pairs = [("ViewLayer.Combined", "beauty"), ("ViewLayer.L0", "L0"), ("ViewLayer.L1", "L1"),
+             ("ViewLayer.light_key", "light_key")]
+    for blender_layer, nimbus_layer in pairs:
+        check(blender_layer in mine, "pass %s in Blender's render" % blender_layer)
+        if blender_layer not in mine:
+            continue
+        a = mine[blender_layer].astype(np.float16).astype(np.float32)
+        b = theirs[nimbus_layer]
+        diff = float(np.abs(a - b).max())
+        print("%-22s vs CLI %-10s max |difference| after rounding to half: %g" % (blender_layer, nimbus_layer, diff))
+        check(np.array_equal(a, b), "%s equals the CLI's %s" % (blender_layer, nimbus_layer))
+    # Depth is float in both files: equal as floats.
+    depth = mine.get("ViewLayer.Depth")
+    check(depth is not None and np.array_equal(depth[..., 0], theirs["depth"][..., 0]), "Depth equals the CLI's depth")
+
+    print("timings: install %.1f s, blender render %.1f s, nimbus render %.1f s" % (t_install, t_blender, t_cli))
+
+print("%d passed, %d failed" % (passed, failed))
+sys.exit(1 if failed else 0)
