@@ -4,6 +4,7 @@
 //   nimbus render --default            the embedded default scene (a procedural cloud)
 //   nimbus info SCENE.json             scene summary and render plan
 //   nimbus devices                     OpenCL devices for the path tracer
+//   render flags for the path tracer:  --device N|NAME, --checkpoint SECONDS
 //   nimbus default-scene               prints the default scene as JSON
 //
 // Exit codes: 0 success, 1 render failure, 2 bad input (a missing file or grid, bad JSON, an
@@ -11,7 +12,9 @@
 #include "core/Error.h"
 #include "core/Log.h"
 #include "io/Outputs.h"
+#include "io/ExrWriter.h"
 #include "io/Progress.h"
+#include "pathtracer/Pathtracer.h"
 #include "render/Renderer.h"
 #include "scene/DefaultScene.h"
 #include "scene/SceneJson.h"
@@ -63,7 +66,13 @@ void addSceneArgs(CLI::App* cmd, SceneArgs& a)
         ->check(CLI::IsMember({"single", "wkb", "pathtrace"}));
 }
 
-int runRender(const SceneArgs& args, const std::string& output, const std::string& preview, bool explain, bool quiet)
+struct PathtraceArgs {
+    std::string device;
+    double checkpointSeconds = 0;
+};
+
+int runRender(const SceneArgs& args, const std::string& output, const std::string& preview, bool explain, bool quiet,
+              const PathtraceArgs& pt)
 {
     Scene scene = loadScene(args);
     if (!output.empty())
@@ -83,6 +92,19 @@ int runRender(const SceneArgs& args, const std::string& output, const std::strin
             progress.advance(now - before);
         return true;
     };
+    options.pathtrace.device = pt.device;
+    if (pt.checkpointSeconds > 0) {
+        // The running estimate, written over the output path atomically (a reader never sees a
+        // half-written file; a crash leaves the last checkpoint).
+        options.pathtrace.checkpointSeconds = pt.checkpointSeconds;
+        options.pathtrace.onCheckpoint = [&scene, quiet](const Film& film) {
+            Film copy = film;
+            selectAovs(scene, copy);
+            writeExr(copy, scene.output.file);
+            if (!quiet)
+                std::fprintf(stderr, "nimbus: checkpoint written to %s\n", scene.output.file.c_str());
+        };
+    }
     RenderResult result = render(scene, options);
     progress.finish();
     if (explain)
@@ -130,6 +152,12 @@ int main(int argc, char** argv)
     render->add_option("--preview", preview, "Preview PNG path (overrides output.preview)");
     render->add_flag("--explain", explain, "Print the render plan with stage times");
     render->add_flag("-q,--quiet", quiet, "No progress or info lines");
+    PathtraceArgs ptArgs;
+    render->add_option("--device", ptArgs.device, "pathtrace: OpenCL device index or name substring (see `nimbus devices`)");
+    render->add_option("--checkpoint", ptArgs.checkpointSeconds, "pathtrace: write the running estimate every SECONDS")
+        ->check(CLI::PositiveNumber);
+
+    CLI::App* devices = app.add_subcommand("devices", "List the OpenCL devices the path tracer can use");
 
     CLI::App* info = app.add_subcommand("info", "Print the scene summary and the render plan");
     addSceneArgs(info, infoArgs);
@@ -148,7 +176,15 @@ int main(int argc, char** argv)
         if (quiet)
             Progress::setQuiet(true);
         if (*render)
-            return runRender(renderArgs, output, preview, explain, quiet);
+            return runRender(renderArgs, output, preview, explain, quiet, ptArgs);
+        if (*devices) {
+            std::vector<std::string> list = listOpenClDevices();
+            for (const std::string& device : list)  // "index: name [...]"
+                std::cout << device << "\n";
+            if (list.empty())
+                std::cout << "(no OpenCL device found)\n";
+            return kOk;
+        }
         if (*info)
             return runInfo(infoArgs);
         if (*dump) {

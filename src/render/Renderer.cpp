@@ -222,7 +222,7 @@ RenderResult renderChecked(const Scene& scene, const RenderOptions& options)
     case Method::Pathtrace: {
         auto ctx = RenderContext::create(scene, false);  // no shadow maps: NEE traces shadow rays
         auto t = std::chrono::steady_clock::now();
-        renderPathtrace(*ctx, result.film, options);
+        renderPathtrace(*ctx, result.film, options, options.pathtrace);
         ctx->plan.stageSeconds.push_back(
             {"pathtrace", std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count()});
         result.plan = ctx->plan;

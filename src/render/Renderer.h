@@ -5,6 +5,7 @@
 #include "../scene/Scene.h"
 #include "Film.h"
 #include "RenderPlan.h"
+#include "../pathtracer/PathtraceOptions.h"
 
 #include <atomic>
 #include <functional>
@@ -17,6 +18,8 @@ struct RenderOptions {
     // cancel (the render then throws Cancelled).
     std::function<bool(float fraction)> progress;
     const std::atomic<bool>* cancel = nullptr;
+    // Method "pathtrace" only: device, checkpoints, statistics.
+    PathtraceOptions pathtrace;
 };
 
 class Cancelled : public std::runtime_error {
