@@ -14,7 +14,7 @@ packages=(
   nlohmann-json3-dev libcli11-dev
   libgtest-dev libgmock-dev
   pybind11-dev python3-dev python3-numpy
-  # The Blender add-on's end-to-end test (tests/blender): ~30 s to install, ~12 s to run.
+  # The Blender add-on's end-to-end test (tests/blender): ~30 s to install, ~15 s to run.
   blender
 )
 

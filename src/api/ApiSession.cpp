@@ -156,6 +156,8 @@ void SessionObject::start()
 
 NimbusStatus SessionObject::wait(double timeoutSeconds, std::string& message)
 {
+    if (tInCallback == this)
+        throw ApiError(NIMBUS_ERROR_BUSY, "a session cannot wait for itself from its own progress callback");
     std::unique_lock<std::mutex> lock(mMutex);
     auto finished = [&] { return mState != NIMBUS_SESSION_RUNNING; };
     if (timeoutSeconds < 0)

@@ -221,6 +221,7 @@ typedef struct Gate {
     int calls;
     NimbusSession self;
     NimbusStatus selfRelease; /* nimbus_release(self) from inside the callback */
+    NimbusStatus selfWait;    /* nimbus_session_wait(self) from inside the callback */
 } Gate;
 
 static int gateCallback(float fraction, void* user)
@@ -230,6 +231,7 @@ static int gateCallback(float fraction, void* user)
     __atomic_add_fetch(&g->calls, 1, __ATOMIC_SEQ_CST);
     if (g->self != NIMBUS_NULL_HANDLE && g->selfRelease == NIMBUS_OK) {
         g->selfRelease = nimbus_release(g->self);
+        g->selfWait = nimbus_session_wait(g->self, -1.0);
     }
     __atomic_store_n(&g->entered, 1, __ATOMIC_SEQ_CST);
     while (!__atomic_load_n(&g->open, __ATOMIC_SEQ_CST))
@@ -251,7 +253,7 @@ static void testBusyAndCancel(void)
     NimbusSession session;
     NimbusSessionState state;
     NimbusFrame frame;
-    Gate gate = {0, 0, 1, 0, NIMBUS_NULL_HANDLE, NIMBUS_OK};
+    Gate gate = {0, 0, 1, 0, NIMBUS_NULL_HANDLE, NIMBUS_OK, NIMBUS_OK};
     double cancelled;
     float progress = 0;
 
@@ -300,14 +302,15 @@ static void testBusyAndCancel(void)
     CHECK_STATUS(nimbus_session_wait(session, 0.0), NIMBUS_ERROR_INVALID_HANDLE);
     CHECK(__atomic_load_n(&gate.calls, __ATOMIC_SEQ_CST) < 80);
 
-    /* Releasing a session from its own progress callback is refused (it would wait for
-     * itself); the callback's cancel then ends the render. */
+    /* Releasing or waiting for a session from its own progress callback is refused (it would
+     * wait for itself); the callback's cancel then ends the render. */
     gate.entered = 0, gate.open = 1, gate.calls = 0, gate.proceed = 0;
     OK(nimbus_session_create(scene, &session));
     gate.self = session;
     OK(nimbus_session_set_progress_callback(session, gateCallback, &gate));
     CHECK_STATUS(nimbus_session_render(session), NIMBUS_ERROR_CANCELLED);
     CHECK(gate.selfRelease == NIMBUS_ERROR_BUSY);
+    CHECK(gate.selfWait == NIMBUS_ERROR_BUSY); /* it would wait for itself */
     OK(nimbus_release(session));
 
     OK(nimbus_release(scene));

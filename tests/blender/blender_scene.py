@@ -1,8 +1,9 @@
 """Runs inside Blender (blender -b --factory-startup --python blender_scene.py -- OUT_DIR VDB).
 
 Enables the installed add-on, builds a scene with a VDB volume (Principled Volume material) and
-a sun, renders it with nimbus into OUT_DIR/blender.exr (multilayer, float) and has the engine
-write the scene it rendered to OUT_DIR/scene.json. test_blender_addon.py checks the result."""
+a sun, renders it with nimbus by each method into OUT_DIR/blender_<method>.exr (multilayer,
+float) and has the engine write the scene it rendered to OUT_DIR/scene_<method>.json.
+test_blender_addon.py checks the results."""
 import math
 import os
 import sys
@@ -63,12 +64,15 @@ scene.camera = camera_object
 scene.render.engine = "NIMBUS"
 scene.render.resolution_x, scene.render.resolution_y, scene.render.resolution_percentage = 64, 48, 100
 scene.view_layers[0].use_pass_z = True
-scene.nimbus.method = "single"
-scene.nimbus.spp = 2
-scene.nimbus.export_json = os.path.join(out_dir, "scene.json")
+scene.nimbus.spp = 4
 settings = scene.render.image_settings
 settings.file_format = "OPEN_EXR_MULTILAYER"
 settings.color_depth = "32"
-scene.render.filepath = os.path.join(out_dir, "blender.exr")
-bpy.ops.render.render(write_still=True)
-print("blender_scene: rendered", scene.render.filepath)
+# Every method in-process (the path tracer's OpenCL driver inside Blender's jemalloc process
+# included), each writing the scene it rendered for `nimbus render` to repeat.
+for method in ("single", "wkb", "pathtrace"):
+    scene.nimbus.method = method
+    scene.nimbus.export_json = os.path.join(out_dir, "scene_%s.json" % method)
+    scene.render.filepath = os.path.join(out_dir, "blender_%s.exr" % method)
+    bpy.ops.render.render(write_still=True)
+    print("blender_scene: rendered", method, scene.render.filepath)

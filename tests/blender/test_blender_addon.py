@@ -3,8 +3,9 @@
 1. installs the add-on with scripts/install-blender-addon.sh into a private Blender user
    directory (BLENDER_USER_SCRIPTS / BLENDER_USER_CONFIG: the machine's Blender is untouched);
 2. `blender -b --factory-startup --python blender_scene.py` enables it, builds a scene with a VDB
-   volume and a sun, renders with nimbus and writes the scene it rendered as JSON;
-3. `nimbus render` renders that JSON;
+   volume and a sun, renders it with nimbus by each method (single, wkb, pathtrace) and writes
+   the scene it rendered as JSON;
+3. `nimbus render` renders each JSON;
 4. the two images must agree: Blender keeps the float render, the CLI's EXR stores colour as
    half, so Blender's floats rounded to half must equal the CLI's halves exactly (the same
    scene, seed and renderer give the same floats; the only rounding is the EXR's).
@@ -88,11 +89,9 @@ with tempfile.TemporaryDirectory(prefix="nimbus-blender-test-") as tmp:
 
     proc, t_blender = run([blender, "-b", "--factory-startup", "--python",
                            os.path.join(source_dir, "tests", "blender", "blender_scene.py"), "--", tmp, smoke], env)
-    check("blender_scene: rendered" in proc.stdout, "Blender rendered")
     check("nimbus: " not in proc.stdout + proc.stderr, "no nimbus warning or error in Blender's log")
 
-    scene_json = os.path.join(tmp, "scene.json")
-    with open(scene_json) as f:
+    with open(os.path.join(tmp, "scene_single.json")) as f:
         doc = json.load(f)
     check([l["type"] for l in doc["lights"]] == ["distant"], "one sun exported as a distant light")
     medium = doc["volumes"][0]["medium"]
@@ -102,28 +101,34 @@ with tempfile.TemporaryDirectory(prefix="nimbus-blender-test-") as tmp:
                                           (1 - 0.6) * (1 - 0.4 ** 0.5)], rtol=1e-6), "sigma_a from Absorption Color")
     check(medium["density_scale"] == 3.0 and abs(medium["phase"]["g"] - 0.3) < 1e-6, "density and anisotropy")
 
-    cli_exr = os.path.join(tmp, "cli.exr")
-    _, t_cli = run([cli, "render", scene_json, "-o", cli_exr])
-
-    mine = read_layers(os.path.join(tmp, "blender.exr"))
-    theirs = read_layers(cli_exr)
-    combined = mine["ViewLayer.Combined"]
-    check(combined.shape == (48, 64, 4), "Combined is 64 x 48 RGBA")
-    check(combined[..., 3].max() > 0.5 and combined[..., :3].max() > 0.0, "the volume is visible and lit")
-    pairs = [("ViewLayer.Combined", "beauty"), ("ViewLayer.L0", "L0"), ("ViewLayer.L1", "L1"),
-             ("ViewLayer.light_key", "light_key")]
-    for blender_layer, nimbus_layer in pairs:
-        check(blender_layer in mine, "pass %s in Blender's render" % blender_layer)
-        if blender_layer not in mine:
-            continue
-        a = mine[blender_layer].astype(np.float16).astype(np.float32)
-        b = theirs[nimbus_layer]
-        diff = float(np.abs(a - b).max())
-        print("%-22s vs CLI %-10s max |difference| after rounding to half: %g" % (blender_layer, nimbus_layer, diff))
-        check(np.array_equal(a, b), "%s equals the CLI's %s" % (blender_layer, nimbus_layer))
-    # Depth is float in both files: equal as floats.
-    depth = mine.get("ViewLayer.Depth")
-    check(depth is not None and np.array_equal(depth[..., 0], theirs["depth"][..., 0]), "Depth equals the CLI's depth")
+    t_cli = 0.0
+    for method, orders in (("single", ["L0", "L1"]), ("wkb", ["L0", "L1", "L2plus"]),
+                           ("pathtrace", ["L0", "L1", "L2plus"])):
+        check("blender_scene: rendered %s" % method in proc.stdout, "Blender rendered with %s" % method)
+        cli_exr = os.path.join(tmp, "cli_%s.exr" % method)
+        _, t = run([cli, "render", os.path.join(tmp, "scene_%s.json" % method), "-o", cli_exr])
+        t_cli += t
+        mine = read_layers(os.path.join(tmp, "blender_%s.exr" % method))
+        theirs = read_layers(cli_exr)
+        combined = mine["ViewLayer.Combined"]
+        check(combined.shape == (48, 64, 4), "Combined is 64 x 48 RGBA")
+        check(combined[..., 3].max() > 0.5 and combined[..., :3].max() > 0.0, "the volume is visible and lit")
+        pairs = [("Combined", "beauty")] + [(o, o) for o in orders] + [("light_key", "light_key")]
+        for blender_layer, nimbus_layer in pairs:
+            blender_layer = "ViewLayer." + blender_layer
+            check(blender_layer in mine, "%s: pass %s in Blender's render" % (method, blender_layer))
+            if blender_layer not in mine:
+                continue
+            a = mine[blender_layer].astype(np.float16).astype(np.float32)
+            b = theirs[nimbus_layer]
+            diff = float(np.abs(a - b).max())
+            print("%-9s %-20s vs CLI %-9s max |difference| after rounding to half: %g" %
+                  (method, blender_layer, nimbus_layer, diff))
+            check(np.array_equal(a, b), "%s: %s equals the CLI's %s" % (method, blender_layer, nimbus_layer))
+        # Depth is float in both files: equal as floats.
+        depth = mine.get("ViewLayer.Depth")
+        check(depth is not None and np.array_equal(depth[..., 0], theirs["depth"][..., 0]),
+              "%s: Depth equals the CLI's depth" % method)
 
     print("timings: install %.1f s, blender render %.1f s, nimbus render %.1f s" % (t_install, t_blender, t_cli))
 

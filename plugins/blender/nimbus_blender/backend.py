@@ -51,6 +51,13 @@ def _candidates(pref_attr, installed_key, env):
 
 def load_module():
     """The nimbus Python module, or None."""
+    # The path tracer loads OpenCL drivers with RTLD_DEEPBIND to keep PoCL's LLVM 15 off the
+    # LLVM 14 that OpenVDB AX puts in a nimbus *executable's* global scope (docs/pathtracer.md).
+    # Inside Blender that isolation is not needed (Python loads the module and its LLVM 14
+    # RTLD_LOCAL, Blender links no LLVM) and is harmful: a deep-bound PoCL calls glibc's malloc
+    # while Blender runs on jemalloc, and the first path-traced render aborts in free(). So the
+    # add-on turns it off before the module can load a driver.
+    os.environ.setdefault("NIMBUS_OPENCL_NO_DEEPBIND", "1")
     for directory in _candidates("python_path", "python", "NIMBUS_PYTHONPATH"):
         directory = os.path.abspath(os.path.expanduser(directory))
         if directory not in sys.path:
