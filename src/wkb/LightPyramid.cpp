@@ -97,21 +97,14 @@ void LightPyramid::buildLevels(float maxSigma, int maxLevels)
 
 std::vector<Int3> LightPyramid::coarserBricks(const std::vector<Int3>& fine)
 {
-    // Level-k bricks the filter reaches from each level-(k-1) brick b: voxels i in [4b-1, 4b+5]
-    // per axis, i.e. bricks ceil((4b-9)/8) .. floor((4b+5)/8).
+    // The parents of the finer level's bricks. The filter's tails beyond them (up to one brick)
+    // are dropped: a read divides by channel 0, which loses the same tails, so it stays a
+    // weighted average of the source over a footprint clipped at the active region; keeping the
+    // tails would triple the bricks per axis at every coarse level.
     std::vector<Int3> out;
-    for (const Int3& f : fine) {
-        const int b[3] = {f.x, f.y, f.z};
-        int lo[3], hi[3];
-        for (int a = 0; a < 3; ++a) {
-            lo[a] = -floorDiv(-(4 * b[a] - 9), 8);
-            hi[a] = floorDiv(4 * b[a] + 5, 8);
-        }
-        for (int cz = lo[2]; cz <= hi[2]; ++cz)
-            for (int cy = lo[1]; cy <= hi[1]; ++cy)
-                for (int cx = lo[0]; cx <= hi[0]; ++cx)
-                    out.push_back({cx, cy, cz});
-    }
+    out.reserve(fine.size());
+    for (const Int3& f : fine)
+        out.push_back({floorDiv(f.x, 2), floorDiv(f.y, 2), floorDiv(f.z, 2)});
     std::sort(out.begin(), out.end(), lessInt3);
     out.erase(std::unique(out.begin(), out.end(), equalInt3), out.end());
     return out;

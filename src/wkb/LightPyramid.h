@@ -10,10 +10,11 @@
 // and a lookup with blur sigma reads the fractional level lambda = log4(3 sigma^2 + 1),
 // trilinear within each of the two nearest levels and linear across them.
 //
-// Sparse: every level is a BrickGrid (8^3 voxels per brick plus the apron), allocated only where
-// the filter reaches from the finer level's bricks, so memory follows the active region. Values
-// beyond the bricks read as zero; because channel 0 carries the same weights, the ratio
-// channel / channel 0 (a normalised convolution) is unaffected by that zero.
+// Sparse: every level is a BrickGrid (8^3 voxels per brick plus the apron) holding the parents of
+// the finer level's bricks, so memory follows the active region (about 8/7 of level 0 in all).
+// Values beyond the bricks read as zero, and the filter's tails past them are dropped; because
+// channel 0 carries the same weights, the ratio channel / channel 0 (a normalised convolution)
+// is a weighted average of the source either way.
 #pragma once
 
 #include "../volume/BrickGrid.h"

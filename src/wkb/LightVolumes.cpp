@@ -172,7 +172,7 @@ void LightVolumes::fillLevel0(const RenderContext& ctx, const WkbSetup& setup, s
                         float* o = out + (size_t((z * kS + yy) * kS + x)) * C;
                         const int qi = b.x * BrickGrid::kBrick + x, qj = b.y * BrickGrid::kBrick + yy,
                                   qk = b.z * BrickGrid::kBrick + z;
-                        const float3 centre = make_float3(qi * f, qj * f, qk * f);  // density index space
+                        const float3 centre = vs.origin + make_float3(qi * f, qj * f, qk * f);  // density index space
                         // Eight sub-samples at the centres of the voxel's octants.
                         float3 pos[8];
                         float rho[8];

@@ -24,12 +24,11 @@
 // (weightIntegral), times sum_j p_j R_j(l) ... at the node's midpoint in l, times Lblur read
 // where the placement model says.
 //
-// Medium sampling. While the blur is under a light voxel the stretches are the L1 march's
-// jittered sub-steps (exact coefficients). Past that, the march reads the density from the light
-// pyramid's channel 0 at the blur's own level, in stretches of half the blur width: the mip-mapped
-// march Tessendorf describes ("the blur is used to accelerate ray marching"). The blurred density
-// gives the right mean scattering length; what it loses is sub-blur structure that L2+ cannot
-// show anyway.
+// Medium sampling. While the blur is under a light voxel the stretches are jittered sub-steps of
+// the density grid (exact coefficients). Past that, stretches grow with the nodes (half the blur
+// width) and read the density from the light pyramid's channel 0, prefiltered to the stretch's
+// length: the mip-mapped march Tessendorf describes ("the blur is used to accelerate ray
+// marching"), which loses only structure finer than the stretch.
 
 namespace nimbus::wkb {
 
@@ -38,6 +37,12 @@ namespace {
 constexpr double kInv4Pi = 0.079577471545947667884;
 constexpr int kMaxNodes = 100000;
 constexpr double kNodeSpatial = 0.5;  // node length, in blur widths (or light voxels)
+// Fine stretches are twice the L1 step: the table needs the integral of b over a node, and nodes
+// are at least a light voxel (two density voxels) long; the L1 step resolves single scattering's
+// shadows, which L2+ never sees unblurred.
+constexpr double kFineStepScale = 2.0;
+// Optical depth of a light voxel above which delta sources read E itself at small blur.
+constexpr double kExactDepth = 0.5;
 
 }  // namespace
 
@@ -114,7 +119,7 @@ bool WkbIntegrator::nextPiece(Cursor& cur, Scratch& sc, float3 o, float3 d, doub
             cur.coarse = true;
         if (!cur.coarse) {
             if (cur.fineN == 0) {
-                cur.fineN = std::max(1, int(std::ceil((t1 - t0) / span.step)));
+                cur.fineN = std::max(1, int(std::ceil((t1 - t0) / (kFineStepScale * span.step))));
                 cur.fineDt = (t1 - t0) / cur.fineN;
                 cur.fineK = std::min(cur.fineN - 1, std::max(0, int(std::floor((s - t0) / cur.fineDt))));
             }
@@ -135,15 +140,19 @@ bool WkbIntegrator::nextPiece(Cursor& cur, Scratch& sc, float3 o, float3 d, doub
                 sc.pieceW[v] = sc.phaseWeights[v];
             return true;
         }
-        // Coarse: the density from the pyramids at the blur's level, one sample per stretch.
+        // Coarse: one density sample per stretch, from the pyramid prefiltered to the stretch's
+        // own length (the Gaussian of a box that long, len / sqrt(12)): the table needs the
+        // integral of b along the stretch. (Reading it at the source's blur instead would average
+        // the density over a ball as wide as the blur, and in a ball-shaped cloud lose half its l.)
         p.len = std::min(maxLen, t1 - s);
         const float3 x = o + d * float(s + 0.5 * p.len);
+        const float sigmaStretch = float(p.len * 0.28867513459481287);
         for (size_t v = 0; v < mSetup.volumes.size(); ++v) {
             const VolumeSetup& vsu = mSetup.volumes[v];
             const VolumeData& vol = *vs.volumes()[v];
             float rho = 0.0f;
-            const float3 pl = vol.indexFromWorld.point(x) * (1.0f / float(vsu.factor));
-            mLights.pyramid(v).fetch(pl, float(sigmaMarch) / vsu.lightVoxel, 0, 1, 1.0f, &rho);
+            const float3 pl = (vol.indexFromWorld.point(x) - vsu.origin) * (1.0f / float(vsu.factor));
+            mLights.pyramid(v).fetch(pl, sigmaStretch / vsu.lightVoxel, 0, 1, 1.0f, &rho);
             rho = std::max(rho, 0.0f);
             for (int c = 0; c < 3; ++c) {
                 p.b[c] += double(component(mSigmaS[v], c)) * rho;
@@ -167,7 +176,7 @@ bool WkbIntegrator::readSources(float3 x, double sigma, float* out) const
             continue;
         // Weight each volume's density by its mean scattering coefficient: the channels then
         // sum to b and b * source, and their ratio is the b-weighted source (docs/wkb.md).
-        const float3 pl = vols[v]->indexFromWorld.point(x) * (1.0f / float(vs.factor));
+        const float3 pl = (vols[v]->indexFromWorld.point(x) - vs.origin) * (1.0f / float(vs.factor));
         mLights.pyramid(v).fetch(pl, float(sigma) / vs.lightVoxel, 0, C, nbAverage(mSigmaS[v]), out);
     }
     return out[0] > 1e-30f;
@@ -177,7 +186,21 @@ void WkbIntegrator::evaluateNode(Scratch& sc, float3 o, float3 d, const TableEnt
                                  double* L, double& remaining) const
 {
     const ScatteringTable& table = sc.table;
-    const TableEntry m = table.at(table.sAt(0.5 * (e0.lhat + e1.lhat)));
+    // The node's quadrature point: the centroid in l of its weight, not its midpoint. Near l = 0
+    // the weight grows like l, its centroid sits at 2/3 of the node, and reading the source (which
+    // fades into the medium) at the midpoint would bias L2+ by the step size. Two-point Gauss on
+    // the channels' mean weight; exact for a weight linear across the node.
+    double lq;
+    {
+        const double la = e0.lhat, dl = e1.lhat - e0.lhat;
+        const double dta = (e1.tauA[0] + e1.tauA[1] + e1.tauA[2] - e0.tauA[0] - e0.tauA[1] - e0.tauA[2]) / 3.0;
+        const double alpha = dl > 0.0 ? std::max(dta, 0.0) / dl : 0.0;  // 1/omega0 - 1 over the node
+        const double u1 = dl * (0.5 - 0.28867513459481287), u2 = dl * (0.5 + 0.28867513459481287);
+        const double w1 = std::exp(-alpha * u1) * -std::expm1(-(la + u1));
+        const double w2 = std::exp(-alpha * u2) * -std::expm1(-(la + u2));
+        lq = w1 + w2 > 0.0 ? la + (u1 * w1 + u2 * w2) / (w1 + w2) : la + 0.5 * dl;
+    }
+    const TableEntry m = table.at(table.sAt(lq));
 
     // Phase moments of the node: the scattering-weighted mixture of the volumes it crossed.
     double wsum = 0.0, gmax = 0.0;
@@ -188,25 +211,29 @@ void WkbIntegrator::evaluateNode(Scratch& sc, float3 o, float3 d, const TableEnt
     }
     if (!(wsum > 0.0))
         return;
-    auto moment = [&](int j) {
-        double p = 0.0;
-        for (size_t v = 0; v < sc.nodeW.size(); ++v)
-            if (sc.nodeW[v] > 0.0)
-                p += sc.nodeW[v] * mPhase[v].moment(j);
-        return p / wsum;
-    };
-    const double p1 = moment(1);
+    double p1 = 0.0;
+    for (size_t v = 0; v < sc.nodeW.size(); ++v)
+        if (sc.nodeW[v] > 0.0)
+            p1 += sc.nodeW[v] * mPhase[v].meanCosine();
+    p1 /= wsum;
     const double mu = gaussianMu(p1);
     sc.muLast = mu;
 
     // Weight per channel, exact over the node with the node's mean albedo.
     double W[3];
     double lmin = m.l[0];
+    const bool greyStep = e1.l[0] == e1.l[1] && e1.l[1] == e1.l[2] && e1.tauA[0] == e1.tauA[1] &&
+                          e1.tauA[1] == e1.tauA[2] && e0.l[0] == e0.l[1] && e0.l[1] == e0.l[2] &&
+                          e0.tauA[0] == e0.tauA[1] && e0.tauA[1] == e0.tauA[2];
     for (int c = 0; c < 3; ++c) {
+        lmin = std::min(lmin, m.l[c]);
+        if (c > 0 && greyStep) {
+            W[c] = W[0];
+            continue;
+        }
         const double dl = e1.l[c] - e0.l[c], dta = e1.tauA[c] - e0.tauA[c];
         const double omega = dl > 0.0 ? dl / (dl + std::max(dta, 0.0)) : 0.0;
         W[c] = weightIntegral(e0.l[c], e0.tauA[c], dl, omega);
-        lmin = std::min(lmin, m.l[c]);
     }
     const Truncation tr = truncateOrders(mSetup.kernel, lmin, mu, gmax, mSetup.tolerance, mSetup.orderCap);
     double rem = 0.0;
@@ -216,11 +243,19 @@ void WkbIntegrator::evaluateNode(Scratch& sc, float3 o, float3 d, const TableEnt
     if (!(std::max(W[0], std::max(W[1], W[2])) > 0.0))
         return;
 
-    // coef[c][j] = p_j R_j(l_c) at the node's midpoint.
+    // coef[c][j] = p_j R_j(l_c) at the node's quadrature point.
     const int J = tr.order;
-    sc.pj.resize(size_t(J) + 1);
-    for (int j = 0; j <= J; ++j)
-        sc.pj[j] = moment(j);
+    // p_j of the mixture: sum over volumes and lobes of weight * g^j, by running powers.
+    sc.pj.assign(size_t(J) + 1, 0.0);
+    for (size_t v = 0; v < sc.nodeW.size(); ++v) {
+        if (!(sc.nodeW[v] > 0.0))
+            continue;
+        const PhaseMoments& ph = mPhase[v];
+        const double w = sc.nodeW[v] / wsum;
+        double a = w * (1.0 - ph.blend), b = w * ph.blend;
+        for (int j = 0; j <= J; ++j, a *= ph.g, b *= ph.g2)
+            sc.pj[j] += a + b;
+    }
     sc.coef.resize(3 * (size_t(J) + 1));
     const bool grey = m.l[0] == m.l[1] && m.l[1] == m.l[2];
     for (int c = 0; c < 3; ++c) {
@@ -254,9 +289,21 @@ void WkbIntegrator::evaluateNode(Scratch& sc, float3 o, float3 d, const TableEnt
     const SourceRead src = placeSource(mModel, in);
     const float3 x = o + d * float(src.s);
     float* ch = sc.channels.data();
-    if (!readSources(x, src.sigma, ch))
+    const bool blurred = readSources(x, src.sigma, ch);
+    // Below the light grid's own resolution, delta sources read L0 itself: E(x) from the deep
+    // shadow map, the zero-blur end of the pyramid, blended into level 0 up to half a light voxel
+    // (what level 0's voxel average and trilinear read amount to). In media thick per voxel the
+    // short paths start within a fraction of a voxel of the ray, where only this sees the light.
+    // Where a light voxel is optically thin (the node's mean extinction times its size under
+    // kExactDepth) E varies little across it and level 0 already holds it: no lookup is spent.
+    const double nodeLength = std::max(e1.s - e0.s, 1e-30);
+    const double nodeDepth = (e1.lhat - e0.lhat + (e1.tauA[0] + e1.tauA[1] + e1.tauA[2] - e0.tauA[0] - e0.tauA[1] -
+                                                   e0.tauA[2]) / 3.0) / nodeLength * double(mMinLightVoxel);
+    const double exactWeight =
+        nodeDepth < kExactDepth ? 0.0 : std::max(0.0, 1.0 - src.sigma / (0.5 * double(mMinLightVoxel)));
+    if (!blurred && !(exactWeight > 0.0))
         return;
-    const double inv = 1.0 / double(ch[0]);
+    const double inv = blurred ? 1.0 / double(ch[0]) : 0.0;
     const float3 n = -d;  // the direction the light travels toward the camera
 
     for (size_t si = 0; si < mSetup.sources.size(); ++si) {
@@ -276,9 +323,14 @@ void WkbIntegrator::evaluateNode(Scratch& sc, float3 o, float3 d, const TableEnt
                 Pm = P;
                 P = next;
             }
-            for (int c = 0; c < 3; ++c)
-                S[c] *= double(ch[sp.offset + c]) * inv;
-        } else {
+            Rgb E = splat(0.0f);
+            if (exactWeight > 0.0)
+                E = mLights.deltaE(sp, si, x, 0.5f * mMinLightVoxel);
+            for (int c = 0; c < 3; ++c) {
+                double Eb = blurred ? double(ch[sp.offset + c]) * inv : double(component(E, c));
+                S[c] *= exactWeight * double(component(E, c)) + (1.0 - exactWeight) * Eb;
+            }
+        } else if (blurred) {
             const int Jsh = std::min(J, sp.order);
             for (int j = 0; j <= Jsh; ++j)
                 for (int mm = -j; mm <= j; ++mm) {

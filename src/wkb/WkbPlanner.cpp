@@ -18,8 +18,6 @@ constexpr double kPi = 3.14159265358979323846;
 constexpr double kDeltaHalfAngleDeg = 15.0;
 constexpr int kShOrderLimit = 8;
 
-inline int floorDiv(int a, int b) { return a >= 0 ? a / b : -((-a + b - 1) / b); }
-
 std::string fmt(const char* f, double a, double b = 0, double c = 0)
 {
     char buf[200];
@@ -55,12 +53,12 @@ float largestExtentVoxels(const BrickGrid& density)
 std::vector<Int3> lightGridBricks(const BrickGrid& density, int factor)
 {
     std::vector<Int3> out;
-    const Int3 lo = density.brickLo(), dims = density.dims();
+    const Int3 dims = density.dims();
     for (int z = 0; z < dims.z; ++z)
         for (int y = 0; y < dims.y; ++y)
             for (int x = 0; x < dims.x; ++x)
                 if (density.table()[(size_t(z) * dims.y + y) * dims.x + x] >= 0)
-                    out.push_back({floorDiv(lo.x + x, factor), floorDiv(lo.y + y, factor), floorDiv(lo.z + z, factor)});
+                    out.push_back({x / factor, y / factor, z / factor});
     std::sort(out.begin(), out.end(),
               [](const Int3& a, const Int3& b) { return std::tie(a.z, a.y, a.x) < std::tie(b.z, b.y, b.x); });
     out.erase(std::unique(out.begin(), out.end(),
@@ -139,7 +137,7 @@ WkbSetup planWkb(const RenderContext& ctx, RenderPlan& plan)
     if (bound < setup.tolerance) {
         plan.notes.push_back(fmt("wkb: L2+ skipped: optically thin (scattering depth <= %.3g, bound %.2g E/4pi < tolerance %.2g)",
                                  lTotal, bound, setup.tolerance));
-        for (size_t v = 0; v < vols.size(); ++v) {
+        for (size_t v = 0; v < vols.size() && v < plan.volumes.size(); ++v) {
             plan.volumes[v].l2plus = false;
             plan.volumes[v].l2plusBound = setup.volumes[v].bound;
         }
@@ -253,6 +251,7 @@ WkbSetup planWkb(const RenderContext& ctx, RenderPlan& plan)
             total += bytes;
             if (commit) {
                 vs.factor = f;
+                vs.origin = lightGridOrigin(vols[v]->density);
                 vs.channels = channels;
                 vs.maxSigma = maxSigma;
                 vs.levels = levels;
@@ -273,7 +272,7 @@ WkbSetup planWkb(const RenderContext& ctx, RenderPlan& plan)
                                  "useful light grid is still larger",
                                  double(wp.pyramidBytes) / std::max<double>(1.0, double(densityBytes)), rs.wkbMemoryBudget));
 
-    for (size_t v = 0; v < vols.size(); ++v) {
+    for (size_t v = 0; v < vols.size() && v < plan.volumes.size(); ++v) {
         const VolumeSetup& vs = setup.volumes[v];
         VolumePlan& vp = plan.volumes[v];
         vp.l2plus = vs.l2plus;

@@ -35,6 +35,10 @@ struct SourcePlan {
 struct VolumeSetup {
     bool l2plus = false;   // light channels built (else only the density channel, for the march)
     int factor = 2;        // light voxel = factor density voxels per axis
+    // Light-grid voxel q sits at density index position origin + factor * q, origin the corner of
+    // the density's brick table: the light grid's bricks then start where the active region does,
+    // and its coarse levels merge into one brick instead of straddling index 0.
+    float3 origin = make_float3(0, 0, 0);
     float lightVoxel = 0;  // world size of a level-0 light voxel, metres
     int channels = 1;
     int levels = 0;
@@ -59,9 +63,15 @@ struct WkbSetup {
 // of plan.lights and plan.volumes). Cheap: reads the brick tables, builds nothing.
 WkbSetup planWkb(const RenderContext& ctx, RenderPlan& plan);
 
-// The level-0 bricks of a light grid whose voxel is `factor` density voxels: the light bricks
-// holding every active density brick's cells (the light grid follows the density's sparsity).
+// The level-0 bricks of a light grid whose voxel is `factor` density voxels, with its origin at the
+// corner of the density's brick table: the light bricks holding every active density brick's
+// cells (the light grid follows the density's sparsity).
 std::vector<Int3> lightGridBricks(const BrickGrid& density, int factor);
+inline float3 lightGridOrigin(const BrickGrid& density)
+{
+    const Int3 lo = density.brickLo();
+    return make_float3(float(lo.x * BrickGrid::kBrick), float(lo.y * BrickGrid::kBrick), float(lo.z * BrickGrid::kBrick));
+}
 
 // Estimated memory of the pyramid of a volume with light-voxel factor `factor` and `channels`
 // channels, and its level count (exposed for tests; the same rule LightPyramid::buildLevels uses).

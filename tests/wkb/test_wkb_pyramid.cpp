@@ -160,11 +160,11 @@ TEST(WkbPyramid, MemoryFollowsTheActiveRegion)
     p.allocateLevel0(bricks, 4);
     p.buildLevels(1e9f, LightPyramid::kMaxLevels);
     const size_t brickBytes = BrickGrid::kBrickValues * 4 * sizeof(float);
-    // Level 0: 16 bricks. A coarser level keeps the bricks its filter reaches: from a blob of 2
-    // bricks per axis, 3 per axis (bricks ceil((4b-9)/8) .. floor((4b+5)/8)), 27 per blob.
+    // Level 0: 16 bricks; each coarser level the parents: 1 per blob from level 1 on (one in
+    // all once the blobs' parents meet).
     EXPECT_EQ(p.level(0).brickCount(), 16u);
     for (int k = 1; k < p.levels(); ++k)
-        EXPECT_LE(p.level(k).brickCount(), 54u) << k;
+        EXPECT_LE(p.level(k).brickCount(), 2u) << k;
     // The values follow the bricks; what follows the box is BrickGrid's slot table, 8 bytes per
     // 8^3 voxels of the bounding box (the density grid pays the same), 1/1024 of a dense grid here.
     size_t values = 0, tables = 0;
@@ -174,7 +174,7 @@ TEST(WkbPyramid, MemoryFollowsTheActiveRegion)
         tables += size_t(d.x) * d.y * d.z * (sizeof(int32_t) + sizeof(float));
     }
     EXPECT_EQ(p.memoryBytes(), values + tables);
-    EXPECT_LE(values, size_t(p.levels()) * 54 * brickBytes);
+    EXPECT_LE(values, (16 + 2 * size_t(p.levels() - 1)) * brickBytes);
     const double dense = 1024.0 * 1024.0 * 1024.0 * 4 * sizeof(float);
     EXPECT_LT(double(p.memoryBytes()), 0.002 * dense);
     EXPECT_EQ(LightPyramid::levelBytes(bricks, 4), p.level(0).memoryBytes());

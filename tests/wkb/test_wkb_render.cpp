@@ -1,0 +1,402 @@
+// Method "wkb" end to end (issue 3 "How it is checked"): AOV contracts, the scattering-angle
+// convention, stability over the listed extreme inputs (finite, non-negative, under a bound
+// derived below), and energy: a thick conservative sphere gives back no more than it receives.
+#include "../render/HandMadeVolume.h"
+
+#include "render/Renderer.h"
+#include "scene/KernelScene.h"
+#include "wkb/AngularKernel.h"
+#include "wkb/WkbIntegrator.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdio>
+#include <memory>
+#include <vector>
+
+using namespace nimbus;
+using namespace nimbus::test;
+
+namespace {
+
+Volume proceduralVolume(const std::string& generator, std::map<std::string, double> params, Rgb sigma_s, Rgb sigma_a,
+                        float g)
+{
+    Volume v;
+    v.name = generator;
+    v.source.type = SourceType::Procedural;
+    v.source.generator = generator;
+    v.source.params = std::move(params);
+    v.medium.sigma_s = sigma_s;
+    v.medium.sigma_a = sigma_a;
+    v.medium.phase = NbPhase{g, 0, 0, 0};
+    return v;
+}
+
+Light sun(float3 direction, float E)
+{
+    Light l;
+    l.name = "sun";
+    l.type = LightType::Distant;
+    l.direction = normalize(direction);
+    l.irradiance = splat(E);
+    return l;
+}
+
+Scene baseScene(int w, int h, float3 from, float3 to, float fov)
+{
+    Scene s;
+    s.camera.width = w;
+    s.camera.height = h;
+    s.camera.from = from;
+    s.camera.to = to;
+    s.camera.fov = fov;
+    s.render.method = Method::Wkb;
+    s.render.spp = 1;
+    s.render.shadowMapResolution = 64;
+    s.output.file = "unused.exr";
+    return s;
+}
+
+const Aov& aov(const Film& f, const char* name)
+{
+    const Aov* a = f.find(name);
+    EXPECT_NE(a, nullptr) << name;
+    return *a;
+}
+
+double mean(const Aov& a)
+{
+    double s = 0;
+    for (float v : a.pixels)
+        s += v;
+    return s / double(a.pixels.size());
+}
+
+// 1/(4pi) sum_j (2j+1) |g|^j R_j(0): every angular factor S of a march node is at most this
+// (R_j decreases with l; the node sum has at most the cap's orders).
+double angularBound(wkb::KernelType k, float g, int orders)
+{
+    const double mu = wkb::gaussianMu(g);
+    double sum = 0, gp = 1;
+    for (int j = 0; j <= orders; ++j, gp *= std::fabs(g)) {
+        double R = k == wkb::KernelType::Gaussian ? wkb::gaussianA(j, mu, 1e-9) : gp;
+        sum += (2 * j + 1) * gp * R;
+    }
+    return sum / (4 * M_PI);
+}
+
+// The bound each stability case asserts, pixel by pixel: a node adds W S Eblur with
+// sum W <= min(l_ray, omega^2 / (1 - omega)) (the weight integral over the ray, bounded by the
+// ray's scattering depth and by its value over an infinite medium), S <= angularBound and
+// Eblur <= the largest irradiance any source delivers (a density-weighted average of E).
+double l2plusBound(double lRayMax, double omega, double angular, double Emax)
+{
+    double w = lRayMax;
+    if (omega < 1.0)
+        w = std::min(w, omega * omega / (1.0 - omega));
+    return w * angular * Emax;
+}
+
+void expectFiniteNonNegativeBounded(const Film& film, double bound, const std::string& what)
+{
+    for (const Aov& a : film.aovs)
+        for (size_t i = 0; i < a.pixels.size(); ++i) {
+            ASSERT_TRUE(std::isfinite(a.pixels[i])) << what << ": " << a.name << " pixel value " << i;
+            ASSERT_GE(a.pixels[i], 0.0f) << what << ": " << a.name << " pixel value " << i;
+        }
+    const Aov& l2 = aov(film, "L2plus");
+    for (size_t i = 0; i < l2.pixels.size(); ++i)
+        ASSERT_LE(l2.pixels[i], bound * (1 + 1e-4) + 1e-30) << what << ": L2plus pixel value " << i;
+}
+
+// A RenderContext built by hand around hand-made volumes (no loader), as RenderContext::create
+// would for delta lights.
+std::unique_ptr<RenderContext> handContext(const Scene& scene, std::vector<std::shared_ptr<VolumeData>> vols)
+{
+    auto ctx = std::make_unique<RenderContext>();
+    ctx->scene = &scene;
+    ctx->volumes = VolumeSet(std::move(vols), scene.render.step);
+    ctx->background = scene.background;
+    for (auto& v : ctx->volumes.volumes()) {
+        VolumePlan vp;
+        vp.name = v->name;
+        ctx->plan.volumes.push_back(vp);
+    }
+    DeepShadowMap::Settings s;
+    s.resolution = scene.render.shadowMapResolution;
+    for (size_t i = 0; i < scene.lights.size(); ++i) {
+        LightEntry e;
+        e.light = makeNbLight(scene.lights[i], int(i));
+        e.aov = "light_" + scene.lights[i].name;
+        e.delta = nbLightIsDelta(e.light);
+        e.used = !ctx->volumes.empty();
+        if (e.delta && e.used)
+            e.shadowMap = DeepShadowMap::build(e.light, ctx->volumes, s);
+        ctx->lights.push_back(std::move(e));
+        LightPlan lp;
+        lp.name = scene.lights[i].name;
+        ctx->plan.lights.push_back(lp);
+    }
+    return ctx;
+}
+
+// L2+ of every pixel centre of the scene's camera through a hand-built context.
+std::vector<Rgb> marchL2plus(const RenderContext& ctx, const wkb::WkbIntegrator& w)
+{
+    const Scene& s = *ctx.scene;
+    NbCamera cam = makeNbCamera(s.camera);
+    std::vector<Rgb> out;
+    std::vector<float> perLight(3 * ctx.lights.size());
+    for (int y = 0; y < s.camera.height; ++y)
+        for (int x = 0; x < s.camera.width; ++x) {
+            float3 o, d;
+            nbCameraRay(cam, x + 0.5f, y + 0.5f, s.camera.width, s.camera.height, 0.0f, &o, &d);
+            NbRng rng = nbRngStart(1u, nb_uint(y * s.camera.width + x), 0u);
+            CameraSample cs;
+            w.march(o, d, rng, cs, perLight.data());
+            out.push_back(cs.L2plus);
+        }
+    return out;
+}
+
+}  // namespace
+
+// wkb's L0 and L1 are single's, bit for bit; beauty = L0 + L1 + L2plus; the light AOVs add up to
+// L1 + L2plus (no emission here); L2+ is present.
+TEST(WkbRender, AovsAddUpAndL0L1AreSingles)
+{
+    Scene s = baseScene(32, 24, make_float3(0, 0.3f, 6), make_float3(0, 0, 0), 30);
+    s.volumes.push_back(proceduralVolume("cloud", {{"radius", 1.0}, {"voxel_size", 1.0 / 20}}, splat(6.0f), splat(0.06f), 0.7f));
+    s.lights.push_back(sun(make_float3(0.4f, -1, -0.3f), 2.0f));
+    Light point;
+    point.name = "lamp";
+    point.type = LightType::Point;
+    point.position = make_float3(-2, 1, 2);
+    point.intensity = make_float3(3, 2, 1);
+    s.lights.push_back(point);
+    s.render.spp = 2;
+    RenderResult w = render(s);
+    s.render.method = Method::Single;
+    RenderResult single = render(s);
+
+    EXPECT_EQ(aov(w.film, "L0").pixels, aov(single.film, "L0").pixels);
+    EXPECT_EQ(aov(w.film, "L1").pixels, aov(single.film, "L1").pixels);
+    const Aov &b = aov(w.film, "beauty"), &l0 = aov(w.film, "L0"), &l1 = aov(w.film, "L1"), &l2 = aov(w.film, "L2plus");
+    const Aov &ls = aov(w.film, "light_sun"), &lp = aov(w.film, "light_lamp");
+    for (size_t p = 0; p < l0.pixels.size() / 3; ++p)
+        for (int c = 0; c < 3; ++c) {
+            float sum = l0.pixels[3 * p + c] + l1.pixels[3 * p + c] + l2.pixels[3 * p + c];
+            EXPECT_NEAR(b.pixels[4 * p + c], sum, 1e-6f + 1e-6f * sum) << p;
+            float lights = ls.pixels[3 * p + c] + lp.pixels[3 * p + c];
+            float terms = l1.pixels[3 * p + c] + l2.pixels[3 * p + c];
+            EXPECT_NEAR(lights, terms, 1e-6f + 1e-5f * terms) << p;
+        }
+    EXPECT_GT(mean(l2), 0.05 * mean(l1));
+    EXPECT_TRUE(w.plan.wkb.l2plus);
+    EXPECT_NE(w.plan.describe().find("L2+"), std::string::npos);
+}
+
+// Phase convention: with g = 0.9 the multiply scattered light of a sunlit ball is brighter seen
+// against the sun (light keeps going forward, toward the camera) than seen from the sun's side.
+TEST(WkbRender, ForwardScatteringIsTowardTheCamera)
+{
+    double L2[2];
+    for (int side = 0; side < 2; ++side) {
+        float z = side == 0 ? -8.0f : 8.0f;  // 0: camera opposite the sun, looking toward it
+        Scene s = baseScene(16, 16, make_float3(0.01f, 0, z), make_float3(0, 0, 0), 12);
+        s.volumes.push_back(proceduralVolume("sphere", {{"radius", 0.8}, {"voxel_size", 0.05}}, splat(2.0f), splat(0.0f), 0.9f));
+        s.lights.push_back(sun(make_float3(0, 0, -1), 1.0f));  // travels toward -z
+        L2[side] = mean(aov(render(s).film, "L2plus"));
+    }
+    EXPECT_GT(L2[0], 2.0 * L2[1]) << "forward " << L2[0] << " backward " << L2[1];
+}
+
+// Stability (issue 3): each case renders finite, non-negative AOVs with L2+ under l2plusBound.
+struct StabilityCase {
+    const char* name;
+    std::string generator;
+    double size;        // radius (sphere) or edge (box), metres
+    double voxel;       // metres
+    float sigma_s, sigma_a, g;
+    float3 camera;      // camera position; it looks at the origin
+    bool pointLightInside = false;
+    wkb::KernelType kernel = wkb::KernelType::Gaussian;
+};
+
+class WkbStability : public ::testing::TestWithParam<StabilityCase> {};
+
+TEST_P(WkbStability, FiniteNonNegativeBounded)
+{
+    const StabilityCase& c = GetParam();
+    const float R = float(c.size);
+    Scene s = baseScene(12, 12, c.camera, make_float3(0, 0, 0), 40);
+    std::map<std::string, double> params = {{c.generator == "box" ? "size" : "radius", c.size}, {"voxel_size", c.voxel}};
+    s.volumes.push_back(proceduralVolume(c.generator, params, splat(c.sigma_s), splat(c.sigma_a), c.g));
+    double Emax = 1.0;
+    if (c.pointLightInside) {
+        Light l;
+        l.name = "inside";
+        l.type = LightType::Point;
+        l.position = make_float3(0.1f * R, 0.05f * R, 0.0f);
+        l.intensity = splat(1.0f);
+        s.lights.push_back(l);
+    } else {
+        s.lights.push_back(sun(make_float3(0.3f, -1, 0.2f), 1.0f));
+    }
+    s.render.wkbKernel = c.kernel == wkb::KernelType::Gaussian ? WkbKernel::Gaussian : WkbKernel::Exact;
+    RenderResult r = render(s);
+    if (c.pointLightInside) {  // E <= I / r_min^2, r_min = half a light voxel (LightVolumes::deltaE)
+        double rMin = 0.5 * c.voxel * std::max(1, r.plan.volumes[0].lightVoxelFactor);
+        Emax = 1.0 / (rMin * rMin);
+    }
+    const double diag = (c.generator == "box" ? std::sqrt(3.0) : 2.0) * c.size + 4 * c.voxel;
+    const double lRay = double(c.sigma_s) * diag;
+    const double omega = c.sigma_s / std::max(1e-30f, c.sigma_s + c.sigma_a);
+    const double bound = l2plusBound(lRay, omega, angularBound(c.kernel, c.g, s.render.wkbOrderMax), Emax);
+    expectFiniteNonNegativeBounded(r.film, bound, c.name);
+    // Every case sees a lit part of its volume: L2+ is there, and it is exactly 0 without scattering.
+    if (c.sigma_s == 0.0f)
+        EXPECT_EQ(mean(aov(r.film, "L2plus")), 0.0) << c.name;
+    else
+        EXPECT_GT(mean(aov(r.film, "L2plus")), 0.0) << c.name;
+}
+
+INSTANTIATE_TEST_SUITE_P(
+    Extremes, WkbStability,
+    ::testing::Values(
+        // optical thickness 1e4 per voxel (box of 16 voxels), albedo 0.99 and exactly 1
+        StabilityCase{"tau1e4PerVoxel", "box", 1.0, 1.0 / 16, 1.6e5f * 0.99f, 1.6e3f, 0.6f, {0.3f, 3, 2.5f}},
+        StabilityCase{"tau1e4PerVoxelAlbedo1", "box", 1.0, 1.0 / 16, 1.6e5f, 0.0f, 0.6f, {0.3f, 3, 2.5f}},
+        // optical thickness 1e4 across the volume (156 per voxel)
+        StabilityCase{"tau1e4PerVolume", "sphere", 0.5, 1.0 / 64, 1e4f, 0.0f, 0.8f, {0.2f, 0.3f, 4}},
+        // albedo exactly 0 (L2+ must be 0) and exactly 1
+        StabilityCase{"albedo0", "sphere", 1.0, 1.0 / 16, 0.0f, 5.0f, 0.5f, {0, 0, 5}},
+        StabilityCase{"albedo1", "sphere", 1.0, 1.0 / 16, 5.0f, 0.0f, 0.5f, {0, 0, 5}},
+        // HG g across the range, both kernels
+        StabilityCase{"gMinus099", "sphere", 1.0, 1.0 / 16, 3.0f, 0.03f, -0.99f, {0, 0, 5}},
+        StabilityCase{"gMinus05", "sphere", 1.0, 1.0 / 16, 3.0f, 0.03f, -0.5f, {0, 0, 5}},
+        StabilityCase{"g0", "sphere", 1.0, 1.0 / 16, 3.0f, 0.03f, 0.0f, {0, 0, 5}},
+        StabilityCase{"g05", "sphere", 1.0, 1.0 / 16, 3.0f, 0.03f, 0.5f, {0, 0, 5}},
+        StabilityCase{"g09", "sphere", 1.0, 1.0 / 16, 3.0f, 0.03f, 0.9f, {0, 0, 5}},
+        StabilityCase{"g099", "sphere", 1.0, 1.0 / 16, 3.0f, 0.03f, 0.99f, {0, 0, 5}},
+        StabilityCase{"g099Exact", "sphere", 1.0, 1.0 / 16, 3.0f, 0.03f, 0.99f, {0, 0, 5}, false, wkb::KernelType::Exact},
+        StabilityCase{"gMinus099Exact", "sphere", 1.0, 1.0 / 16, 3.0f, 0.03f, -0.99f, {0, 0, 5}, false,
+                      wkb::KernelType::Exact},
+        // a point light inside the volume, and the camera inside the volume
+        StabilityCase{"lightInside", "sphere", 1.0, 1.0 / 16, 4.0f, 0.04f, 0.7f, {0, 0, 5}, true},
+        StabilityCase{"cameraInside", "sphere", 1.0, 1.0 / 16, 4.0f, 0.04f, 0.7f, {0.1f, 0.05f, 0.2f}},
+        // world scales: a millimetre and a kilometre sphere with the same optical size (tau 4)
+        StabilityCase{"millimetre", "sphere", 1e-3, 1e-3 / 16, 2e3f, 20.0f, 0.7f, {0, 0, 5e-3f}},
+        StabilityCase{"kilometre", "sphere", 1e3, 1e3 / 16, 2e-3f, 2e-5f, 0.7f, {0, 0, 5e3f}}),
+    [](const ::testing::TestParamInfo<StabilityCase>& i) { return std::string(i.param.name); });
+
+// Hand-made grids: densities from 1e-6 to 1e6 in one grid, a single active voxel, an empty grid.
+TEST(WkbStabilityGrid, DensitiesSpanningTwelveDecades)
+{
+    Scene s = baseScene(12, 12, make_float3(0.2f, 0.3f, 4), make_float3(0.5f, 0.5f, 0.5f), 40);
+    s.lights.push_back(sun(make_float3(0.3f, -1, 0.2f), 1.0f));
+    Medium m;
+    m.sigma_s = splat(0.99f);
+    m.sigma_a = splat(0.01f);
+    m.phase = NbPhase{0.8f, 0, 0, 0};
+    auto rho = [](int i, int j, int k) {
+        nb_uint h = nbPcgHash(nb_uint(i) * 73856093u ^ nb_uint(j) * 19349663u ^ nb_uint(k) * 83492791u);
+        return float(std::pow(10.0, -6.0 + 12.0 * double(h >> 8) / 16777216.0));
+    };
+    auto ctx = handContext(s, {handMadeVolume(16, 1.0f / 16, make_float3(0, 0, 0), rho, m)});
+    wkb::WkbIntegrator w(*ctx, ctx->plan);
+    ASSERT_TRUE(w.active());
+    const double bound = l2plusBound(0.99e6 * std::sqrt(3.0), 0.99, angularBound(wkb::KernelType::Gaussian, 0.8f, 128), 1.0);
+    double total = 0;
+    for (Rgb v : marchL2plus(*ctx, w)) {
+        ASSERT_TRUE(isFinite(v));
+        ASSERT_GE(nbMinComponent(v), 0.0f);
+        ASSERT_LE(nbMaxComponent(v), bound);
+        total += nbAverage(v);
+    }
+    EXPECT_GT(total, 0.0);
+}
+
+TEST(WkbStabilityGrid, SingleActiveVoxelAndEmptyGrid)
+{
+    Scene s = baseScene(12, 12, make_float3(0.1f, 0.2f, 0.8f), make_float3(0, 0, 0), 60);
+    s.lights.push_back(sun(make_float3(0.3f, -1, 0.2f), 1.0f));
+    Medium m;
+    m.sigma_s = splat(50.0f);
+    m.phase = NbPhase{0.5f, 0, 0, 0};
+    {
+        auto ctx = handContext(s, {handMadeVolume(1, 0.1f, make_float3(0, 0, 0), [](int, int, int) { return 1.0f; }, m)});
+        wkb::WkbIntegrator w(*ctx, ctx->plan);
+        const double bound = l2plusBound(50.0 * 0.2 * std::sqrt(3.0), 1.0, angularBound(wkb::KernelType::Gaussian, 0.5f, 128), 1.0);
+        for (Rgb v : marchL2plus(*ctx, w)) {
+            ASSERT_TRUE(isFinite(v));
+            ASSERT_GE(nbMinComponent(v), 0.0f);
+            ASSERT_LE(nbMaxComponent(v), bound);
+        }
+    }
+    {
+        auto ctx = handContext(s, {handMadeVolume(8, 0.1f, make_float3(0, 0, 0), [](int, int, int) { return 0.0f; }, m)});
+        wkb::WkbIntegrator w(*ctx, ctx->plan);
+        EXPECT_FALSE(w.active());
+        for (Rgb v : marchL2plus(*ctx, w))
+            ASSERT_EQ(nbMaxComponent(v), 0.0f);
+    }
+}
+
+// An optically thin scene is planned without L2+, and its bound is reported.
+TEST(WkbRender, ThinSceneSkipsL2plusWithItsBound)
+{
+    Scene s = baseScene(8, 8, make_float3(0, 0, 5), make_float3(0, 0, 0), 40);
+    s.volumes.push_back(proceduralVolume("sphere", {{"radius", 1.0}, {"voxel_size", 0.1}}, splat(1e-3f), splat(0.0f), 0.0f));
+    s.lights.push_back(sun(make_float3(0, -1, 0), 1.0f));
+    RenderResult r = render(s);
+    EXPECT_FALSE(r.plan.wkb.l2plus);
+    EXPECT_LT(r.plan.wkb.l2plusBound, s.render.tolerance);
+    EXPECT_EQ(mean(aov(r.film, "L2plus")), 0.0);
+}
+
+// Energy: a homogeneous sphere of radius R, optical radius 10, albedo exactly 1, under a sun of
+// irradiance E intercepts E pi R^2 and, absorbing nothing, can send out no more. Its radiant
+// intensity I(theta) toward a far camera at angle theta from the sun's direction of travel is
+// the image-plane integral of radiance (sum of pixel radiance x pixel area at the sphere); by the
+// symmetry about the sun's axis the outgoing power is 2 pi int_{-1}^{1} I(mu) dmu, here by 6-point
+// Gauss-Legendre. The edge of the procedural sphere (a one-voxel ramp) is counted generously:
+// the intercepted power uses the radius plus a voxel.
+TEST(WkbEnergy, ThickConservativeSphereGivesBackAtMostWhatItReceives)
+{
+    const double R = 1.0, voxel = R / 16, E = 1.0, distance = 40.0;
+    const double nodes[6] = {-0.9324695142, -0.6612093865, -0.2386191861, 0.2386191861, 0.6612093865, 0.9324695142};
+    const double weights[6] = {0.1713244924, 0.3607615730, 0.4679139346, 0.4679139346, 0.3607615730, 0.1713244924};
+    const int res = 40;
+    const double fov = 2.0 * std::atan(1.15 * R / distance) * 180.0 / M_PI;
+    const double pixelArea = std::pow(2.0 * distance * std::tan(0.5 * fov * M_PI / 180.0) / res, 2.0);
+    double power = 0.0, powerL2 = 0.0;
+    for (int k = 0; k < 6; ++k) {
+        // mu = cos(angle between the sun's travel direction (0,-1,0) and the direction to the camera)
+        const double mu = nodes[k], st = std::sqrt(1.0 - mu * mu);
+        const float3 toCamera = make_float3(float(st), float(-mu), 0.0f);
+        Scene s = baseScene(res, res, toCamera * float(distance), make_float3(0, 0, 0), float(fov));
+        s.camera.up = make_float3(0, 0, 1);
+        s.volumes.push_back(proceduralVolume("sphere", {{"radius", R}, {"voxel_size", voxel}}, splat(10.0f), splat(0.0f), 0.5f));
+        s.lights.push_back(sun(make_float3(0, -1, 0), float(E)));
+        s.render.spp = 1;
+        RenderResult r = render(s);
+        const Aov& b = aov(r.film, "beauty");
+        const Aov& l2 = aov(r.film, "L2plus");
+        double I = 0, I2 = 0;
+        for (size_t p = 0; p < b.pixels.size() / 4; ++p) {
+            I += (b.pixels[4 * p] + b.pixels[4 * p + 1] + b.pixels[4 * p + 2]) / 3.0 * pixelArea;
+            I2 += (l2.pixels[3 * p] + l2.pixels[3 * p + 1] + l2.pixels[3 * p + 2]) / 3.0 * pixelArea;
+        }
+        power += 2 * M_PI * weights[k] * I;
+        powerL2 += 2 * M_PI * weights[k] * I2;
+    }
+    const double incident = E * M_PI * (R + voxel) * (R + voxel);
+    RecordProperty("outgoing_over_incident", std::to_string(power / incident));
+    RecordProperty("l2plus_share", std::to_string(powerL2 / std::max(power, 1e-30)));
+    std::printf("energy: outgoing / incident = %.3f (L2+ %.0f%% of it)\n", power / incident, 100.0 * powerL2 / power);
+    EXPECT_LE(power, incident);
+    EXPECT_GT(powerL2, 0.0);
+}
