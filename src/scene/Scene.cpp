@@ -25,4 +25,8 @@ const char* methodName(Method m)
     return "?";
 }
 
+const char* wkbKernelName(WkbKernel k) { return k == WkbKernel::Exact ? "exact" : "gaussian"; }
+
+const char* wkbSourceName(WkbSource s) { return s == WkbSource::RandomWalk ? "random_walk" : "straight"; }
+
 }  // namespace nimbus

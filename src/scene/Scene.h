@@ -99,6 +99,8 @@ enum class WkbKernel { Gaussian, Exact };
 enum class WkbSource { Straight, RandomWalk };
 
 const char* methodName(Method m);
+const char* wkbKernelName(WkbKernel k);  // "gaussian", "exact"
+const char* wkbSourceName(WkbSource s);  // "straight", "random_walk"
 
 struct RenderSettings {
     Method method = Method::Single;

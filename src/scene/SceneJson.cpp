@@ -54,6 +54,8 @@ public:
     void field(const std::string& key, const std::vector<std::string>& v) { mJson[key] = v; }
     void field(const std::string& key, float3 v) { mJson[key] = array(v); }
     void field(const std::string& key, Method m) { mJson[key] = methodName(m); }
+    void field(const std::string& key, WkbKernel k) { mJson[key] = wkbKernelName(k); }
+    void field(const std::string& key, WkbSource k) { mJson[key] = wkbSourceName(k); }
     void rgb(const std::string& key, Rgb v) { mJson[key] = array(v); }
     template <int N>
     void field(const std::string& key, const float (&v)[N])
@@ -90,6 +92,33 @@ public:
             }
         fail(key, "unknown method '" + name + "' (expected single, wkb, pathtrace)");
     }
+    void field(const std::string& key, WkbKernel& out)
+    {
+        named(key, out, {WkbKernel::Gaussian, WkbKernel::Exact}, wkbKernelName, "angular kernel");
+    }
+    void field(const std::string& key, WkbSource& out)
+    {
+        named(key, out, {WkbSource::Straight, WkbSource::RandomWalk}, wkbSourceName, "source placement");
+    }
+
+private:
+    template <class E>
+    void named(const std::string& key, E& out, std::initializer_list<E> values, const char* (*name)(E), const char* what)
+    {
+        const nlohmann::json* v = find(key);
+        if (!v)
+            return;
+        std::string given = JsonValue{*v, keyPath(key), file()}.string();
+        std::string expected;
+        for (E e : values) {
+            if (given == name(e)) {
+                out = e;
+                return;
+            }
+            expected += (expected.empty() ? "" : ", ") + std::string(name(e));
+        }
+        fail(key, "unknown " + std::string(what) + " '" + given + "' (expected " + expected + ")");
+    }
 };
 
 const json& requireList(const JsonValue& v)
@@ -117,6 +146,14 @@ void visitRender(V& v, R& r)
     v.field("light_samples", r.lightSamples);
     v.field("max_depth", r.maxDepth);
     v.field("time_limit", r.timeLimit);
+    v.field("wkb_kernel", r.wkbKernel);
+    v.field("wkb_source", r.wkbSource);
+    v.field("wkb_blur_k", r.wkbBlurK);
+    v.field("wkb_l_step", r.wkbLStep);
+    v.field("wkb_order_max", r.wkbOrderMax);
+    v.field("wkb_sh_order_max", r.wkbShOrderMax);
+    v.field("light_volume_resolution", r.lightVolumeResolution);
+    v.field("wkb_memory_budget", r.wkbMemoryBudget);
 }
 
 template <class V, class O>

@@ -289,6 +289,13 @@ void checkRender(const Checker& c, const RenderSettings& r)
     c.atLeast("render.light_samples", r.lightSamples, 1);
     c.atLeast("render.max_depth", r.maxDepth, 1);
     c.range("render.time_limit", r.timeLimit, Range{0, kInf, false, true, "seconds"});
+    c.range("render.wkb_blur_k", r.wkbBlurK, Range{0, 1000, true, false, "(Tessendorf eq. 79: 24)"});
+    c.range("render.wkb_l_step", r.wkbLStep, Range{0, 10, true, false, "scattering lengths"});
+    c.range("render.wkb_order_max", r.wkbOrderMax, Range{0, 4096, false, false, ""});
+    c.range("render.wkb_sh_order_max", r.wkbShOrderMax, Range{0, 8, false, false, ""});
+    if (r.lightVolumeResolution != 0)
+        c.range("render.light_volume_resolution", r.lightVolumeResolution, Range{4, 4096, false, false, "voxels (0: automatic)"});
+    c.range("render.wkb_memory_budget", r.wkbMemoryBudget, Range{0, 100, true, false, "times the density grids' memory"});
 }
 
 void checkOutput(const Checker& c, const OutputSettings& o)
