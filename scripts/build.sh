@@ -7,10 +7,10 @@ cd "$root"
 
 bash scripts/install-deps.sh
 
-# ccache keeps rebuilds cheap; its directory lives under the build tree unless set.
-export CCACHE_DIR=${CCACHE_DIR:-$root/.cache/ccache}
+# ccache keeps rebuilds cheap: its default per-user directory is shared by every checkout on
+# the machine, and CCACHE_BASEDIR makes paths relative so a fresh clone hits the same entries.
 export CCACHE_BASEDIR=$root
-export CCACHE_MAXSIZE=${CCACHE_MAXSIZE:-3G}
+export CCACHE_MAXSIZE=${CCACHE_MAXSIZE:-5G}
 
 jobs=${NIMBUS_JOBS:-$(nproc)}
 cmake -S . -B build -G Ninja -DCMAKE_BUILD_TYPE=Release "$@" >/dev/null
