@@ -198,6 +198,46 @@ class Cli(unittest.TestCase):
         s["lights"].append({"name": "bulb", "type": "point", "position": [0, 0.2, -0.2], "intensity": [3, 3, 3]})
         self.assert_clean_render(s)
 
+    def test_emission_from_temperature_renders_in_L0(self):
+        vdb_path = os.path.join(self.d, "fire.vdb")
+        density, temperature = vdb.FloatGrid(), vdb.FloatGrid()
+        density.name, temperature.name = "density", "temperature"
+        for g in (density, temperature):
+            g.transform = vdb.createLinearTransform(voxelSize=0.1)
+        da, ta = density.getAccessor(), temperature.getAccessor()
+        for i in range(-5, 5):
+            for j in range(-5, 5):
+                for k in range(-5, 5):
+                    da.setValueOn((i, j, k), 0.5)
+                    ta.setValueOn((i, j, k), 1800.0)  # kelvin
+        vdb.write(vdb_path, grids=[density, temperature])
+        s = small_scene(lights=[])
+        s["volumes"][0]["source"] = {"type": "vdb", "file": vdb_path,
+                                     "grids": {"density": "density", "temperature": "temperature"}}
+        names, px, _ = self.assert_clean_render(s)
+        L0 = px[..., [names.index(f"L0.{c}") for c in "RGB"]]
+        L1 = px[..., [names.index(f"L1.{c}") for c in "RGB"]]
+        self.assertGreater(float(L0.max()), 0.0, "the hot volume should glow in L0")
+        self.assertGreater(float(L0[..., 0].max()), float(L0[..., 2].max()), "1800 K glows red, not blue")
+        self.assertEqual(float(L1.max()), 0.0, "no lights, no single scattering")
+
+    def test_several_volumes_each_lit(self):
+        s = small_scene()
+        ball = s["volumes"][0]
+        left = json.loads(json.dumps(ball))
+        right = json.loads(json.dumps(ball))
+        left["name"], right["name"] = "left", "right"
+        left["transform"] = {"translate": [-1.5, 0, 0], "scale": 0.5}
+        right["transform"] = {"translate": [1.5, 0, 0], "scale": 0.5}
+        right["medium"]["sigma_s"] = [0.5, 2, 0.5]
+        s["volumes"] = [left, right]
+        s["camera"]["resolution"] = [48, 16]
+        names, px, _ = self.assert_clean_render(s)
+        beauty = px[..., names.index("beauty.G")]
+        self.assertGreater(float(beauty[:, :22].max()), 0.0, "left volume lit")
+        self.assertGreater(float(beauty[:, 26:].max()), 0.0, "right volume lit")
+        self.assertEqual(float(beauty[:, 22:26].max()), 0.0, "nothing between them")
+
     # The EXR's shape: layers, channel types, metadata.
     def test_exr_layers_and_metadata(self):
         s = small_scene()
