@@ -15,8 +15,9 @@ namespace nimbus::wkb {
 namespace {
 
 constexpr int kS = BrickGrid::kStored;
-// Light samples per voxel for an SH source, and directions per voxel for emission: a stratified
-// (Fibonacci) set, shifted per voxel so that neighbouring voxels do not share its pattern.
+// Light samples per voxel for an SH source, and directions per voxel for emission (even): a
+// stratified (Fibonacci) set of antithetic pairs, shifted per voxel so that neighbouring voxels do
+// not share its pattern.
 constexpr int kShSamples = 32;
 constexpr int kEmissionDirections = 32;
 constexpr float kGoldenFraction = 0.61803398875f;
@@ -212,7 +213,13 @@ void LightVolumes::fillLevel0(const RenderContext& ctx, const WkbSetup& setup, s
                                 const int n = sp.emission ? kEmissionDirections : kShSamples;
                                 const int count = shCount(sp.order);
                                 for (int k = 0; k < n; ++k) {
-                                    const float u0 = fract((k + 0.5f) / n + r0), u1 = fract(k * kGoldenFraction + r1);
+                                    // Antithetic pairs: sample 2i+1 is sample 2i's opposite direction
+                                    // (z -> -z, phi -> phi + pi for the sphere), so odd orders of an
+                                    // even field integrate to exactly 0 instead of to sampling noise.
+                                    const int i = k / 2;
+                                    float u0 = fract((i + 0.5f) / (n / 2) + r0), u1 = fract(i * kGoldenFraction + r1);
+                                    if (k & 1)
+                                        u0 = 1.0f - u0, u1 = fract(u1 + 0.5f);
                                     Rgb L;
                                     float3 travel;  // the direction the light propagates, n'
                                     if (sp.emission) {
