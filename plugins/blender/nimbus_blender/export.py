@@ -214,10 +214,24 @@ def volume_file(obj, depsgraph):
     return bpy.path.native_pathsep(path)
 
 
+def object_space_density(volume_data, matrix):
+    """Cycles' object_volume_density: with the volume's render space 'OBJECT' (Blender's default)
+    density is per object-space unit, so Cycles divides it by the length the object matrix gives
+    the unit diagonal (1/s for a uniform scale s); 'WORLD' leaves it alone."""
+    render = getattr(volume_data, "render", None)
+    if render is None or getattr(render, "space", "OBJECT") != "OBJECT":
+        return 1.0
+    from mathutils import Vector
+
+    length = (matrix.to_3x3() @ Vector((1.0, 1.0, 1.0)).normalized()).length
+    return 1.0 / length if length > 1e-9 else 1.0
+
+
 def export_volume(obj, matrix, depsgraph, warnings):
     label = "volume '%s'" % obj.name
     material = obj.active_material
     medium, density_name, temperature_name = medium_from_material(material, label, warnings)
+    medium["density_scale"] *= object_space_density(obj.data, matrix)
     grids = {"density": density_name}
     data = obj.data
     try:
