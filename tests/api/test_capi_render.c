@@ -308,7 +308,8 @@ static void testWriteOutputs(const TestPaths* paths)
     NimbusFrame frame;
     char exr[1024];
     const char* aovs[] = {"beauty", "alpha"};
-    snprintf(exr, sizeof exr, "%s/capi_outputs.exr", paths->workDir);
+    /* One file per process: ctest runs the plain and the ASan binary at once. */
+    snprintf(exr, sizeof exr, "%s/capi_outputs_%ld.exr", paths->workDir, (long)getpid());
     unlink(exr);
     OK(nimbus_set_string(scene, "output.file", exr));
     OK(nimbus_set_strings(scene, "output.aovs", aovs, 2));
@@ -316,6 +317,7 @@ static void testWriteOutputs(const TestPaths* paths)
     frame = renderFrame(scene);
     OK(nimbus_frame_write_outputs(frame));
     CHECK(access(exr, R_OK) == 0);
+    unlink(exr);
     OK(nimbus_release(frame));
     OK(nimbus_release(scene));
 }

@@ -3,7 +3,8 @@
 Enables the installed add-on, builds a scene with a VDB volume (Principled Volume material) and
 a sun, renders it with nimbus by each method into OUT_DIR/blender_<method>.exr (multilayer,
 float) and has the engine write the scene it rendered to OUT_DIR/scene_<method>.json.
-test_blender_addon.py checks the results."""
+test_blender_addon.py checks the results. With a third argument "crosscheck" it renders the
+scene with Cycles and nimbus pathtrace instead (cycles_crosscheck.py)."""
 import math
 import os
 import sys
@@ -12,7 +13,7 @@ import addon_utils
 import bpy
 from mathutils import Vector
 
-out_dir, vdb_path = sys.argv[sys.argv.index("--") + 1:]
+out_dir, vdb_path, *mode = sys.argv[sys.argv.index("--") + 1:]
 
 if addon_utils.enable("nimbus_blender", default_set=True) is None:
     sys.exit("blender_scene: the nimbus_blender add-on is not installed")
@@ -64,10 +65,34 @@ scene.camera = camera_object
 scene.render.engine = "NIMBUS"
 scene.render.resolution_x, scene.render.resolution_y, scene.render.resolution_percentage = 64, 48, 100
 scene.view_layers[0].use_pass_z = True
-scene.nimbus.spp = 4
 settings = scene.render.image_settings
 settings.file_format = "OPEN_EXR_MULTILAYER"
 settings.color_depth = "32"
+
+if mode == ["crosscheck"]:
+    # cycles_crosscheck.py: the same scene with Cycles and nimbus pathtrace, 4 seeds each,
+    # all scattering orders and single scattering only.
+    scene.render.resolution_x, scene.render.resolution_y = 96, 72
+    c = scene.cycles
+    c.device, c.samples, c.use_denoising, c.use_adaptive_sampling = "CPU", 128, False, False
+    c.max_bounces = c.volume_bounces = c.transparent_max_bounces = 64
+    c.diffuse_bounces = c.glossy_bounces = c.transmission_bounces = 0
+    c.sample_clamp_direct = c.sample_clamp_indirect = 0.0
+    c.filter_width = 0.01  # a box of one pixel, as nimbus
+    c.volume_step_rate = 0.25
+    scene.nimbus.method, scene.nimbus.spp, scene.nimbus.max_depth = "pathtrace", 128, 64
+    for seed in range(4):
+        for bounces, tag in ((64, "all"), (0, "single")):
+            scene.render.engine, c.seed, c.volume_bounces = "CYCLES", seed, bounces
+            scene.render.filepath = os.path.join(out_dir, "cycles_%s_%d.exr" % (tag, seed))
+            bpy.ops.render.render(write_still=True)
+        scene.render.engine, scene.nimbus.seed = "NIMBUS", seed + 1
+        scene.render.filepath = os.path.join(out_dir, "nimbus_%d.exr" % seed)
+        bpy.ops.render.render(write_still=True)
+        print("blender_scene: crosscheck seed", seed)
+    sys.exit(0)
+
+scene.nimbus.spp = 4
 # Every method in-process (the path tracer's OpenCL driver inside Blender's jemalloc process
 # included), each writing the scene it rendered for `nimbus render` to repeat.
 for method in ("single", "wkb", "pathtrace"):

@@ -19,8 +19,9 @@ import tempfile
 import time
 
 import numpy as np
-import OpenImageIO as oiio
-import pyopenvdb as vdb
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from test_blender_addon_lib import read_layers, smoke_vdb  # noqa: E402
 
 blender, cli, build_dir, source_dir = sys.argv[1:5]
 passed = failed = 0
@@ -42,37 +43,6 @@ def run(cmd, env=None):
         print(proc.stdout[-4000:], proc.stderr[-4000:])
         sys.exit("command failed (%d): %s" % (proc.returncode, " ".join(cmd)))
     return proc, time.monotonic() - t0
-
-
-def read_layers(path):
-    """{layer: (height, width, channels) float32}, channel suffixes in R, G, B, A / Z order."""
-    image = oiio.ImageInput.open(path)
-    assert image is not None, oiio.geterror()
-    spec = image.spec()
-    pixels = image.read_image(oiio.FLOAT)
-    image.close()
-    order = {"R": 0, "G": 1, "B": 2, "A": 3, "Z": 0, "X": 0}
-    layers = {}
-    for index, name in enumerate(spec.channelnames):
-        layer, _, channel = name.rpartition(".")
-        layers.setdefault(layer, []).append((order.get(channel, 9), index))
-    return {layer: pixels[..., [i for _, i in sorted(ch)]] for layer, ch in layers.items()}
-
-
-def smoke_vdb(path):
-    """A soft noisy ball of density, 40^3 voxels of 5 cm."""
-    n = 40
-    z, y, x = np.mgrid[0:n, 0:n, 0:n].astype(np.float32)
-    c = (n - 1) / 2.0
-    r = np.sqrt((x - c) ** 2 + (y - c) ** 2 + (z - c) ** 2) / c
-    wobble = 0.15 * np.sin(0.7 * x) * np.sin(0.5 * y + 1.0) * np.sin(0.6 * z + 2.0)
-    density = np.clip((1.0 - r + wobble) * 2.0, 0.0, 1.0).astype(np.float32)
-    grid = vdb.FloatGrid()
-    grid.copyFromArray(density, ijk=(-n // 2, -n // 2, -n // 2))
-    grid.name = "density"
-    grid.gridClass = vdb.GridClass.FOG_VOLUME
-    grid.transform = vdb.createLinearTransform(voxelSize=0.05)
-    vdb.write(path, grids=[grid])
 
 
 with tempfile.TemporaryDirectory(prefix="nimbus-blender-test-") as tmp:
