@@ -6,9 +6,11 @@
 //   nimbus devices                     OpenCL devices for the path tracer
 //   render flags for the path tracer:  --device N|NAME, --checkpoint SECONDS
 //   nimbus default-scene               prints the default scene as JSON
+//   nimbus compare SCENE.json [--out DIR] [--minutes M] [--seeds K] [--full]   WKB vs path tracer
 //
 // Exit codes: 0 success, 1 render failure, 2 bad input (a missing file or grid, bad JSON, an
 // unknown key, a value out of range, a bad flag). Errors are one line on stderr.
+#include "compare/Compare.h"
 #include "core/Error.h"
 #include "core/Log.h"
 #include "io/Outputs.h"
@@ -162,6 +164,18 @@ int main(int argc, char** argv)
     CLI::App* info = app.add_subcommand("info", "Print the scene summary and the render plan");
     addSceneArgs(info, infoArgs);
 
+    SceneArgs compareArgs;
+    CompareOptions compareOptions;
+    CLI::App* compare = app.add_subcommand("compare", "Error against run time: WKB and the path tracer against a converged reference");
+    addSceneArgs(compare, compareArgs);
+    compare->add_option("--out", compareOptions.outDir, "Output directory (compare.csv, error_vs_time.png, sheet.png, summary.md)");
+    compare->add_option("--minutes", compareOptions.minutes, "Scales the reference's 45 s and the path tracer's 0.5..8 s ladder")
+        ->check(CLI::PositiveNumber);
+    compare->add_option("--seeds", compareOptions.seeds, "Independent path-tracer seeds per ladder step")->check(CLI::Range(1, 64));
+    compare->add_option("--cache", compareOptions.cacheDir, "Reference cache directory");
+    compare->add_flag("--full", compareOptions.fullLadder, "A longer WKB quality ladder");
+    compare->add_flag("-q,--quiet", quiet, "No progress lines");
+
     CLI::App* dump = app.add_subcommand("default-scene", "Print the embedded default scene as JSON");
 
     try {
@@ -187,6 +201,13 @@ int main(int argc, char** argv)
         }
         if (*info)
             return runInfo(infoArgs);
+        if (*compare) {
+            compareOptions.quiet = quiet;
+            Scene scene = loadScene(compareArgs);
+            validateScene(scene);
+            runCompare(scene, compareOptions);
+            return kOk;
+        }
         if (*dump) {
             std::cout << sceneToJson(defaultScene()).dump(2) << "\n";
             return kOk;

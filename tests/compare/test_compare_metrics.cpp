@@ -1,0 +1,54 @@
+// The error metrics and the time-to-error interpolation of `nimbus compare`.
+#include "compare/Compare.h"
+
+#include <gtest/gtest.h>
+
+using namespace nimbus;
+
+namespace {
+
+Film flat(float v, int w = 4, int h = 2)
+{
+    Film f;
+    f.width = w, f.height = h, f.x1 = w, f.y1 = h;
+    Aov& a = f.add("L1", 3, false);
+    a.pixels.assign(size_t(w * h * 3), v);
+    return f;
+}
+
+}  // namespace
+
+TEST(CompareMetrics, ZeroForIdenticalAndRelativeForScaled)
+{
+    Film ref = flat(2.0f), same = flat(2.0f), high = flat(2.2f);
+    ErrorMetrics e = measureError(same, ref, "L1");
+    EXPECT_EQ(e.relMse, 0.0);
+    EXPECT_EQ(e.energyRel, 0.0);
+    e = measureError(high, ref, "L1");
+    EXPECT_NEAR(e.energyRel, 0.1, 1e-6);
+    EXPECT_NEAR(e.meanRel, 0.1, 1e-6);
+    // (0.2)^2 / (4 + eps), eps = (0.1 * 2)^2 = 0.04
+    EXPECT_NEAR(e.relMse, 0.04 / 4.04, 1e-6);
+}
+
+TEST(CompareMetrics, MissingAovThrows)
+{
+    Film ref = flat(1.0f), x = flat(1.0f);
+    EXPECT_THROW(measureError(x, ref, "L2plus"), std::exception);
+}
+
+TEST(CompareMetrics, PathtracerTimeToErrorInterpolatesAndExtrapolatesAsOneOverT)
+{
+    std::vector<CompareRow> rows;
+    for (auto [t, e] : {std::pair{1.0, 0.1}, std::pair{4.0, 0.025}}) {
+        CompareRow r;
+        r.method = "pathtrace";
+        r.label = "t=" + std::to_string(t);
+        r.seconds = t;
+        r.beauty.relMse = e;
+        rows.push_back(r);
+    }
+    EXPECT_NEAR(ptTimeToError(rows, 0.05), 2.0, 1e-9);
+    EXPECT_NEAR(ptTimeToError(rows, 0.0025), 40.0, 1e-9);
+    EXPECT_NEAR(ptTimeToError(rows, 0.2), 0.5, 1e-9);
+}
