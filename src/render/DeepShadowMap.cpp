@@ -245,14 +245,18 @@ Rgb DeepShadowMap::lookup(uint32_t texel, float z, Cursor* cursor) const
         return make_float3(v[last - 1].tau[0], v[last - 1].tau[1], v[last - 1].tau[2]);
     // Find i with v[i].z <= z < v[i+1].z: walk from the cursor's vertex for this texel, else
     // bisect.
-    int slot = -1;
-    if (cursor)
-        for (int k = 0; k < 4; ++k)
-            if (cursor->texel[k] == texel)
-                slot = k;
     uint32_t i;
-    if (slot >= 0) {
-        i = cursor->vertex[slot];
+    uint32_t* slotVertex = nullptr;
+    if (cursor) {
+        uint32_t slot = texel & (Cursor::kSlots - 1);
+        slotVertex = &cursor->vertex[slot];
+        if (cursor->texel[slot] != texel) {
+            cursor->texel[slot] = texel;
+            *slotVertex = ~0u;
+        }
+    }
+    if (slotVertex && *slotVertex != ~0u) {
+        i = *slotVertex;
         while (v[i + 1].z <= z)
             ++i;
         while (v[i].z > z)
@@ -260,13 +264,9 @@ Rgb DeepShadowMap::lookup(uint32_t texel, float z, Cursor* cursor) const
     } else {
         const Vertex* hi = std::upper_bound(v + first, v + last, z, [](float zz, const Vertex& x) { return zz < x.z; });
         i = uint32_t(hi - v) - 1;
-        if (cursor) {
-            slot = int(cursor->next++ & 3u);
-            cursor->texel[slot] = texel;
-        }
     }
-    if (cursor)
-        cursor->vertex[slot] = i;
+    if (slotVertex)
+        *slotVertex = i;
     const Vertex& a = v[i];
     const Vertex& b = v[i + 1];
     float w = (z - a.z) / (b.z - a.z);

@@ -37,12 +37,19 @@ public:
     // Builds the map for a point, spot or distant light over the volumes (TBB-parallel).
     static DeepShadowMap build(const NbLight& light, const VolumeSet& volumes, const Settings& settings);
 
-    // Where the last lookups in four texels ended: consecutive lookups along one camera ray hit
-    // the same texels at nearby depths, so a search can start there instead of bisecting.
+    // Where the last lookups in recently used texels ended: nearby lookups hit the same texels
+    // at nearby depths, so a search can start there instead of bisecting.
     struct Cursor {
-        uint32_t texel[4] = {~0u, ~0u, ~0u, ~0u};
-        uint32_t vertex[4] = {0, 0, 0, 0};
-        uint32_t next = 0;
+        // Direct-mapped by texel index: a brick's 9^3 voxels touch a few hundred texels, each
+        // about a dozen times, so most searches become a step or two from the last vertex.
+        static constexpr uint32_t kSlots = 1024;
+        uint32_t texel[kSlots];
+        uint32_t vertex[kSlots];
+        Cursor()
+        {
+            for (uint32_t i = 0; i < kSlots; ++i)
+                texel[i] = ~0u, vertex[i] = 0;
+        }
     };
 
     // Transmittance (RGB) from the light to world point p. Points outside the map's footprint
