@@ -1,15 +1,39 @@
 #!/usr/bin/env bash
-# Builds nimbus and runs the benchmarks, writing their figures into docs/benchmarks.md.
-# The machine should be otherwise idle; timings are ratios taken side by side in one run.
+# Builds nimbus and runs the benchmarks, writing their figures into docs/benchmarks.md (each
+# into its own <!-- bench:NAME --> section). The machine should be otherwise idle; timings are
+# ratios taken side by side in one run.
 set -euo pipefail
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 cd "$root"
 bash scripts/build.sh
-for b in build/tests/bench/bench_*; do
-  [ -x "$b" ] || continue
-  echo "== $b"
-  case "$(basename "$b")" in
-    bench_single_vs_vdb_render) "$b" build/bin/nimbus docs/benchmarks.md ;;
-    *) "$b" docs/benchmarks.md ;;
-  esac
-done
+report=docs/benchmarks.md
+bench=build/tests/bench
+
+# Replaces section NAME of the report with standard input.
+section() {
+  python3 - "$report" "$1" <<'PY'
+import sys
+path, name = sys.argv[1], sys.argv[2]
+body = sys.stdin.read()
+text = open(path).read()
+begin, end = f"<!-- bench:{name} -->", f"<!-- /bench:{name} -->"
+block = f"{begin}\n{body}{end}"
+a, b = text.find(begin), text.find(end)
+text = text[:a] + block + text[b + len(end):] if a >= 0 and b > a else text.rstrip("\n") + "\n\n" + block + "\n"
+open(path + ".tmp", "w").write(text)
+import os; os.replace(path + ".tmp", path)
+PY
+}
+
+echo "== single vs vdb_render"
+"$bench/bench_single_vs_vdb_render" build/bin/nimbus "$report"
+echo "== wkb vs single"
+"$bench/bench_wkb" "$report"
+echo "== path tracer: samples per second with and without the majorant grid"
+{
+  echo "PoCL on this machine's CPU cores unless a GPU is present; 128x128 pixels, 16 spp, a 128^3 cloud."
+  echo '```'
+  "$bench/bench_pathtrace" 16 128 "" dense
+  "$bench/bench_pathtrace" 16 128 "" wispy
+  echo '```'
+} | section pathtrace
