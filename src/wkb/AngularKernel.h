@@ -30,7 +30,7 @@ struct PhaseMoments {
     double g = 0.0, g2 = 0.0, blend = 0.0;
 
     double moment(int j) const;
-    double meanCosine() const { return moment(1); }
+    double meanCosine() const { return blend > 0.0 ? (1.0 - blend) * g + blend * g2 : g; }
     // |p_j| <= gmax^j for every j: bounds the tail of the order sum.
     double gmax() const;
 };

@@ -233,13 +233,13 @@ void LightPyramid::fetchLevel(int k, float3 p0, int c0, int n, float weight, flo
                         wx * wy * (1 - wz),             (1 - wx) * (1 - wy) * wz, wx * (1 - wy) * wz,
                         (1 - wx) * wy * wz,             wx * wy * wz};
     const size_t off[8] = {0, sx, sy, sx + sy, sz, sz + sx, sz + sy, sz + sy + sx};
-    for (int corner = 0; corner < 8; ++corner) {
-        const float cw = weight * w[corner];
-        if (cw == 0.0f)
-            continue;
-        const float* v = base + off[corner];
-        for (int c = 0; c < n; ++c)
-            out[c] += cw * v[c];
+    // Channel outermost: eight loads summed in a register per channel, one store (out may alias
+    // nothing, but the compiler cannot know that across the corner loop).
+    for (int c = 0; c < n; ++c) {
+        const float* v = base + c;
+        const float sum = w[0] * v[off[0]] + w[1] * v[off[1]] + w[2] * v[off[2]] + w[3] * v[off[3]] + w[4] * v[off[4]] +
+                          w[5] * v[off[5]] + w[6] * v[off[6]] + w[7] * v[off[7]];
+        out[c] += weight * sum;
     }
 }
 

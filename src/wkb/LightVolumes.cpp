@@ -73,6 +73,21 @@ Rgb LightVolumes::deltaE(const SourcePlan& source, size_t sourceIndex, float3 y,
     }
     if (nbMaxComponent(weight) <= 0.0f)
         return splat(0.0f);
+    if (!source.needsOwnShadowMap && source.lightIndex >= 0) {
+        const LightEntry& e = mCtx->lights[size_t(source.lightIndex)];
+        if (e.cache) {
+            const auto& vols = mCtx->volumes.volumes();
+            thread_local std::vector<BrickGrid::Stencil> stencils;
+            stencils.resize(vols.size());
+            bool inside = false;
+            for (size_t v = 0; v < vols.size(); ++v) {
+                stencils[v] = vols[v]->density.stencil(vols[v]->indexFromWorld.point(y));
+                inside |= stencils[v].brick >= 0;
+            }
+            if (inside)
+                return weight * e.cache->transmittance(stencils.data());
+        }
+    }
     const DeepShadowMap* map = mMaps[sourceIndex];
     return map ? weight * map->transmittance(y) : weight;
 }
@@ -96,6 +111,7 @@ size_t LightVolumes::memoryBytes() const
 
 void LightVolumes::build(const RenderContext& ctx, WkbSetup& setup, RenderPlan& plan)
 {
+    mCtx = &ctx;
     mPyramids.assign(setup.volumes.size(), LightPyramid());
     mOwnMaps.assign(setup.sources.size(), std::nullopt);
     mMaps.assign(setup.sources.size(), nullptr);

@@ -35,13 +35,16 @@ public:
     size_t memoryBytes() const;
 
     // A delta source's E(y) (W/m^2, RGB, transmittance included) and its direction of travel
-    // N(y) at world point y. rMin floors the distance to point-like sources (metres).
+    // N(y) at world point y. rMin floors the distance to point-like sources (metres). Inside the
+    // density's bricks the transmittance comes from RenderContext's LightCache where the light
+    // has one (the shadow map baked on the voxels, a few loads), else from the shadow map.
     Rgb deltaE(const SourcePlan& source, size_t sourceIndex, float3 y, float rMin) const;
     static float3 deltaDirection(const SourcePlan& source, float3 y);
 
 private:
     void fillLevel0(const RenderContext& ctx, const WkbSetup& setup, size_t volume);
 
+    const RenderContext* mCtx = nullptr;
     std::vector<LightPyramid> mPyramids;
     std::vector<std::optional<DeepShadowMap>> mOwnMaps;  // per source
     std::vector<const DeepShadowMap*> mMaps;             // per source: the map E uses (or null)

@@ -37,6 +37,8 @@ namespace {
 constexpr double kInv4Pi = 0.079577471545947667884;
 constexpr int kMaxNodes = 100000;
 constexpr double kNodeSpatial = 0.5;  // node length, in blur widths (or light voxels)
+// The march reads the density from the pyramid once the blur exceeds this many light voxels.
+constexpr double kCoarseFrom = 0.5;
 // Fine stretches are twice the L1 step: the table needs the integral of b over a node, and nodes
 // are at least a light voxel (two density voxels) long; the L1 step resolves single scattering's
 // shadows, which L2+ never sees unblurred.
@@ -115,7 +117,7 @@ bool WkbIntegrator::nextPiece(Cursor& cur, Scratch& sc, float3 o, float3 d, doub
             p.len = t0 - s;
             return true;
         }
-        if (!cur.coarse && sigmaMarch >= mMinLightVoxel)
+        if (!cur.coarse && sigmaMarch >= kCoarseFrom * mMinLightVoxel)
             cur.coarse = true;
         if (!cur.coarse) {
             if (cur.fineN == 0) {
@@ -236,10 +238,9 @@ void WkbIntegrator::evaluateNode(Scratch& sc, float3 o, float3 d, const TableEnt
         W[c] = weightIntegral(e0.l[c], e0.tauA[c], dl, omega);
     }
     const Truncation tr = truncateOrders(mSetup.kernel, lmin, mu, gmax, mSetup.tolerance, mSetup.orderCap);
-    double rem = 0.0;
-    for (int c = 0; c < 3; ++c)
-        rem = std::max(rem, remainingWeightBound(e1.l[c], e1.tauA[c], mSetup.omegaMax));
-    remaining = rem * tr.total / kInv4Pi;
+    // The bound decreases with tau_a: the least absorbed channel bounds all three.
+    const double tauAMin = std::min(e1.tauA[0], std::min(e1.tauA[1], e1.tauA[2]));
+    remaining = remainingWeightBound(e1.lhat, tauAMin, mSetup.omegaMax) * tr.total / kInv4Pi;
     if (!(std::max(W[0], std::max(W[1], W[2])) > 0.0))
         return;
 
@@ -377,8 +378,8 @@ void WkbIntegrator::march(float3 o, float3 d, NbRng& rng, CameraSample& out, flo
 
     for (int node = 0; node < kMaxNodes; ++node) {
         const TableEntry e0 = sc.table.back();
-        const double lTarget = e0.lhat + mSetup.lStep * std::max(1.0, e0.lhat);
         const double sigmaMarch = std::sqrt(std::max(0.0, 0.5 * mSetup.blurK * sc.muLast * e0.P));
+        const double lTarget = e0.lhat + mSetup.lStep * std::max(1.0, e0.lhat);
         double budget = kNodeSpatial * std::max(sigmaMarch, double(mMinLightVoxel));
         std::fill(sc.nodeW.begin(), sc.nodeW.end(), 0.0);
         bool done = false;

@@ -149,6 +149,16 @@ WkbSetup planWkb(const RenderContext& ctx, RenderPlan& plan)
     const int shCap = std::min(std::max(rs.wkbShOrderMax, 0), kShOrderLimit);
     const int shOrder =
         truncateOrders(setup.kernel, 0.5 * setup.lStep, gaussianMu(p1max), gmax, setup.tolerance, shCap).order;
+    {
+        // The order sum is longest at the first step; say so where the cap cuts it there.
+        Truncation first =
+            truncateOrders(setup.kernel, 0.5 * setup.lStep, gaussianMu(p1max), gmax, setup.tolerance, setup.orderCap);
+        if (first.capped)
+            plan.notes.push_back(fmt("wkb: the order sum is capped at j = %.0f at the first step (l = %.3g); the neglected "
+                                     "terms are bounded by %.2g E/4pi there",
+                                     first.order, 0.5 * setup.lStep, first.tailBound * 4.0 * kPi) +
+                                 fmt(" (max |g| %.3g)", gmax));
+    }
     const Bbox& vb = ctx.volumes.worldBounds();
     const float3 vc = vb.center();
     const float vr = 0.5f * length(vb.extent());

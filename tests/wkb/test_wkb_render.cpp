@@ -504,3 +504,22 @@ TEST(WkbSources, EmissionFeedsL2plusDeepInsideAMedium)
         EXPECT_GE(v.y, 0.5 * exact);
     }
 }
+
+// Two overlapping volumes with different media and phase functions (a forward-scattering cloud
+// through an isotropic haze): the march mixes their phase moments by scattering and reads both
+// pyramids; the image is finite and non-negative, L2+ is there, and the plan names both grids.
+TEST(WkbRender, OverlappingVolumesMix)
+{
+    Scene s = baseScene(16, 12, make_float3(0, 0.3f, 5), make_float3(0, 0, 0), 35);
+    s.volumes.push_back(proceduralVolume("cloud", {{"radius", 0.8}, {"voxel_size", 0.05}}, splat(5.0f), splat(0.05f), 0.85f));
+    Volume haze = proceduralVolume("box", {{"size", 2.0}, {"voxel_size", 0.1}}, make_float3(0.3f, 0.4f, 0.6f), splat(0.02f), 0.0f);
+    haze.name = "haze";
+    s.volumes.push_back(haze);
+    s.lights.push_back(sun(make_float3(0.3f, -1, 0.2f), 2.0f));
+    RenderResult r = render(s);
+    expectFiniteNonNegativeBounded(r.film, 1e30, "overlap");
+    EXPECT_GT(mean(aov(r.film, "L2plus")), 0.0);
+    ASSERT_EQ(r.plan.volumes.size(), 2u);
+    EXPECT_GT(r.plan.volumes[0].pyramidBytes, 0u);
+    EXPECT_GT(r.plan.volumes[1].pyramidBytes, 0u);
+}
