@@ -88,7 +88,7 @@ double energyRelSe(const Film& f)
 // image means within 4 standard errors plus 1% of the mean, and the per-pixel z^2 averaging ~1
 // (1.5 allows heavy tails of the per-pixel variance estimate at 1024 samples). The 1% is a
 // measured discretisation difference, not noise: on these spheres WKB's L1 is brighter than the
-// path tracer's by 1.4-2.2% at voxel 0.08 and by 0.8% at voxel 0.04 (z +3.7, +2.5), falling with
+// path tracer's by 1.4-2.2% at voxel 0.08 and by 0.7-1.1% at voxel 0.04 (z +3.5, +2.2), falling with
 // the voxel size, with the march step, shadow-map resolution and tolerance tightened 4x
 // changing nothing and g = 0 the same as g = 0.5/0.9: the two integrators reconstruct the
 // sphere's one-voxel soft edge differently (docs/validation.md).
