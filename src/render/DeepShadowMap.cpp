@@ -45,9 +45,13 @@ DeepShadowMap DeepShadowMap::build(const NbLight& light, const VolumeSet& volume
             for (int a = 0; a < 3; ++a)
                 lo[a] = std::min(lo[a], q[a]), hi[a] = std::max(hi[a], q[a]);
         }
+        // Texels finer than the density grid resolve nothing the grid holds: cap the resolution
+        // at 0.75 of the finest voxel across the footprint (the fewest texels that meet the
+        // grid, DESIGN "leave out what a scene does not need"); `resolution` is the maximum.
+        float side = std::max(std::max(hi[0] - lo[0], hi[1] - lo[1]), 1e-6f);
+        m.mRes = std::max(8, std::min(m.mRes, int(std::ceil(side / (0.75f * volumes.minVoxelSize())))));
         // A square footprint with a margin of one texel on each side (clamp-to-edge lookups).
-        float side = std::max(hi[0] - lo[0], hi[1] - lo[1]);
-        side = std::max(side, 1e-6f) * (1.0f + 2.0f / float(m.mRes));
+        side *= 1.0f + 2.0f / float(m.mRes);
         float cr = 0.5f * (lo[0] + hi[0]), cu = 0.5f * (lo[1] + hi[1]);
         float depth0 = lo[2] - 0.01f * (hi[2] - lo[2]) - 1e-6f;
         f.origin = f.right * (cr - 0.5f * side) + f.up * (cu - 0.5f * side) + f.forward * depth0;
