@@ -1,5 +1,7 @@
 #include "Pathtracer.h"
 
+#include "../render/Renderer.h"
+
 #include "../core/Error.h"
 #include "../core/Log.h"
 #include "../scene/KernelScene.h"
@@ -25,26 +27,6 @@ constexpr int kRussianRouletteDepth = 3;
 // watchdogs, long enough that launch overhead is noise.
 constexpr double kTargetPassSeconds = 0.5;
 constexpr int kMaxSamplesPerPass = 64;
-
-void setupFilm(Film& film, const RenderContext& ctx)
-{
-    const Camera& c = ctx.scene->camera;
-    film.width = c.width;
-    film.height = c.height;
-    film.x0 = std::max(0, int(std::floor(c.crop[0] * c.width)));
-    film.x1 = std::min(c.width, int(std::ceil(c.crop[1] * c.width)));
-    film.y0 = std::max(0, int(std::floor(c.crop[2] * c.height)));
-    film.y1 = std::min(c.height, int(std::ceil(c.crop[3] * c.height)));
-    film.add("beauty", 4, false);
-    film.add("L0", 3, false);
-    film.add("L1", 3, false);
-    film.add("L2plus", 3, false);
-    film.add("alpha", 1, true);
-    film.add("depth", 1, true);
-    film.add("variance", 1, true);
-    for (const LightEntry& e : ctx.lights)
-        film.add(e.aov, 3, false);
-}
 
 // Copies the running estimate into the film's AOVs.
 void resolve(const std::vector<float>& acc, int stride, long long n, const PathtraceScene& ps, const RenderContext& ctx,
@@ -110,7 +92,7 @@ void renderPathtrace(const RenderContext& ctx, Film& film, const RenderOptions& 
         throw Error("path tracer: the render context has no scene");
     const Scene& scene = *ctx.scene;
     if (film.aovs.empty())
-        setupFilm(film, ctx);
+        setupFilm(film, scene, Method::Pathtrace);
     const int cropWidth = film.x1 - film.x0, cropHeight = film.y1 - film.y0;
     const long long pixelCount = (long long)std::max(0, cropWidth) * std::max(0, cropHeight);
     if (pixelCount == 0)

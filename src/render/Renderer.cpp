@@ -26,21 +26,6 @@ constexpr int kTile = 16;
 
 std::string lightAov(const Light& l, size_t i) { return "light_" + (l.name.empty() ? std::to_string(i) : l.name); }
 
-void setupFilm(Film& film, const Scene& scene, Method method)
-{
-    const Camera& c = scene.camera;
-    film.width = c.width;
-    film.height = c.height;
-    film.x0 = std::max(0, int(std::floor(c.crop[0] * c.width)));
-    film.x1 = std::min(c.width, int(std::ceil(c.crop[1] * c.width)));
-    film.y0 = std::max(0, int(std::floor(c.crop[2] * c.height)));
-    film.y1 = std::min(c.height, int(std::ceil(c.crop[3] * c.height)));
-    for (const std::string& name : aovNames(scene, method)) {
-        bool data = name == "alpha" || name == "depth" || name == "variance";
-        film.add(name, name == "beauty" ? 4 : (data ? 1 : 3), data);
-    }
-}
-
 std::string settingsSummary(const Scene& s)
 {
     std::ostringstream o;
@@ -145,6 +130,21 @@ void renderMarched(const RenderContext& ctx, Film& film, const RenderOptions& op
 }
 
 }  // namespace
+
+void setupFilm(Film& film, const Scene& scene, Method method)
+{
+    const Camera& c = scene.camera;
+    film.width = c.width;
+    film.height = c.height;
+    film.x0 = std::max(0, int(std::floor(c.crop[0] * c.width)));
+    film.x1 = std::min(c.width, int(std::ceil(c.crop[1] * c.width)));
+    film.y0 = std::max(0, int(std::floor(c.crop[2] * c.height)));
+    film.y1 = std::min(c.height, int(std::ceil(c.crop[3] * c.height)));
+    for (const std::string& name : aovNames(scene, method)) {
+        bool data = name == "alpha" || name == "depth" || name == "variance";
+        film.add(name, name == "beauty" ? 4 : (data ? 1 : 3), data);
+    }
+}
 
 std::vector<std::string> aovNames(const Scene& scene, Method method)
 {

@@ -43,4 +43,7 @@ RenderPlan planRender(const Scene& scene);
 // Every AOV name a method can produce for this scene, in output order.
 std::vector<std::string> aovNames(const Scene& scene, Method method);
 
+// Sizes the film for the camera (crop = data window) and adds every AOV of the method.
+void setupFilm(Film& film, const Scene& scene, Method method);
+
 }  // namespace nimbus

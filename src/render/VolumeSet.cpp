@@ -148,26 +148,13 @@ MediumSample VolumeSet::sample(float3 p, float* phaseWeights, BrickGrid::Stencil
 
 MediumSample VolumeSet::sample(float3 p, float* phaseWeights) const
 {
-    MediumSample m;
-    for (size_t i = 0; i < mVolumes.size(); ++i) {
-        const VolumeData& v = *mVolumes[i];
-        const Hot& h = mHot[i];
-        float w = 0.0f;
-        if (v.worldBounds.contains(p)) {
-            float3 ip = h.index(p);
-            float rho = v.density.sample(ip);
-            if (rho > 0.0f) {
-                Rgb s = h.sigmaS * rho;
-                m.sigma_s += s;
-                m.sigma_t += h.sigmaT * rho;
-                w = nbAverage(s);
-            }
-            if (v.hasEmission())
-                m.emission += v.emission.sample3(ip) * h.emissionScale;
-        }
-        if (phaseWeights)
-            phaseWeights[i] = w;
-    }
+    thread_local std::vector<float> weights;
+    thread_local std::vector<BrickGrid::Stencil> stencils;
+    weights.resize(mVolumes.size());
+    stencils.resize(mVolumes.size());
+    MediumSample m = sample(p, weights.data(), stencils.data());
+    if (phaseWeights)
+        std::copy(weights.begin(), weights.end(), phaseWeights);
     return m;
 }
 
