@@ -28,12 +28,12 @@ PY
 echo "== single vs vdb_render"
 "$bench/bench_single_vs_vdb_render" build/bin/nimbus "$report"
 echo "== wkb vs single"
-"$bench/bench_wkb" "$report"
+build/tests/wkb/bench_wkb "$report"
 echo "== path tracer: samples per second with and without the majorant grid"
 {
   echo "PoCL on this machine's CPU cores unless a GPU is present; 128x128 pixels, 16 spp, a 128^3 cloud."
   echo '```'
-  "$bench/bench_pathtrace" 16 128 "" dense
-  "$bench/bench_pathtrace" 16 128 "" wispy
+  build/tests/pathtracer/bench_pathtrace 16 128 "" dense
+  build/tests/pathtracer/bench_pathtrace 16 128 "" wispy
   echo '```'
 } | section pathtrace
