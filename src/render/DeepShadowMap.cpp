@@ -283,14 +283,14 @@ Rgb DeepShadowMap::texelOpticalDepth(int face, int ix, int iy, float z) const
     return lookup(uint32_t((size_t(face) * mRes + iy) * mRes + ix), z, nullptr);
 }
 
-Rgb DeepShadowMap::transmittance(float3 p, Cursor* cursor) const
+Rgb DeepShadowMap::opticalDepth(float3 p, Cursor* cursor) const
 {
     int face;
     float u, v, z;
     if (!project(p, face, u, v, z))
-        return splat(1.0f);
+        return splat(0.0f);
     if (mProjection != Projection::Cube && (u < 0.0f || u > 1.0f || v < 0.0f || v > 1.0f))
-        return splat(1.0f);
+        return splat(0.0f);
     float fx = u * mRes - 0.5f, fy = v * mRes - 0.5f;
     int x0 = int(std::floor(fx)), y0 = int(std::floor(fy));
     float wx = fx - x0, wy = fy - y0;
@@ -301,7 +301,7 @@ Rgb DeepShadowMap::transmittance(float3 p, Cursor* cursor) const
               lookup(base + ya * mRes + xb, z, cursor) * (wx * (1 - wy)) +
               lookup(base + yb * mRes + xa, z, cursor) * ((1 - wx) * wy) +
               lookup(base + yb * mRes + xb, z, cursor) * (wx * wy);
-    return exp(-tau);
+    return tau;
 }
 
 size_t DeepShadowMap::memoryBytes() const

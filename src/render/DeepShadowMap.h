@@ -54,7 +54,9 @@ public:
 
     // Transmittance (RGB) from the light to world point p. Points outside the map's footprint
     // see no volume between them and the light and get 1. `cursor` is optional.
-    Rgb transmittance(float3 p, Cursor* cursor = nullptr) const;
+    Rgb transmittance(float3 p, Cursor* cursor = nullptr) const { return exp(-opticalDepth(p, cursor)); }
+    // The optical depth from the light to p, bilinear over the four nearest texels.
+    Rgb opticalDepth(float3 p, Cursor* cursor = nullptr) const;
 
     Projection projection() const { return mProjection; }
     int resolution() const { return mRes; }

@@ -30,7 +30,7 @@ LightCache LightCache::bake(const DeepShadowMap& map, const VolumeSet& volumes)
                     for (int y = 0; y < BrickGrid::kStored; ++y)
                         for (int x = 0; x < BrickGrid::kStored; ++x, ++n) {
                             float3 p = worldFromIndex.point(make_float3(float(o.x + x), float(o.y + y), float(o.z + z)));
-                            Rgb t = map.transmittance(p, &cursor);
+                            Rgb t = map.opticalDepth(p, &cursor);
                             if (channels == 1) {
                                 values[n] = t.x;
                             } else {

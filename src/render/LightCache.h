@@ -1,16 +1,19 @@
 // LightCache.h: a shadow-mapped light's transmittance baked on each volume's voxel lattice.
 //
 // The deep shadow map answers T(light -> x) anywhere (Tessendorf eq. 27), but a lookup costs
-// four texel searches; the camera march asks at every step. Baking T at the voxels where the
-// density lives (the density grid's own bricks, so one trilinear stencil serves both) makes the
-// per-step cost a few loads. Interpolating T linearly between voxel centres h apart errs by at
-// most h^2/8 max|T''| = (sigma_t h)^2 / 8 relative in a homogeneous region: 5e-4 at
-// sigma_t h = 1/16. Grey media (equal RGB extinction everywhere) store one channel.
+// four texel searches; the camera march asks at every step. Baking the map at the voxels where
+// the density lives (the density grid's own bricks, so one trilinear stencil serves both) makes
+// the per-step cost a few loads and one exp. The cache holds the optical depth tau, not T:
+// tau is linear where the medium is homogeneous, so interpolating it and then taking e^-tau is
+// exact there, whereas interpolating the convex T overestimates it by up to (sigma_t h)^2 / 8
+// (measured against the path tracer: +0.4% in L1 at sigma_t h ~ 0.2). Grey media (equal RGB
+// extinction everywhere) store one channel.
 #pragma once
 
 #include "DeepShadowMap.h"
 #include "VolumeSet.h"
 
+#include <cmath>
 #include <vector>
 
 namespace nimbus {
@@ -28,10 +31,11 @@ public:
                 continue;
             const BrickGrid& g = mGrids[v];
             if (g.channels() == 1) {
-                float t = g.interpolate(stencils[v], 0);
+                float t = std::exp(-g.interpolate(stencils[v], 0));
                 return make_float3(t, t, t);
             }
-            return make_float3(g.interpolate(stencils[v], 0), g.interpolate(stencils[v], 1), g.interpolate(stencils[v], 2));
+            return exp(-make_float3(g.interpolate(stencils[v], 0), g.interpolate(stencils[v], 1),
+                                    g.interpolate(stencils[v], 2)));
         }
         return splat(1.0f);
     }

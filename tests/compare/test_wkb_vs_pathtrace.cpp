@@ -85,13 +85,10 @@ double energyRelSe(const Film& f)
 }  // namespace
 
 // WKB's L1 against the path tracer's with max depth 1 (beauty = L1, the variance AOV is L1's):
-// image means within 4 standard errors plus 1% of the mean, and the per-pixel z^2 averaging ~1
-// (1.5 allows heavy tails of the per-pixel variance estimate at 1024 samples). The 1% is a
-// measured discretisation difference, not noise: on these spheres WKB's L1 is brighter than the
-// path tracer's by 1.4-2.2% at voxel 0.08 and by 0.7-1.1% at voxel 0.04 (z +3.5, +2.2), falling with
-// the voxel size, with the march step, shadow-map resolution and tolerance tightened 4x
-// changing nothing and g = 0 the same as g = 0.5/0.9: the two integrators reconstruct the
-// sphere's one-voxel soft edge differently (docs/validation.md).
+// image means within 4 standard errors, and the per-pixel z^2 averaging ~1 (1.5 allows heavy
+// tails of the per-pixel variance estimate at 1024 samples). This test found a 0.4% bias in the
+// marcher's light cache (it interpolated the convex transmittance between voxels; it now
+// interpolates optical depth): z went from +3.8 / +2.6 to +2.5 / +2.0 on these two scenes.
 TEST(WkbVsPathtrace, L1WithinPathtracerNoise)
 {
     useTempKernelCache();
@@ -123,7 +120,7 @@ TEST(WkbVsPathtrace, L1WithinPathtracerNoise)
         std::printf("%s: image mean L1 path tracer %.5f +- %.5f, wkb %.5f (z %+.2f); mean z^2 over %d pixels %.2f\n",
                     c->name, ptMean, se, wkbMean, (wkbMean - ptMean) / se, pixels, z2);
         EXPECT_GT(pixels, 200) << c->name;
-        EXPECT_LT(std::fabs(wkbMean - ptMean), 4 * se + 0.01 * ptMean) << c->name;
+        EXPECT_LT(std::fabs(wkbMean - ptMean), 4 * se) << c->name;
         EXPECT_LT(z2, 1.5) << c->name;
     }
 }
