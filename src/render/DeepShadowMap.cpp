@@ -103,13 +103,14 @@ DeepShadowMap DeepShadowMap::build(const NbLight& light, const VolumeSet& volume
     for (auto& row : rows)
         total += row.size();
     m.mVertices.reserve(total);
+    // Rows were built in parallel; concatenate them, recording where each texel starts.
     for (size_t row = 0; row < rows.size(); ++row) {
         for (uint32_t count : rowCounts[row]) {
             m.mOffsets.push_back(uint32_t(m.mVertices.size()));
-            (void)count;
-            m.mVertices.insert(m.mVertices.end(), rows[row].begin(), rows[row].begin() + count);
-            rows[row].erase(rows[row].begin(), rows[row].begin() + count);
+            m.mVertices.resize(m.mVertices.size() + count);
         }
+        std::copy(rows[row].begin(), rows[row].end(), m.mVertices.end() - rows[row].size());
+        std::vector<Vertex>().swap(rows[row]);
     }
     m.mOffsets.push_back(uint32_t(m.mVertices.size()));
     m.mBuildSeconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();

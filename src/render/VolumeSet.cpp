@@ -98,10 +98,8 @@ void VolumeSet::spans(float3 o, float3 d, float tmin, float tmax, float stepFrac
         float s0, s1;
         if (!ib.intersect(oi, safeInverse(di), t0, t1, s0, s1))
             continue;
-        size_t before = local.size();
         gridSpans(v->density, v->hasEmission() ? &v->emission : nullptr, oi, di, s0, s1,
                   stepFraction * v->voxelSize, local);
-        (void)before;
     }
     if (local.empty())
         return;
