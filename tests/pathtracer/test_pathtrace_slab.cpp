@@ -2,8 +2,9 @@
 // transmitted by a homogeneous plane-parallel slab under a normally incident distant light, at
 // the 8 Gauss-Legendre cosines, and the hemispherical reflectance and transmittance they
 // integrate to. References: SlabSolver.h (isotropic: the Schwarzschild-Milne integral equation)
-// and DomSlabSolver.h (HG: discrete ordinates); see SlabSolver.h for why not a published table.
-// The two solvers are different methods and must agree where both apply (g = 0).
+// and DomSlabSolver.h (HG: discrete ordinates), both checked against published tables, and the
+// path tracer too, in test_pathtrace_slab_published.cpp. The two solvers are different methods
+// and must agree where both apply (g = 0).
 // Also a single-scattering HG slab with closed forms, which pins down the direction convention
 // of the phase function (forward scattering brightens transmission, not reflection).
 //
