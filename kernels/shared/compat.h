@@ -94,7 +94,9 @@ NB_FN float nbMinComponent(float3 v)
     float m = v.x < v.y ? v.x : v.y;
     return m < v.z ? m : v.z;
 }
-NB_FN float nbAverage(float3 v) { return (v.x + v.y + v.z) * (1.0f / 3.0f); }
+// Divided, not multiplied by 1/3: the mean of three equal values must be that value exactly (an
+// opaque-free pixel has alpha 1 - mean(T) = 0), which (1 + 1 + 1) * 0.33333334f, fused, is not.
+NB_FN float nbAverage(float3 v) { return (v.x + v.y + v.z) / 3.0f; }
 
 /* float[4] storage in plain-data structs to float3 (OpenCL float3 is 16 bytes in buffers). */
 NB_FN float3 nbLoad3(const float* v) { return make_float3(v[0], v[1], v[2]); }

@@ -116,8 +116,8 @@ float BrickGrid::sample(float3 p, int c) const
 {
     if (!(p.x > -1e9f && p.x < 1e9f && p.y > -1e9f && p.y < 1e9f && p.z > -1e9f && p.z < 1e9f))
         return 0.0f;
-    float fx = std::floor(p.x), fy = std::floor(p.y), fz = std::floor(p.z);
-    int i = int(fx), j = int(fy), k = int(fz);
+    int i = floorToInt(p.x), j = floorToInt(p.y), k = floorToInt(p.z);
+    float fx = float(i), fy = float(j), fz = float(k);
     int bx = i >> kBrickLog2, by = j >> kBrickLog2, bz = k >> kBrickLog2;
     int slot = slotOf(bx, by, bz);
     if (slot < 0 || mTable[slot] < 0)
@@ -155,12 +155,11 @@ float3 BrickGrid::sample3(float3 p) const
 
 float BrickGrid::majorantAt(float3 p, Int3* slotLo) const
 {
-    int bx = int(std::floor(p.x)) >> kBrickLog2, by = int(std::floor(p.y)) >> kBrickLog2,
-        bz = int(std::floor(p.z)) >> kBrickLog2;
-    if (slotLo)
-        *slotLo = {bx * kBrick, by * kBrick, bz * kBrick};
     if (!(std::fabs(p.x) < 1e9f && std::fabs(p.y) < 1e9f && std::fabs(p.z) < 1e9f))
         return 0.0f;
+    int bx = floorToInt(p.x) >> kBrickLog2, by = floorToInt(p.y) >> kBrickLog2, bz = floorToInt(p.z) >> kBrickLog2;
+    if (slotLo)
+        *slotLo = {bx * kBrick, by * kBrick, bz * kBrick};
     int slot = slotOf(bx, by, bz);
     return slot < 0 ? 0.0f : mMajorant[slot];
 }
