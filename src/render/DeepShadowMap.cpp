@@ -1,5 +1,7 @@
 #include "DeepShadowMap.h"
 
+#include "BrickWalk.h"
+
 #include "../core/Error.h"
 
 #include <tbb/blocked_range.h>
@@ -131,10 +133,35 @@ void DeepShadowMap::texelRay(int face, float u, float v, float3& o, float3& d) c
 
 void DeepShadowMap::marchRay(const VolumeSet& volumes, float3 o, float3 d, float stepFraction, std::vector<Vertex>& raw)
 {
-    thread_local std::vector<Span> spanList;
-    volumes.spans(o, d, 0.0f, 1e30f, stepFraction, spanList);
     raw.clear();
     float tau[3] = {0, 0, 0};
+    if (volumes.volumes().size() == 1 && volumes.volumes()[0]->density.channels() == 1) {
+        // One volume: walk its occupied bricks in index space (BrickWalk.h), midpoint rule on
+        // the lattice t_k = t_in + (k + 1/2) dt; a vertex where a run of samples starts and
+        // at the end of every step.
+        const VolumeData& vol = *volumes.volumes()[0];
+        const BrickGrid& density = vol.density;
+        const Rgb kT = vol.sigmaT();
+        const float dt = stepFraction * vol.voxelSize;
+        const float3 oi = vol.indexFromWorld.point(o), di = vol.indexFromWorld.vector(d);
+        float t0, t1, s0, s1;
+        if (!vol.worldBounds.intersect(o, safeInverse(d), 0.0f, 1e30f, t0, t1) ||
+            !density.activeIndexBounds().intersect(oi, safeInverse(di), t0, t1, s0, s1))
+            return;
+        int last = -2;
+        walkOccupiedBricks(density, oi, di, s0, s1, s0, dt, 0.5f, [&](int k, float t, const BrickGrid::Stencil& st) {
+            if (k != last + 1)
+                raw.push_back({t - 0.5f * dt, {tau[0], tau[1], tau[2]}});
+            last = k;
+            const float rho = std::max(BrickGrid::trilinear<1>(density.brickData(st.brick) + st.corner, st.tx, st.ty, st.tz), 0.0f);
+            tau[0] += kT.x * rho * dt, tau[1] += kT.y * rho * dt, tau[2] += kT.z * rho * dt;
+            raw.push_back({t + 0.5f * dt, {tau[0], tau[1], tau[2]}});
+            return true;
+        });
+        return;
+    }
+    thread_local std::vector<Span> spanList;
+    volumes.spans(o, d, 0.0f, 1e30f, stepFraction, spanList);
     for (const Span& s : spanList) {
         raw.push_back({s.t0, {tau[0], tau[1], tau[2]}});
         float len = s.t1 - s.t0;
@@ -163,8 +190,12 @@ void DeepShadowMap::compress(const std::vector<Vertex>& raw, float tolerance, st
     // transmittance error within the bound at that depth:
     // e^{-tau}(e^delta - 1) = tolerance * max(e^{-tau}, floor), so
     // delta = log(1 + tolerance * max(1, floor e^tau)). (The error toward lower T is smaller.)
+    // Above the floor (tau < ln(1 / floor)) the bound is relative and delta is one constant.
+    const float flatTol = std::log1p(tolerance), knee = std::log(1.0f / kRelativeFloor);
     auto tolAt = [&](const Vertex& v, int c) {
-        float rel = std::max(1.0f, kRelativeFloor * std::exp(std::min(v.tau[c], 80.0f)));
+        if (v.tau[c] <= knee)
+            return flatTol;
+        float rel = kRelativeFloor * std::exp(std::min(v.tau[c], 80.0f));
         return std::log1p(tolerance * rel);
     };
     size_t a = 0;
@@ -290,10 +321,15 @@ Rgb DeepShadowMap::opticalDepth(float3 p, Cursor* cursor) const
     float u, v, z;
     if (!project(p, face, u, v, z))
         return splat(0.0f);
+    return opticalDepthAt(face, u, v, z, cursor);
+}
+
+Rgb DeepShadowMap::opticalDepthAt(int face, float u, float v, float z, Cursor* cursor) const
+{
     if (mProjection != Projection::Cube && (u < 0.0f || u > 1.0f || v < 0.0f || v > 1.0f))
         return splat(0.0f);
     float fx = u * mRes - 0.5f, fy = v * mRes - 0.5f;
-    int x0 = int(std::floor(fx)), y0 = int(std::floor(fy));
+    int x0 = floorToInt(fx), y0 = floorToInt(fy);
     float wx = fx - x0, wy = fy - y0;
     auto clampI = [&](int i) { return std::min(std::max(i, 0), mRes - 1); };
     int xa = clampI(x0), xb = clampI(x0 + 1), ya = clampI(y0), yb = clampI(y0 + 1);

@@ -57,6 +57,12 @@ public:
     Rgb transmittance(float3 p, Cursor* cursor = nullptr) const { return exp(-opticalDepth(p, cursor)); }
     // The optical depth from the light to p, bilinear over the four nearest texels.
     Rgb opticalDepth(float3 p, Cursor* cursor = nullptr) const;
+    // Where p falls in the map: the face, (u, v) in [0,1] across it and the depth z. False
+    // where no texel sees p (behind a perspective face). Orthographic maps are affine in p,
+    // which lets a caller with a lattice of points project three and step the rest.
+    bool project(float3 p, int& face, float& u, float& v, float& z) const;
+    // The optical depth at a projected point (opticalDepth = project + this).
+    Rgb opticalDepthAt(int face, float u, float v, float z, Cursor* cursor = nullptr) const;
 
     Projection projection() const { return mProjection; }
     int resolution() const { return mRes; }
@@ -91,7 +97,6 @@ private:
         float extent;     // orthographic: footprint side, metres; perspective: tan(half angle)
     };
 
-    bool project(float3 p, int& face, float& u, float& v, float& z) const;
     Rgb lookup(uint32_t texel, float z, Cursor* cursor) const;
     void buildTexel(const VolumeSet& volumes, int face, int ix, int iy, std::vector<Vertex>& out) const;
 

@@ -3,9 +3,58 @@
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
+#include <algorithm>
 #include <chrono>
 
 namespace nimbus {
+
+namespace {
+
+constexpr int kB = BrickGrid::kBrick, kS = BrickGrid::kStored;
+
+// Stores tau at lattice value n of a brick's values.
+inline void store(float* values, int n, int channels, Rgb tau)
+{
+    if (channels == 1) {
+        values[n] = tau.x;
+    } else {
+        values[3 * n] = tau.x, values[3 * n + 1] = tau.y, values[3 * n + 2] = tau.z;
+    }
+}
+
+// The brick's own lattice points, [0, 8)^3 from its origin (the apron, at 8, belongs to the
+// neighbours). An orthographic map is affine in the point, and so in the lattice indices:
+// three projections give every point's (u, v, z) by stepping.
+void bakeOwnPoints(const DeepShadowMap& map, const Transform& worldFromIndex, Int3 o, int channels, float* values,
+                   DeepShadowMap::Cursor& cursor)
+{
+    auto index = [&](int x, int y, int z) { return make_float3(float(o.x + x), float(o.y + y), float(o.z + z)); };
+    if (map.projection() == DeepShadowMap::Projection::Orthographic) {
+        int face;
+        float3 a, ax, ay, az;
+        map.project(worldFromIndex.point(index(0, 0, 0)), face, a.x, a.y, a.z);
+        map.project(worldFromIndex.point(index(1, 0, 0)), face, ax.x, ax.y, ax.z);
+        map.project(worldFromIndex.point(index(0, 1, 0)), face, ay.x, ay.y, ay.z);
+        map.project(worldFromIndex.point(index(0, 0, 1)), face, az.x, az.y, az.z);
+        const float3 dx = ax - a, dy = ay - a, dz = az - a;
+        for (int z = 0; z < kB; ++z)
+            for (int y = 0; y < kB; ++y) {
+                const float3 row = a + dy * float(y) + dz * float(z);
+                for (int x = 0; x < kB; ++x) {
+                    const float3 q = row + dx * float(x);
+                    store(values, (z * kS + y) * kS + x, channels, map.opticalDepthAt(0, q.x, q.y, q.z, &cursor));
+                }
+            }
+        return;
+    }
+    for (int z = 0; z < kB; ++z)
+        for (int y = 0; y < kB; ++y)
+            for (int x = 0; x < kB; ++x)
+                store(values, (z * kS + y) * kS + x, channels,
+                      map.opticalDepth(worldFromIndex.point(index(x, y, z)), &cursor));
+}
+
+}  // namespace
 
 LightCache LightCache::bake(const DeepShadowMap& map, const VolumeSet& volumes)
 {
@@ -20,21 +69,31 @@ LightCache LightCache::bake(const DeepShadowMap& map, const VolumeSet& volumes)
     for (auto& v : volumes.volumes()) {
         BrickGrid g = v->density.sameTopology(channels);
         const Transform& worldFromIndex = v->worldFromIndex;
+        // Pass 1: every brick's own points. Pass 2: the apron (x, y or z = 8) is the next
+        // brick's own point where that brick is allocated, copied; else looked up here.
+        tbb::parallel_for(tbb::blocked_range<size_t>(0, g.brickCount(), 4), [&](const tbb::blocked_range<size_t>& r) {
+            DeepShadowMap::Cursor cursor;
+            for (size_t b = r.begin(); b != r.end(); ++b)
+                bakeOwnPoints(map, worldFromIndex, g.brickOrigin(b), channels, g.brickValues(b), cursor);
+        });
         tbb::parallel_for(tbb::blocked_range<size_t>(0, g.brickCount(), 4), [&](const tbb::blocked_range<size_t>& r) {
             DeepShadowMap::Cursor cursor;
             for (size_t b = r.begin(); b != r.end(); ++b) {
                 float* values = g.brickValues(b);
-                Int3 o = g.brickOrigin(b);
-                int n = 0;
-                for (int z = 0; z < BrickGrid::kStored; ++z)
-                    for (int y = 0; y < BrickGrid::kStored; ++y)
-                        for (int x = 0; x < BrickGrid::kStored; ++x, ++n) {
-                            float3 p = worldFromIndex.point(make_float3(float(o.x + x), float(o.y + y), float(o.z + z)));
-                            Rgb t = map.opticalDepth(p, &cursor);
-                            if (channels == 1) {
-                                values[n] = t.x;
+                const Int3 o = g.brickOrigin(b);
+                for (int z = 0; z < kS; ++z)
+                    for (int y = 0; y < kS; ++y)
+                        for (int x = (z == kB || y == kB) ? 0 : kB; x < kS; ++x) {
+                            const int n = (z * kS + y) * kS + x;
+                            const int gx = o.x + x, gy = o.y + y, gz = o.z + z;
+                            const int nb = g.allocatedBrick(gx >> 3, gy >> 3, gz >> 3);
+                            if (nb >= 0) {
+                                const int m = ((gz & (kB - 1)) * kS + (gy & (kB - 1))) * kS + (gx & (kB - 1));
+                                const float* src = g.brickValues(size_t(nb)) + size_t(m) * channels;
+                                std::copy(src, src + channels, values + size_t(n) * channels);
                             } else {
-                                values[3 * n] = t.x, values[3 * n + 1] = t.y, values[3 * n + 2] = t.z;
+                                const float3 p = worldFromIndex.point(make_float3(float(gx), float(gy), float(gz)));
+                                store(values, n, channels, map.opticalDepth(p, &cursor));
                             }
                         }
             }

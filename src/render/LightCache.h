@@ -40,6 +40,9 @@ public:
         return splat(1.0f);
     }
 
+    // The optical depth baked on volume v's lattice (the density grid's topology).
+    const BrickGrid& grid(size_t v) const { return mGrids[v]; }
+
     size_t memoryBytes() const;
     double seconds() const { return mSeconds; }
 

@@ -1,5 +1,7 @@
 #include "SingleScatter.h"
 
+#include "BrickWalk.h"
+
 #include <cmath>
 #include <vector>
 
@@ -23,101 +25,119 @@ inline void stepTerms(float sigma, float dt, float& transmit, float& weight)
     }
 }
 
-// The common case in a tight loop: one volume, every used light shadow-mapped and baked on its
-// voxels. The march steps in the grid's index space (no matrix per step); one stencil reads
-// the density and every light's transmittance; a distant light's phase and weight are constant
-// along the ray. Same estimator as the general loop below, step for step.
-bool marchSingleFast(const RenderContext& ctx, float3 o, float3 d, const std::vector<Span>& spanList, float jitter,
-                     CameraSample& out, float* perLight)
+// The common case in a tight loop: one volume without emission, every used light shadow-mapped
+// and baked on its voxels. The march walks the density grid's occupied bricks in index space
+// (BrickWalk.h: no spans, no matrix per step); one stencil reads the density and every light's
+// optical depth; a distant light's phase and weight are constant along the ray. Same estimator
+// as the general loop below: samples at t_k = t_in + (k + jitter) dt.
+template <bool Grey>
+void marchOneVolume(const RenderContext& ctx, const VolumeData& vol, float3 o, float3 d, float jitter, CameraSample& out,
+                    float* perLight)
 {
-    const VolumeSet& vs = ctx.volumes;
-    if (vs.volumes().size() != 1)
-        return false;
     const size_t nLights = ctx.lights.size();
-    for (const LightEntry& e : ctx.lights)
-        if (e.used && !e.cache)
-            return false;
-    const VolumeData& vol = *vs.volumes()[0];
     const BrickGrid& density = vol.density;
     const Rgb kS = vol.sigmaS(), kT = vol.sigmaT();
-    const bool grey = kT.x == kT.y && kT.y == kT.z;
-    const bool emission = vol.hasEmission();
     const NbPhase phase = vol.medium.phase;
-    const float3 oi = vol.indexFromWorld.point(o), di = vol.indexFromWorld.vector(d);
     const float cutoff = ctx.scene->render.tolerance;
+    const float dt = ctx.scene->render.step * vol.voxelSize;
 
-    thread_local std::vector<Rgb> rayWeight;  // distant lights: L_i * phase, constant per ray
-    thread_local std::vector<int> active;
-    rayWeight.assign(nLights, splat(0.0f));
-    active.clear();
+    struct Active {
+        int index;
+        const BrickGrid* cache;
+        bool distant;
+        Rgb weight;  // distant lights: L_i * phase, constant along the ray
+    };
+    thread_local std::vector<Active> activeList;
+    activeList.clear();
     for (size_t i = 0; i < nLights; ++i) {
         const LightEntry& e = ctx.lights[i];
         if (!e.used)
             continue;
-        active.push_back(int(i));
-        if (e.light.type == NB_LIGHT_DISTANT)
-            // Light travels along its direction, then toward the camera (along -d).
-            rayWeight[i] = nbLoad3(e.light.color) * nbPhaseEval(phase, -dot(nbLoad3(e.light.direction), d));
+        Active a{int(i), &e.cache->grid(0), e.light.type == NB_LIGHT_DISTANT, splat(0.0f)};
+        if (a.distant)  // light travels along its direction, then toward the camera (along -d)
+            a.weight = nbLoad3(e.light.color) * nbPhaseEval(phase, -dot(nbLoad3(e.light.direction), d));
+        activeList.push_back(a);
     }
-
+    const Active* active = activeList.data();
+    const size_t nActive = activeList.size();
+    constexpr int C = Grey ? 1 : 3;  // channels of the density's light caches
     Rgb T = splat(1.0f);
     float depthSum = 0.0f;
-    for (const Span& span : spanList) {
-        float len = span.t1 - span.t0;
-        int n = std::max(1, int(std::ceil(len / span.step)));
-        float dt = len / float(n);
-        for (int k = 0; k < n; ++k) {
-            float t = span.t0 + (k + jitter) * dt;
-            BrickGrid::Stencil st = density.stencil(oi + di * t);
-            float rho = density.interpolate(st);
-            Rgb em = emission ? vol.emission.sample3(oi + di * t) * vol.medium.emissionScale : splat(0.0f);
-            if (rho <= 0.0f && !(emission && nbMaxComponent(em) > 0.0f))
-                continue;
-            rho = std::max(rho, 0.0f);
+    float t0, t1, s0, s1;
+    const float3 oi = vol.indexFromWorld.point(o), di = vol.indexFromWorld.vector(d);
+    if (vol.worldBounds.intersect(o, safeInverse(d), 0.0f, 1e30f, t0, t1) &&
+        density.activeIndexBounds().intersect(oi, safeInverse(di), t0, t1, s0, s1)) {
+        walkOccupiedBricks(density, oi, di, s0, s1, s0, dt, jitter, [&](int, float t, const BrickGrid::Stencil& st) {
+            const float rho = BrickGrid::trilinear<1>(density.brickData(st.brick) + st.corner, st.tx, st.ty, st.tz);
+            if (!(rho > 0.0f))
+                return true;
             Rgb stepT, w;
             stepTerms(kT.x * rho, dt, stepT.x, w.x);
-            if (grey) {
+            if (Grey) {
                 stepT.y = stepT.z = stepT.x;
                 w.y = w.z = w.x;
             } else {
                 stepTerms(kT.y * rho, dt, stepT.y, w.y);
                 stepTerms(kT.z * rho, dt, stepT.z, w.z);
             }
-            Rgb Tw = T * w;
-            if (emission)
-                out.L0 += Tw * em;
-            if (rho > 0.0f) {
-                Rgb TwS = Tw * kS * rho;
-                for (int i : active) {
-                    const LightEntry& e = ctx.lights[i];
-                    Rgb Li;
-                    if (e.light.type == NB_LIGHT_DISTANT) {
-                        Li = rayWeight[i];
-                    } else {
-                        float3 wi;
-                        Rgb weight = ctx.deltaWeight(size_t(i), o + d * t, wi);  // sets wi first
-                        Li = weight * nbPhaseEval(phase, dot(wi, d));  // travel -wi, then -d
-                    }
-                    Rgb c = TwS * Li * e.cache->transmittance(&st);
-                    out.L1 += c;
-                    perLight[3 * i] += c.x, perLight[3 * i + 1] += c.y, perLight[3 * i + 2] += c.z;
+            const Rgb TwS = T * w * kS * rho;  // int over the step of T sigma_s (eq. 31 per step)
+            for (size_t ai = 0; ai < nActive; ++ai) {
+                const Active& a = active[ai];
+                Rgb Li;
+                if (a.distant) {
+                    Li = a.weight;
+                } else {
+                    float3 wi;
+                    Rgb weight = ctx.deltaWeight(size_t(a.index), o + d * t, wi);  // sets wi first
+                    Li = weight * nbPhaseEval(phase, dot(wi, d));  // travel -wi, then -d
                 }
+                const float* tau = a.cache->brickData(st.brick) + st.corner * C;
+                Rgb Tl;
+                if (Grey) {
+                    Tl = splat(std::exp(-BrickGrid::trilinear<1>(tau, st.tx, st.ty, st.tz)));
+                } else {
+                    Tl = exp(-make_float3(BrickGrid::trilinear<3>(tau, st.tx, st.ty, st.tz),
+                                          BrickGrid::trilinear<3>(tau + 1, st.tx, st.ty, st.tz),
+                                          BrickGrid::trilinear<3>(tau + 2, st.tx, st.ty, st.tz)));
+                }
+                const Rgb c = TwS * Li * Tl;
+                out.L1 += c;
+                float* pl = perLight + 3 * a.index;
+                pl[0] += c.x, pl[1] += c.y, pl[2] += c.z;
             }
-            float before = nbAverage(T);
+            const float before = nbAverage(T);
             T = T * stepT;
             depthSum += (before - nbAverage(T)) * t;
             if (nbMaxComponent(T) < cutoff) {
                 T = splat(0.0f);
-                break;
+                return false;
             }
-        }
-        if (nbMaxComponent(T) <= 0.0f)
-            break;
+            return true;
+        });
     }
     out.L0 += T * ctx.background;
     out.transmittance = T;
     float alpha = 1.0f - nbAverage(T);
     out.depth = alpha > 0.0f ? depthSum / alpha : 0.0f;
+}
+
+bool marchSingleFast(const RenderContext& ctx, float3 o, float3 d, float jitter, CameraSample& out, float* perLight)
+{
+    const VolumeSet& vs = ctx.volumes;
+    if (vs.volumes().size() != 1)
+        return false;
+    const VolumeData& vol = *vs.volumes()[0];
+    if (vol.hasEmission() || vol.density.channels() != 1)
+        return false;
+    const Rgb kT = vol.sigmaT();
+    const bool grey = kT.x == kT.y && kT.y == kT.z;
+    for (const LightEntry& e : ctx.lights)
+        if (e.used && (!e.cache || e.cache->grid(0).channels() != (grey ? 1 : 3)))
+            return false;
+    if (grey)
+        marchOneVolume<true>(ctx, vol, o, d, jitter, out, perLight);
+    else
+        marchOneVolume<false>(ctx, vol, o, d, jitter, out, perLight);
     return true;
 }
 
@@ -125,6 +145,9 @@ bool marchSingleFast(const RenderContext& ctx, float3 o, float3 d, const std::ve
 
 void marchSingle(const RenderContext& ctx, float3 o, float3 d, NbRng& rng, CameraSample& out, float* perLight)
 {
+    const float jitter = nbRngNext(&rng);
+    if (marchSingleFast(ctx, o, d, jitter, out, perLight))
+        return;
     const Scene& scene = *ctx.scene;
     const VolumeSet& vs = ctx.volumes;
     const auto& volumes = vs.volumes();
@@ -155,9 +178,6 @@ void marchSingle(const RenderContext& ctx, float3 o, float3 d, NbRng& rng, Camer
     }
 
     vs.spans(o, d, 0.0f, 1e30f, scene.render.step, spanList);
-    const float jitter = nbRngNext(&rng);
-    if (marchSingleFast(ctx, o, d, spanList, jitter, out, perLight))
-        return;
     const int lightSamples = std::max(1, scene.render.lightSamples);
     // Stop where every channel's transmittance is below the tolerance: what lies behind can
     // change the pixel by at most that fraction of the light it would send unattenuated

@@ -71,8 +71,8 @@ public:
         Stencil s;
         if (!(p.x > -1e9f && p.x < 1e9f && p.y > -1e9f && p.y < 1e9f && p.z > -1e9f && p.z < 1e9f))
             return s;
-        float fx = std::floor(p.x), fy = std::floor(p.y), fz = std::floor(p.z);
-        int i = int(fx), j = int(fy), k = int(fz);
+        int i = floorToInt(p.x), j = floorToInt(p.y), k = floorToInt(p.z);
+        float fx = float(i), fy = float(j), fz = float(k);
         int bx = (i >> kBrickLog2) - mBrickLo.x, by = (j >> kBrickLog2) - mBrickLo.y, bz = (k >> kBrickLog2) - mBrickLo.z;
         if (unsigned(bx) >= unsigned(mDims.x) || unsigned(by) >= unsigned(mDims.y) || unsigned(bz) >= unsigned(mDims.z))
             return s;
@@ -97,6 +97,42 @@ public:
         float c1 = c01 + s.ty * (c11 - c01);
         return c0 + s.tz * (c1 - c0);
     }
+    // Trilinear interpolation inside one brick's values, for a grid of `Channels` channels known
+    // at compile time (the strides become constants): q points at channel c of the cell's
+    // lower corner, brickData(b) + corner * Channels + c. The inner loop of the marchers.
+    template <int Channels>
+    static float trilinear(const float* q, float tx, float ty, float tz)
+    {
+        constexpr int sx = Channels, sy = kStored * Channels, sz = kStored * kStored * Channels;
+        float c00 = q[0] + tx * (q[sx] - q[0]);
+        float c10 = q[sy] + tx * (q[sy + sx] - q[sy]);
+        float c01 = q[sz] + tx * (q[sz + sx] - q[sz]);
+        float c11 = q[sz + sy] + tx * (q[sz + sy + sx] - q[sz + sy]);
+        float c0 = c00 + ty * (c10 - c00);
+        float c1 = c01 + ty * (c11 - c01);
+        return c0 + tz * (c1 - c0);
+    }
+    // The allocated brick at brick coordinates (bx, by, bz) (index / 8, not relative to
+    // brickLo), or -1 where the slot is outside the table, unallocated or all zero.
+    int occupiedBrick(int bx, int by, int bz) const
+    {
+        bx -= mBrickLo.x, by -= mBrickLo.y, bz -= mBrickLo.z;
+        if (unsigned(bx) >= unsigned(mDims.x) || unsigned(by) >= unsigned(mDims.y) || unsigned(bz) >= unsigned(mDims.z))
+            return -1;
+        size_t slot = (size_t(bz) * mDims.y + by) * mDims.x + bx;
+        return mMajorant[slot] > 0.0f ? mTable[slot] : -1;
+    }
+    // The allocated brick at brick coordinates (bx, by, bz), occupied or not, or -1.
+    int allocatedBrick(int bx, int by, int bz) const
+    {
+        bx -= mBrickLo.x, by -= mBrickLo.y, bz -= mBrickLo.z;
+        if (unsigned(bx) >= unsigned(mDims.x) || unsigned(by) >= unsigned(mDims.y) || unsigned(bz) >= unsigned(mDims.z))
+            return -1;
+        return mTable[(size_t(bz) * mDims.y + by) * mDims.x + bx];
+    }
+    // Values of allocated brick b (kBrickValues * channels floats, x fastest, channel innermost).
+    const float* brickData(int b) const { return mPool.data() + size_t(b) * kBrickValues * mChannels; }
+
     // A grid with this grid's bricks and table but its own zeroed values (`channels` each).
     BrickGrid sameTopology(int channels) const;
     // Writable values of allocated brick b (kBrickValues * channels floats).

@@ -1,0 +1,97 @@
+// BrickWalk.h: the samples of a ray march that land in the occupied bricks of one grid.
+//
+// A march samples o + t d at t_k = tStart + (k + jitter) dt, k = 0, 1, ...; jitter in [0, 1)
+// drawn once per ray makes it a stratified estimator (the camera march), jitter 0.5 is the
+// midpoint rule (shadow maps). Only bricks with a positive majorant can hold density
+// (BrickGrid.h), so a 3D DDA over the brick table (Amanatides & Woo 1987) visits the ray's
+// occupied bricks in order and hands the visitor the samples inside each, as stencils (brick,
+// cell corner, trilinear weights) that every grid sharing the topology reads alike: density
+// and the baked light. An empty brick costs one table read; no sample is placed in it, and
+// skipping it moves no other sample (the lattice t_k is fixed by tStart, not by the bricks).
+//
+// o and d are in the grid's index space; t keeps the caller's units (world metres when d is
+// the index-space image of a unit world direction), so dt is the caller's step.
+#pragma once
+
+#include "../volume/BrickGrid.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+namespace nimbus {
+
+// visit(int k, float t, const BrickGrid::Stencil& s) returns false to stop the walk.
+// Samples are visited in increasing k; each lattice sample in [tIn, tOut) inside an occupied
+// brick exactly once.
+template <class Visit>
+void walkOccupiedBricks(const BrickGrid& grid, float3 o, float3 d, float tIn, float tOut, float tStart, float dt,
+                        float jitter, Visit&& visit)
+{
+    constexpr float B = float(BrickGrid::kBrick);
+    // Comparisons, not fmin/fmax (whose NaN rules cost a branchy sequence); NaN reads as 0.
+    auto clampLocal = [](float v) {
+        constexpr float kLastInside = B * (1.0f - 1.0f / 16777216.0f);  // largest float below 8
+        v = v > 0.0f ? v : 0.0f;
+        return v < kLastInside ? v : kLastInside;
+    };
+    if (!(tOut > tIn) || !(dt > 0.0f))
+        return;
+    const float3 p = o + d * tIn;
+    if (!(std::fabs(p.x) < 1e9f && std::fabs(p.y) < 1e9f && std::fabs(p.z) < 1e9f))
+        return;
+    int cell[3] = {floorToInt(p.x / B), floorToInt(p.y / B), floorToInt(p.z / B)};
+    const float dir[3] = {d.x, d.y, d.z}, org[3] = {o.x, o.y, o.z};
+    int stepDir[3];
+    float tNext[3], tDelta[3];
+    for (int a = 0; a < 3; ++a) {
+        if (dir[a] > 0) {
+            stepDir[a] = 1;
+            tNext[a] = ((cell[a] + 1) * B - org[a]) / dir[a];
+            tDelta[a] = B / dir[a];
+        } else if (dir[a] < 0) {
+            stepDir[a] = -1;
+            tNext[a] = (cell[a] * B - org[a]) / dir[a];
+            tDelta[a] = -B / dir[a];
+        } else {
+            stepDir[a] = 0;
+            tNext[a] = std::numeric_limits<float>::infinity();
+            tDelta[a] = std::numeric_limits<float>::infinity();
+        }
+    }
+    const float invDt = 1.0f / dt;
+    const Int3 dims = grid.dims();
+    const int maxSteps = dims.x + dims.y + dims.z + 8;
+    float t = tIn;
+    int kNext = 0;
+    BrickGrid::Stencil s;
+    for (int i = 0; i < maxSteps && t < tOut; ++i) {
+        const int axis = tNext[0] < tNext[1] ? (tNext[0] < tNext[2] ? 0 : 2) : (tNext[1] < tNext[2] ? 1 : 2);
+        const float tExit = std::min(tNext[axis], tOut);
+        const int brick = grid.occupiedBrick(cell[0], cell[1], cell[2]);
+        if (brick >= 0 && tExit > t) {
+            s.brick = brick;
+            const float3 origin = make_float3(cell[0] * B, cell[1] * B, cell[2] * B);
+            int k = std::max(kNext, int(std::ceil((t - tStart) * invDt - jitter)));
+            for (;; ++k) {
+                const float tk = tStart + (float(k) + jitter) * dt;
+                if (tk >= tExit)
+                    break;
+                // Local position in [0, 8) up to rounding; clamped, so truncation is the floor.
+                const float3 q = o + d * tk - origin;
+                const float qx = clampLocal(q.x), qy = clampLocal(q.y), qz = clampLocal(q.z);
+                const int cx = int(qx), cy = int(qy), cz = int(qz);
+                s.corner = (cz * BrickGrid::kStored + cy) * BrickGrid::kStored + cx;
+                s.tx = qx - float(cx), s.ty = qy - float(cy), s.tz = qz - float(cz);
+                if (!visit(k, tk, s))
+                    return;
+            }
+            kNext = k;
+        }
+        t = tExit;
+        cell[axis] += stepDir[axis];
+        tNext[axis] += tDelta[axis];
+    }
+}
+
+}  // namespace nimbus
