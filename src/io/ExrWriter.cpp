@@ -4,9 +4,11 @@
 #include "core/Error.h"
 #include "render/Film.h"
 
+#include <Imath/half.h>
 #include <OpenImageIO/imageio.h>
 
 #include <algorithm>
+#include <cstring>
 #include <memory>
 #include <set>
 #include <vector>
@@ -137,19 +139,31 @@ void writeExr(const Film& film, const std::string& path)
         throw fail(oneLine(out->geterror()));
 
     // Blocks of 16 scanlines, the OpenEXR zip block, so memory stays at a few rows however large
-    // the frame. Values are passed as float; OpenImageIO converts each channel to its own format.
+    // the frame. Pixels are packed in the file's own per-channel formats (half or float), so
+    // OpenImageIO copies them as they are instead of converting value by value.
+    size_t pixelBytes = 0;
+    for (const ChannelSource& channel : channels)
+        pixelBytes += channel.type.size();
     constexpr int rowsPerBlock = 16;
-    std::vector<float> block(size_t(rowsPerBlock) * cropWidth * channelCount);
+    std::vector<unsigned char> block(size_t(rowsPerBlock) * cropWidth * pixelBytes);
     for (int yBegin = y0; yBegin < y1; yBegin += rowsPerBlock) {
         const int yEnd = std::min(y1, yBegin + rowsPerBlock);
-        float* dst = block.data();
+        unsigned char* dst = block.data();
         for (int y = yBegin; y < yEnd; ++y)
             for (int x = x0; x < x1; ++x)
                 for (const ChannelSource& channel : channels) {
                     const size_t index = size_t(y) * film.width + x;
-                    *dst++ = channel.aov ? channel.aov->pixels[index * channel.aov->channels + channel.component] : 1.0f;
+                    const float v = channel.aov ? channel.aov->pixels[index * channel.aov->channels + channel.component] : 1.0f;
+                    if (channel.type == OIIO::TypeDesc::HALF) {
+                        const Imath::half h(v);
+                        std::memcpy(dst, &h, sizeof h);
+                        dst += sizeof h;
+                    } else {
+                        std::memcpy(dst, &v, sizeof v);
+                        dst += sizeof v;
+                    }
                 }
-        if (!out->write_scanlines(yBegin, yEnd, 0, OIIO::TypeDesc::FLOAT, block.data()))
+        if (!out->write_scanlines(yBegin, yEnd, 0, OIIO::TypeDesc::UNKNOWN, block.data()))
             throw fail(oneLine(out->geterror()));
     }
     if (!out->close())
