@@ -183,7 +183,9 @@ TEST(PathtraceProgressive, TimeLimitStopsAfterTheLaunchThatCrossesIt)
     Film f = w.render(o);
     double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     EXPECT_GE(stats.renderSeconds, 0.3);
-    EXPECT_GT(stats.samplesPerPixel, 1);
+    // At least the launch that crossed the limit; how many fit before it depends on the
+    // machine's load (one launch can take 0.3 s on a busy CI machine), so no more is asserted.
+    EXPECT_GE(stats.samplesPerPixel, 1);
     EXPECT_LT(seconds, 30.0);
     std::printf("time limit 0.3 s: %lld spp in %.2f s\n", stats.samplesPerPixel, stats.renderSeconds);
 }
