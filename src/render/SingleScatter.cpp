@@ -30,7 +30,9 @@ inline void stepTerms(float sigma, float dt, float& transmit, float& weight)
 // (BrickWalk.h: no spans, no matrix per step); one stencil reads the density and every light's
 // optical depth; a distant light's phase and weight are constant along the ray. Same estimator
 // as the general loop below: samples at t_k = t_in + (k + jitter) dt.
-template <bool Grey>
+// OneDistant: the only used light is distant (a key light), so its weight and cache pointer
+// live in registers for the whole ray.
+template <bool Grey, bool OneDistant>
 void marchOneVolume(const RenderContext& ctx, const VolumeData& vol, float3 o, float3 d, float jitter, CameraSample& out,
                     float* perLight)
 {
@@ -59,10 +61,12 @@ void marchOneVolume(const RenderContext& ctx, const VolumeData& vol, float3 o, f
         activeList.push_back(a);
     }
     const Active* active = activeList.data();
-    const size_t nActive = activeList.size();
+    const size_t nActive = OneDistant ? 1 : activeList.size();
     constexpr int C = Grey ? 1 : 3;  // channels of the density's light caches
-    Rgb T = splat(1.0f);
-    float depthSum = 0.0f;
+    // Copied out of the list: a local the loop's stores cannot alias stays in registers.
+    const Active first = activeList.empty() ? Active{0, nullptr, false, splat(0.0f)} : activeList[0];
+    Rgb T = splat(1.0f), L1 = splat(0.0f);
+    float depthSum3 = 0.0f;
     float t0, t1, s0, s1;
     const float3 oi = vol.indexFromWorld.point(o), di = vol.indexFromWorld.vector(d);
     if (vol.worldBounds.intersect(o, safeInverse(d), 0.0f, 1e30f, t0, t1) &&
@@ -82,9 +86,9 @@ void marchOneVolume(const RenderContext& ctx, const VolumeData& vol, float3 o, f
             }
             const Rgb TwS = T * w * kS * rho;  // int over the step of T sigma_s (eq. 31 per step)
             for (size_t ai = 0; ai < nActive; ++ai) {
-                const Active& a = active[ai];
+                const Active& a = OneDistant ? first : active[ai];
                 Rgb Li;
-                if (a.distant) {
+                if (OneDistant || a.distant) {
                     Li = a.weight;
                 } else {
                     float3 wi;
@@ -101,13 +105,15 @@ void marchOneVolume(const RenderContext& ctx, const VolumeData& vol, float3 o, f
                                           BrickGrid::trilinear<3>(tau + 2, st.tx, st.ty, st.tz)));
                 }
                 const Rgb c = TwS * Li * Tl;
-                out.L1 += c;
-                float* pl = perLight + 3 * a.index;
-                pl[0] += c.x, pl[1] += c.y, pl[2] += c.z;
+                L1 += c;
+                if (!OneDistant) {
+                    float* pl = perLight + 3 * a.index;
+                    pl[0] += c.x, pl[1] += c.y, pl[2] += c.z;
+                }
             }
-            const float before = nbAverage(T);
+            const float before = T.x + T.y + T.z;
             T = T * stepT;
-            depthSum += (before - nbAverage(T)) * t;
+            depthSum3 += (before - (T.x + T.y + T.z)) * t;
             if (nbMaxComponent(T) < cutoff) {
                 T = splat(0.0f);
                 return false;
@@ -115,6 +121,12 @@ void marchOneVolume(const RenderContext& ctx, const VolumeData& vol, float3 o, f
             return true;
         });
     }
+    out.L1 += L1;
+    if (OneDistant) {
+        float* pl = perLight + 3 * first.index;
+        pl[0] += L1.x, pl[1] += L1.y, pl[2] += L1.z;
+    }
+    const float depthSum = depthSum3 / 3.0f;  // sum over steps of the drop in mean T, times t
     out.L0 += T * ctx.background;
     out.transmittance = T;
     float alpha = 1.0f - nbAverage(T);
@@ -134,10 +146,20 @@ bool marchSingleFast(const RenderContext& ctx, float3 o, float3 d, float jitter,
     for (const LightEntry& e : ctx.lights)
         if (e.used && (!e.cache || e.cache->grid(0).channels() != (grey ? 1 : 3)))
             return false;
-    if (grey)
-        marchOneVolume<true>(ctx, vol, o, d, jitter, out, perLight);
+    size_t used = 0, distant = 0;
+    for (const LightEntry& e : ctx.lights) {
+        used += e.used;
+        distant += e.used && e.light.type == NB_LIGHT_DISTANT;
+    }
+    const bool oneDistant = used == 1 && distant == 1;
+    if (grey && oneDistant)
+        marchOneVolume<true, true>(ctx, vol, o, d, jitter, out, perLight);
+    else if (grey)
+        marchOneVolume<true, false>(ctx, vol, o, d, jitter, out, perLight);
+    else if (oneDistant)
+        marchOneVolume<false, true>(ctx, vol, o, d, jitter, out, perLight);
     else
-        marchOneVolume<false>(ctx, vol, o, d, jitter, out, perLight);
+        marchOneVolume<false, false>(ctx, vol, o, d, jitter, out, perLight);
     return true;
 }
 
