@@ -37,3 +37,5 @@ echo "== path tracer: samples per second with and without the majorant grid"
   build/tests/pathtracer/bench_pathtrace 16 128 "" wispy
   echo '```'
 } | section pathtrace
+echo "== path tracer against Cycles: noise at equal time (skipped without blender; ~30 min with fresh references)"
+"$bench/bench_pathtrace_vs_cycles" build/bin/nimbus "$report"
