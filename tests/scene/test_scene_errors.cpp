@@ -208,6 +208,15 @@ TEST(SceneErrors, NumbersBeyondFloatRange)
     EXPECT_ERROR(R"({"render": {"spp": 1e12}})", "render.spp: must be an integer in");
 }
 
+TEST(SceneErrors, SppZeroOnlyWithAPathTracerTimeLimit)
+{
+    // No sample budget is valid where a time limit ends the render (docs/pathtracer.md).
+    EXPECT_NO_THROW(sceneFromJson(
+        json::parse(R"({"render": {"method": "pathtrace", "spp": 0, "time_limit": 5}})"), "scene.json"));
+    EXPECT_ERROR(R"({"render": {"method": "pathtrace", "spp": 0}})", "render.spp: must be at least 1, got 0");
+    EXPECT_ERROR(R"({"render": {"method": "single", "spp": 0, "time_limit": 5}})", "render.spp: must be at least 1");
+}
+
 TEST(SceneErrors, EmptySceneIsValid)
 {
     EXPECT_NO_THROW(sceneFromJson(json::parse(R"({"lights": [], "volumes": []})"), "scene.json"));
