@@ -21,6 +21,50 @@
 
 namespace nimbus {
 
+// A 3D DDA over the 8^3 brick cells crossed by an index-space ray o + t d (Amanatides & Woo
+// 1987): `cell` is the current brick (index / 8), `exit()` the t where the ray leaves it.
+struct BrickDda {
+    int cell[3];
+    int stepDir[3];
+    float tNext[3], tDelta[3];
+
+    // Starts at o + d tIn; false where that point is not finite (nothing to walk).
+    bool start(float3 o, float3 d, float tIn)
+    {
+        constexpr float B = float(BrickGrid::kBrick);
+        const float3 p = o + d * tIn;
+        if (!(std::fabs(p.x) < 1e9f && std::fabs(p.y) < 1e9f && std::fabs(p.z) < 1e9f))
+            return false;
+        cell[0] = floorToInt(p.x / B), cell[1] = floorToInt(p.y / B), cell[2] = floorToInt(p.z / B);
+        const float dir[3] = {d.x, d.y, d.z}, org[3] = {o.x, o.y, o.z};
+        for (int a = 0; a < 3; ++a) {
+            if (dir[a] > 0) {
+                stepDir[a] = 1;
+                tNext[a] = ((cell[a] + 1) * B - org[a]) / dir[a];
+                tDelta[a] = B / dir[a];
+            } else if (dir[a] < 0) {
+                stepDir[a] = -1;
+                tNext[a] = (cell[a] * B - org[a]) / dir[a];
+                tDelta[a] = -B / dir[a];
+            } else {
+                stepDir[a] = 0;
+                tNext[a] = std::numeric_limits<float>::infinity();
+                tDelta[a] = std::numeric_limits<float>::infinity();
+            }
+        }
+        return true;
+    }
+    int exitAxis() const { return tNext[0] < tNext[1] ? (tNext[0] < tNext[2] ? 0 : 2) : (tNext[1] < tNext[2] ? 1 : 2); }
+    float exit() const { return tNext[exitAxis()]; }
+    // Moves into the next brick along the ray.
+    void advance()
+    {
+        const int a = exitAxis();
+        cell[a] += stepDir[a];
+        tNext[a] += tDelta[a];
+    }
+};
+
 // visit(int k, float t, const BrickGrid::Stencil& s) returns false to stop the walk.
 // Samples are visited in increasing k; each lattice sample in [tIn, tOut) inside an occupied
 // brick exactly once.
@@ -35,30 +79,10 @@ void walkOccupiedBricks(const BrickGrid& grid, float3 o, float3 d, float tIn, fl
         v = v > 0.0f ? v : 0.0f;
         return v < kLastInside ? v : kLastInside;
     };
-    if (!(tOut > tIn) || !(dt > 0.0f))
+    BrickDda dda;
+    if (!(tOut > tIn) || !(dt > 0.0f) || !dda.start(o, d, tIn))
         return;
-    const float3 p = o + d * tIn;
-    if (!(std::fabs(p.x) < 1e9f && std::fabs(p.y) < 1e9f && std::fabs(p.z) < 1e9f))
-        return;
-    int cell[3] = {floorToInt(p.x / B), floorToInt(p.y / B), floorToInt(p.z / B)};
-    const float dir[3] = {d.x, d.y, d.z}, org[3] = {o.x, o.y, o.z};
-    int stepDir[3];
-    float tNext[3], tDelta[3];
-    for (int a = 0; a < 3; ++a) {
-        if (dir[a] > 0) {
-            stepDir[a] = 1;
-            tNext[a] = ((cell[a] + 1) * B - org[a]) / dir[a];
-            tDelta[a] = B / dir[a];
-        } else if (dir[a] < 0) {
-            stepDir[a] = -1;
-            tNext[a] = (cell[a] * B - org[a]) / dir[a];
-            tDelta[a] = -B / dir[a];
-        } else {
-            stepDir[a] = 0;
-            tNext[a] = std::numeric_limits<float>::infinity();
-            tDelta[a] = std::numeric_limits<float>::infinity();
-        }
-    }
+    const int* cell = dda.cell;
     const float invDt = 1.0f / dt;
     const Int3 dims = grid.dims();
     const int maxSteps = dims.x + dims.y + dims.z + 8;
@@ -66,8 +90,7 @@ void walkOccupiedBricks(const BrickGrid& grid, float3 o, float3 d, float tIn, fl
     int kNext = 0;
     BrickGrid::Stencil s;
     for (int i = 0; i < maxSteps && t < tOut; ++i) {
-        const int axis = tNext[0] < tNext[1] ? (tNext[0] < tNext[2] ? 0 : 2) : (tNext[1] < tNext[2] ? 1 : 2);
-        const float tExit = std::min(tNext[axis], tOut);
+        const float tExit = std::min(dda.exit(), tOut);
         const int brick = grid.occupiedBrick(cell[0], cell[1], cell[2]);
         if (brick >= 0 && tExit > t) {
             s.brick = brick;
@@ -89,8 +112,7 @@ void walkOccupiedBricks(const BrickGrid& grid, float3 o, float3 d, float tIn, fl
             kNext = k;
         }
         t = tExit;
-        cell[axis] += stepDir[axis];
-        tNext[axis] += tDelta[axis];
+        dda.advance();
     }
 }
 

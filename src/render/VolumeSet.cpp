@@ -1,5 +1,7 @@
 #include "VolumeSet.h"
 
+#include "BrickWalk.h"
+
 #include <algorithm>
 #include <cmath>
 
@@ -38,33 +40,16 @@ void gridSpans(const BrickGrid& grid, const BrickGrid* emission, float3 o, float
                float step, std::vector<Span>& out)
 {
     const float B = float(BrickGrid::kBrick);
-    float3 p = o + d * tIn;
-    int cell[3] = {int(std::floor(p.x / B)), int(std::floor(p.y / B)), int(std::floor(p.z / B))};
-    float dir[3] = {d.x, d.y, d.z}, org[3] = {o.x, o.y, o.z};
-    int stepDir[3];
-    float tNext[3], tDelta[3];
-    for (int a = 0; a < 3; ++a) {
-        if (dir[a] > 0) {
-            stepDir[a] = 1;
-            tNext[a] = ((cell[a] + 1) * B - org[a]) / dir[a];
-            tDelta[a] = B / dir[a];
-        } else if (dir[a] < 0) {
-            stepDir[a] = -1;
-            tNext[a] = (cell[a] * B - org[a]) / dir[a];
-            tDelta[a] = -B / dir[a];
-        } else {
-            stepDir[a] = 0;
-            tNext[a] = std::numeric_limits<float>::infinity();
-            tDelta[a] = std::numeric_limits<float>::infinity();
-        }
-    }
+    BrickDda dda;
+    if (!dda.start(o, d, tIn))
+        return;
+    const int* cell = dda.cell;
     float t = tIn;
     // Cap the walk: a ray crosses at most the sum of the table's dimensions plus a margin.
     Int3 dims = grid.dims();
     int maxSteps = dims.x + dims.y + dims.z + 8;
     for (int i = 0; i < maxSteps && t < tOut; ++i) {
-        int axis = tNext[0] < tNext[1] ? (tNext[0] < tNext[2] ? 0 : 2) : (tNext[1] < tNext[2] ? 1 : 2);
-        float tExit = std::min(tNext[axis], tOut);
+        float tExit = std::min(dda.exit(), tOut);
         float3 centre = make_float3((cell[0] + 0.5f) * B, (cell[1] + 0.5f) * B, (cell[2] + 0.5f) * B);
         bool occupied = grid.majorantAt(centre) > 0.0f || (emission && emission->majorantAt(centre) > 0.0f);
         if (occupied && tExit > t) {
@@ -74,8 +59,7 @@ void gridSpans(const BrickGrid& grid, const BrickGrid* emission, float3 o, float
                 out.push_back({t, tExit, step});
         }
         t = tExit;
-        cell[axis] += stepDir[axis];
-        tNext[axis] += tDelta[axis];
+        dda.advance();
     }
 }
 
