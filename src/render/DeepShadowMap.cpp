@@ -32,6 +32,11 @@ DeepShadowMap DeepShadowMap::build(const NbLight& light, const VolumeSet& volume
     m.mRes = std::max(1, settings.resolution);
     m.mTolerance = settings.tolerance;
     m.mStepFraction = settings.stepFraction;
+    m.mGrey = true;
+    for (auto& v : volumes.volumes()) {
+        const Rgb k = v->sigmaT();
+        m.mGrey = m.mGrey && k.x == k.y && k.y == k.z;
+    }
     const Bbox& bounds = volumes.worldBounds();
 
     if (light.type == NB_LIGHT_DISTANT) {
@@ -175,7 +180,7 @@ void DeepShadowMap::marchRay(const VolumeSet& volumes, float3 o, float3 d, float
     }
 }
 
-void DeepShadowMap::compress(const std::vector<Vertex>& raw, float tolerance, std::vector<Vertex>& out)
+void DeepShadowMap::compress(const std::vector<Vertex>& raw, float tolerance, std::vector<Vertex>& out, int channels)
 {
     out.clear();
     if (raw.empty())
@@ -202,14 +207,14 @@ void DeepShadowMap::compress(const std::vector<Vertex>& raw, float tolerance, st
     out.push_back(raw[0]);
     float lo[3], hi[3];
     auto resetWindow = [&]() {
-        for (int c = 0; c < 3; ++c)
+        for (int c = 0; c < channels; ++c)
             lo[c] = -INFINITY, hi[c] = INFINITY;
     };
     resetWindow();
     for (size_t i = 1; i < raw.size(); ++i) {
         float dz = raw[i].z - raw[a].z;
         bool fits = dz > 0.0f;
-        for (int c = 0; c < 3 && fits; ++c) {
+        for (int c = 0; c < channels && fits; ++c) {
             float slope = (raw[i].tau[c] - raw[a].tau[c]) / dz;
             fits = slope >= lo[c] && slope <= hi[c];
         }
@@ -222,7 +227,7 @@ void DeepShadowMap::compress(const std::vector<Vertex>& raw, float tolerance, st
             if (!(dz > 0.0f))
                 continue;
         }
-        for (int c = 0; c < 3; ++c) {
+        for (int c = 0; c < channels; ++c) {
             float t = tolAt(raw[i], c);
             lo[c] = std::max(lo[c], (raw[i].tau[c] - t - raw[a].tau[c]) / dz);
             hi[c] = std::min(hi[c], (raw[i].tau[c] + t - raw[a].tau[c]) / dz);
@@ -238,7 +243,7 @@ void DeepShadowMap::buildTexel(const VolumeSet& volumes, int face, int ix, int i
     texelRay(face, (ix + 0.5f) / mRes, (iy + 0.5f) / mRes, o, d);
     thread_local std::vector<Vertex> raw;
     marchRay(volumes, o, d, mStepFraction, raw);
-    compress(raw, mTolerance, out);
+    compress(raw, mTolerance, out, mGrey ? 1 : 3);
 }
 
 bool DeepShadowMap::project(float3 p, int& face, float& u, float& v, float& z) const
@@ -269,7 +274,7 @@ bool DeepShadowMap::project(float3 p, int& face, float& u, float& v, float& z) c
     return true;
 }
 
-Rgb DeepShadowMap::lookup(uint32_t texel, float z, Cursor* cursor) const
+Rgb DeepShadowMap::lookup(uint32_t texel, uint32_t slot, float z, Cursor* cursor) const
 {
     const uint32_t first = mOffsets[texel], last = mOffsets[texel + 1];
     if (first == last)
@@ -284,7 +289,6 @@ Rgb DeepShadowMap::lookup(uint32_t texel, float z, Cursor* cursor) const
     uint32_t i;
     uint32_t* slotVertex = nullptr;
     if (cursor) {
-        uint32_t slot = texel & (Cursor::kSlots - 1);
         slotVertex = &cursor->vertex[slot];
         if (cursor->texel[slot] != texel) {
             cursor->texel[slot] = texel;
@@ -310,9 +314,53 @@ Rgb DeepShadowMap::lookup(uint32_t texel, float z, Cursor* cursor) const
                        a.tau[2] + w * (b.tau[2] - a.tau[2]));
 }
 
+// lookup() for channel 0 with a cursor always present; inlined into the bilinear below.
+inline float DeepShadowMap::greyLookup(uint32_t texel, uint32_t slot, float z, Cursor& cursor) const
+{
+    const uint32_t first = mOffsets[texel], last = mOffsets[texel + 1];
+    const Vertex* v = mVertices.data();
+    if (first == last || z <= v[first].z)
+        return 0.0f;
+    if (z >= v[last - 1].z)
+        return v[last - 1].tau[0];
+    uint32_t i = cursor.vertex[slot];
+    if (cursor.texel[slot] != texel) {
+        cursor.texel[slot] = texel;
+        const Vertex* hi = std::upper_bound(v + first, v + last, z, [](float zz, const Vertex& x) { return zz < x.z; });
+        i = uint32_t(hi - v) - 1;
+    } else {
+        while (v[i + 1].z <= z)
+            ++i;
+        while (v[i].z > z)
+            --i;
+    }
+    cursor.vertex[slot] = i;
+    const Vertex& a = v[i];
+    const Vertex& b = v[i + 1];
+    return a.tau[0] + (z - a.z) * (b.tau[0] - a.tau[0]) / (b.z - a.z);
+}
+
+float DeepShadowMap::greyOpticalDepthTexel(float fx, float fy, float z, Cursor& cursor) const
+{
+    const float last = float(mRes);
+    if (!(fx >= -0.5f && fx <= last - 0.5f && fy >= -0.5f && fy <= last - 0.5f))
+        return 0.0f;  // u or v outside [0, 1], as in opticalDepthAt
+    const int x0 = floorToInt(fx), y0 = floorToInt(fy);
+    const float wx = fx - float(x0), wy = fy - float(y0);
+    const int xa = std::max(x0, 0), xb = std::min(x0 + 1, mRes - 1);
+    const int ya = std::max(y0, 0), yb = std::min(y0 + 1, mRes - 1);
+    const uint32_t ra = uint32_t(ya) * uint32_t(mRes), rb = uint32_t(yb) * uint32_t(mRes);
+    const float a = greyLookup(ra + xa, Cursor::slot(xa, ya), z, cursor);
+    const float b = greyLookup(ra + xb, Cursor::slot(xb, ya), z, cursor);
+    const float c = greyLookup(rb + xa, Cursor::slot(xa, yb), z, cursor);
+    const float d = greyLookup(rb + xb, Cursor::slot(xb, yb), z, cursor);
+    const float lo = a + wx * (b - a), hi = c + wx * (d - c);
+    return lo + wy * (hi - lo);
+}
+
 Rgb DeepShadowMap::texelOpticalDepth(int face, int ix, int iy, float z) const
 {
-    return lookup(uint32_t((size_t(face) * mRes + iy) * mRes + ix), z, nullptr);
+    return lookup(uint32_t((size_t(face) * mRes + iy) * mRes + ix), 0, z, nullptr);
 }
 
 Rgb DeepShadowMap::opticalDepth(float3 p, Cursor* cursor) const
@@ -334,10 +382,10 @@ Rgb DeepShadowMap::opticalDepthAt(int face, float u, float v, float z, Cursor* c
     auto clampI = [&](int i) { return std::min(std::max(i, 0), mRes - 1); };
     int xa = clampI(x0), xb = clampI(x0 + 1), ya = clampI(y0), yb = clampI(y0 + 1);
     const uint32_t base = uint32_t(face) * uint32_t(mRes) * uint32_t(mRes);
-    Rgb tau = lookup(base + ya * mRes + xa, z, cursor) * ((1 - wx) * (1 - wy)) +
-              lookup(base + ya * mRes + xb, z, cursor) * (wx * (1 - wy)) +
-              lookup(base + yb * mRes + xa, z, cursor) * ((1 - wx) * wy) +
-              lookup(base + yb * mRes + xb, z, cursor) * (wx * wy);
+    Rgb tau = lookup(base + ya * mRes + xa, Cursor::slot(xa, ya), z, cursor) * ((1 - wx) * (1 - wy)) +
+              lookup(base + ya * mRes + xb, Cursor::slot(xb, ya), z, cursor) * (wx * (1 - wy)) +
+              lookup(base + yb * mRes + xa, Cursor::slot(xa, yb), z, cursor) * ((1 - wx) * wy) +
+              lookup(base + yb * mRes + xb, Cursor::slot(xb, yb), z, cursor) * (wx * wy);
     return tau;
 }
 

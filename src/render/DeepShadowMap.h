@@ -40,9 +40,18 @@ public:
     // Where the last lookups in recently used texels ended: nearby lookups hit the same texels
     // at nearby depths, so a search can start there instead of bisecting.
     struct Cursor {
-        // Direct-mapped by texel index: a brick's 9^3 voxels touch a few hundred texels, each
-        // about a dozen times, so most searches become a step or two from the last vertex.
-        static constexpr uint32_t kSlots = 1024;
+        // Direct-mapped by the texel's (x, y) modulo 32: a brick's 9^3 voxels touch a few
+        // hundred texels inside a window narrower than 32 texels, each about a dozen times, so
+        // no two of them share a slot and most searches become a step or two from the last
+        // vertex. (Slots by texel index modulo 1024 would put rows 4 apart, with 256 texels per
+        // row, in the same slots, and a brick's footprint spans ~15 rows.)
+        static constexpr uint32_t kSlotBits = 5;
+        static constexpr uint32_t kSlots = 1u << (2 * kSlotBits);
+        static uint32_t slot(int x, int y)
+        {
+            constexpr uint32_t m = (1u << kSlotBits) - 1;
+            return ((uint32_t(y) & m) << kSlotBits) | (uint32_t(x) & m);
+        }
         uint32_t texel[kSlots];
         uint32_t vertex[kSlots];
         Cursor()
@@ -63,6 +72,12 @@ public:
     bool project(float3 p, int& face, float& u, float& v, float& z) const;
     // The optical depth at a projected point (opticalDepth = project + this).
     Rgb opticalDepthAt(int face, float u, float v, float z, Cursor* cursor = nullptr) const;
+
+    // Channel 0 of opticalDepthAt on face 0 of an orthographic map, addressed in texel units
+    // (fx = u * resolution - 0.5, so texel centres sit at integers): the light cache bakes grey
+    // media through this at every voxel, stepping (fx, fy, z) affinely, so it skips the
+    // projection and the two other channels. Same bilinear interpolation and clamping.
+    float greyOpticalDepthTexel(float fx, float fy, float z, Cursor& cursor) const;
 
     Projection projection() const { return mProjection; }
     int resolution() const { return mRes; }
@@ -88,7 +103,9 @@ public:
     // |T' - T| <= tolerance * max(T, kRelativeFloor) of raw's at every raw vertex (and so
     // everywhere between them, both being linear in between).
     static constexpr float kRelativeFloor = 0.01f;
-    static void compress(const std::vector<Vertex>& raw, float tolerance, std::vector<Vertex>& out);
+    // channels 1: a grey medium, whose three optical depths are equal; only the first is fitted
+    // (the others, equal at every raw vertex, follow exactly).
+    static void compress(const std::vector<Vertex>& raw, float tolerance, std::vector<Vertex>& out, int channels = 3);
 
 private:
     struct Face {
@@ -97,13 +114,15 @@ private:
         float extent;     // orthographic: footprint side, metres; perspective: tan(half angle)
     };
 
-    Rgb lookup(uint32_t texel, float z, Cursor* cursor) const;
+    Rgb lookup(uint32_t texel, uint32_t slot, float z, Cursor* cursor) const;
+    float greyLookup(uint32_t texel, uint32_t slot, float z, Cursor& cursor) const;
     void buildTexel(const VolumeSet& volumes, int face, int ix, int iy, std::vector<Vertex>& out) const;
 
     Projection mProjection = Projection::Orthographic;
     int mRes = 0;
     float mTolerance = 0.002f;
     float mStepFraction = 1.0f;
+    bool mGrey = false;  // every volume's extinction is equal in R, G and B
     std::vector<Face> mFaces;
     std::vector<uint32_t> mOffsets;  // per texel: first vertex; one past the last at the end
     std::vector<Vertex> mVertices;

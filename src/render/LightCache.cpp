@@ -37,6 +37,22 @@ void bakeOwnPoints(const DeepShadowMap& map, const Transform& worldFromIndex, In
         map.project(worldFromIndex.point(index(0, 1, 0)), face, ay.x, ay.y, ay.z);
         map.project(worldFromIndex.point(index(0, 0, 1)), face, az.x, az.y, az.z);
         const float3 dx = ax - a, dy = ay - a, dz = az - a;
+        if (channels == 1) {  // grey: in texel units, one channel
+            const float res = float(map.resolution());
+            const float3 scale = make_float3(res, res, 1.0f);
+            const float3 a0 = a * scale - make_float3(0.5f, 0.5f, 0.0f);
+            const float3 tx = dx * scale, ty = dy * scale, tz = dz * scale;
+            for (int z = 0; z < kB; ++z)
+                for (int y = 0; y < kB; ++y) {
+                    const float3 row = a0 + ty * float(y) + tz * float(z);
+                    float* out = values + (z * kS + y) * kS;
+                    for (int x = 0; x < kB; ++x) {
+                        const float3 q = row + tx * float(x);
+                        out[x] = map.greyOpticalDepthTexel(q.x, q.y, q.z, cursor);
+                    }
+                }
+            return;
+        }
         for (int z = 0; z < kB; ++z)
             for (int y = 0; y < kB; ++y) {
                 const float3 row = a + dy * float(y) + dz * float(z);
