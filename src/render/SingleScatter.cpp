@@ -133,6 +133,52 @@ void marchOneVolume(const RenderContext& ctx, const VolumeData& vol, float3 o, f
     out.depth = alpha > 0.0f ? depthSum / alpha : 0.0f;
 }
 
+// The commonest case of all, a grey medium (equal RGB extinction) lit by one distant light:
+// marchOneVolume<true, true> with the transmittance, the weights and the sum in scalars (the
+// constant RGB factors sigma_s / rho and L_i p are applied once, after the march).
+void marchGreyKeyLight(const RenderContext& ctx, const VolumeData& vol, const LightEntry& key, float3 o, float3 d,
+                       float jitter, CameraSample& out, float* perLight)
+{
+    const BrickGrid& density = vol.density;
+    const BrickGrid& cache = key.cache->grid(0);
+    const float kT = vol.sigmaT().x;
+    const float cutoff = ctx.scene->render.tolerance;
+    const float dt = ctx.scene->render.step * vol.voxelSize;
+    float T = 1.0f, L1 = 0.0f, depthSum = 0.0f;
+    float t0, t1, s0, s1;
+    const float3 oi = vol.indexFromWorld.point(o), di = vol.indexFromWorld.vector(d);
+    if (vol.worldBounds.intersect(o, safeInverse(d), 0.0f, 1e30f, t0, t1) &&
+        density.activeIndexBounds().intersect(oi, safeInverse(di), t0, t1, s0, s1)) {
+        walkOccupiedBricks(density, oi, di, s0, s1, s0, dt, jitter, [&](int, float t, const BrickGrid::Stencil& st) {
+            const float rho = BrickGrid::trilinear<1>(density.brickData(st.brick) + st.corner, st.tx, st.ty, st.tz);
+            if (!(rho > 0.0f))
+                return true;
+            float stepT, w;
+            stepTerms(kT * rho, dt, stepT, w);
+            const float tauLight = BrickGrid::trilinear<1>(cache.brickData(st.brick) + st.corner, st.tx, st.ty, st.tz);
+            L1 += T * w * rho * std::exp(-tauLight);  // eq. 31 per step, over sigma_s / rho and L_i p
+            const float after = T * stepT;
+            depthSum += (T - after) * t;
+            T = after;
+            if (T < cutoff) {
+                T = 0.0f;
+                return false;
+            }
+            return true;
+        });
+    }
+    // Light travels along its direction, then toward the camera (along -d).
+    const Rgb weight = nbLoad3(key.light.color) * nbPhaseEval(vol.medium.phase, -dot(nbLoad3(key.light.direction), d));
+    const Rgb l1 = vol.sigmaS() * weight * L1;
+    out.L1 += l1;
+    float* pl = perLight + 3 * (&key - ctx.lights.data());
+    pl[0] += l1.x, pl[1] += l1.y, pl[2] += l1.z;
+    out.L0 += T * ctx.background;
+    out.transmittance = splat(T);
+    const float alpha = 1.0f - T;
+    out.depth = alpha > 0.0f ? depthSum / alpha : 0.0f;
+}
+
 bool marchSingleFast(const RenderContext& ctx, float3 o, float3 d, float jitter, CameraSample& out, float* perLight)
 {
     const VolumeSet& vs = ctx.volumes;
@@ -152,9 +198,11 @@ bool marchSingleFast(const RenderContext& ctx, float3 o, float3 d, float jitter,
         distant += e.used && e.light.type == NB_LIGHT_DISTANT;
     }
     const bool oneDistant = used == 1 && distant == 1;
-    if (grey && oneDistant)
-        marchOneVolume<true, true>(ctx, vol, o, d, jitter, out, perLight);
-    else if (grey)
+    if (grey && oneDistant) {
+        for (const LightEntry& e : ctx.lights)
+            if (e.used)
+                marchGreyKeyLight(ctx, vol, e, o, d, jitter, out, perLight);
+    } else if (grey)
         marchOneVolume<true, false>(ctx, vol, o, d, jitter, out, perLight);
     else if (oneDistant)
         marchOneVolume<false, true>(ctx, vol, o, d, jitter, out, perLight);
@@ -168,6 +216,15 @@ bool marchSingleFast(const RenderContext& ctx, float3 o, float3 d, float jitter,
 void marchSingle(const RenderContext& ctx, float3 o, float3 d, NbRng& rng, CameraSample& out, float* perLight)
 {
     const float jitter = nbRngNext(&rng);
+    float tIn, tOut;
+    if (!ctx.volumes.worldBounds().intersect(o, safeInverse(d), 0.0f, 1e30f, tIn, tOut)) {
+        // Most camera rays of a typical frame miss every volume: the background, nothing else
+        // (and no further random numbers, as in the march below, which finds no span).
+        out.L0 += ctx.background;
+        out.transmittance = splat(1.0f);
+        out.depth = 0.0f;
+        return;
+    }
     if (marchSingleFast(ctx, o, d, jitter, out, perLight))
         return;
     const Scene& scene = *ctx.scene;
