@@ -1,5 +1,7 @@
 #include "BrickGrid.h"
 
+#include <cstring>
+
 #include <algorithm>
 #include <cmath>
 
@@ -50,9 +52,10 @@ void BrickGrid::updateMajorants()
 
 void BrickGrid::pruneZeroBricks()
 {
-    std::vector<float> pool;
-    size_t count = 0;
     const size_t n = size_t(kBrickValues) * mChannels;
+    std::vector<int32_t*> kept;  // table entries of non-zero bricks, in table order
+    kept.reserve(mBrickCount);
+    bool ascending = true;
     for (auto& entry : mTable) {
         if (entry < 0)
             continue;
@@ -61,13 +64,31 @@ void BrickGrid::pruneZeroBricks()
             entry = -1;
             continue;
         }
-        pool.insert(pool.end(), v, v + n);
-        entry = int32_t(count++);
+        ascending = ascending && (kept.empty() || entry > *kept.back());
+        kept.push_back(&entry);
     }
-    mPool.swap(pool);
-    mBrickCount = count;
+    if (ascending) {
+        // Pool order follows table order (bricks allocated by ascending slot, as the loaders
+        // do): compact in place, each brick moving down or staying, no second pool.
+        for (size_t k = 0; k < kept.size(); ++k) {
+            if (size_t(*kept[k]) != k)
+                std::memmove(mPool.data() + k * n, mPool.data() + size_t(*kept[k]) * n, n * sizeof(float));
+            *kept[k] = int32_t(k);
+        }
+        mPool.resize(kept.size() * n);
+    } else {
+        std::vector<float> pool(kept.size() * n);
+        for (size_t k = 0; k < kept.size(); ++k) {
+            std::copy_n(mPool.data() + size_t(*kept[k]) * n, n, pool.data() + k * n);
+            *kept[k] = int32_t(k);
+        }
+        mPool.swap(pool);
+    }
+    mBrickCount = kept.size();
     updateMajorants();
 }
+
+void BrickGrid::reserveBricks(size_t bricks) { mPool.reserve(bricks * size_t(kBrickValues) * mChannels); }
 
 size_t BrickGrid::memoryBytes() const
 {

@@ -35,6 +35,8 @@ public:
     // Allocates storage for slot (bx,by,bz) in table coordinates; returns its value pointer
     // (kBrickValues * channels floats, x fastest, channel innermost), zero-filled.
     float* allocateBrick(int bx, int by, int bz);
+    // Room for this many bricks in the pool, so allocateBrick does not regrow it.
+    void reserveBricks(size_t bricks);
     // Recomputes every slot's majorant from its stored values (after filling).
     void updateMajorants();
     // Frees bricks whose values are all zero.

@@ -216,6 +216,7 @@ BrickGrid toBricks(const GridT& grid, int channels, const std::string& where)
         return Coord(int(s % uint64_t(dims.x())), int((s / uint64_t(dims.x())) % uint64_t(dims.y())),
                      int(s / (uint64_t(dims.x()) * dims.y())));
     };
+    bricks.reserveBricks(list.size());
     for (uint64_t s : list) {
         Coord t = tableCoord(s);
         bricks.allocateBrick(t.x(), t.y(), t.z());
