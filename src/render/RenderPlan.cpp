@@ -83,7 +83,7 @@ std::string RenderPlan::describe() const
         s << "  stages:";
         for (auto& st : stageSeconds) {
             char buf[64];
-            std::snprintf(buf, sizeof buf, " %s %.2f s;", st.first.c_str(), st.second);
+            std::snprintf(buf, sizeof buf, " %s %.3f s;", st.first.c_str(), st.second);
             s << buf;
         }
         s << "\n";
