@@ -92,14 +92,31 @@ DeepShadowMap DeepShadowMap::build(const NbLight& light, const VolumeSet& volume
 
     const int res = m.mRes;
     const size_t texels = size_t(res) * res * m.mFaces.size();
+    // Keep the march samples for the bake where the march runs on one uniform lattice per ray
+    // (one grey volume, DeepShadowMap::marchRay's brick walk) and they fit the budget.
+    const auto& vols = volumes.volumes();
+    if (m.mProjection == Projection::Orthographic && m.mGrey && vols.size() == 1 && vols[0]->density.channels() == 1) {
+        m.mSampleDz = settings.stepFraction * vols[0]->voxelSize;
+        const float3 e = bounds.hi - bounds.lo;
+        const double perTexel = double(length(e)) / double(m.mSampleDz) + 3.0;
+        if (m.mSampleDz > 0.0f && double(texels) * perTexel * sizeof(float) <= double(kMarchSamplesBudget)) {
+            m.mInvSampleDz = 1.0f / m.mSampleDz;
+            m.mSampleIndex.resize(texels);
+            m.mSampleRows.resize(size_t(res));
+            for (auto& row : m.mSampleRows)  // address space only: pages arrive as rows fill
+                row.reserve(size_t(double(res) * perTexel));
+        }
+    }
     std::vector<std::vector<Vertex>> rows(size_t(res) * m.mFaces.size());
     std::vector<std::vector<uint32_t>> rowCounts(rows.size());
     tbb::parallel_for(tbb::blocked_range<size_t>(0, rows.size()), [&](const tbb::blocked_range<size_t>& r) {
         std::vector<Vertex> texel;
         for (size_t row = r.begin(); row != r.end(); ++row) {
             int face = int(row / res), iy = int(row % res);
+            const bool keep = m.hasMarchSamples();
             for (int ix = 0; ix < res; ++ix) {
-                m.buildTexel(volumes, face, ix, iy, texel);
+                m.buildTexel(volumes, face, ix, iy, texel, keep ? &m.mSampleRows[row] : nullptr,
+                             keep ? &m.mSampleIndex[row * size_t(res) + size_t(ix)] : nullptr);
                 rows[row].insert(rows[row].end(), texel.begin(), texel.end());
                 rowCounts[row].push_back(uint32_t(texel.size()));
             }
@@ -120,6 +137,8 @@ DeepShadowMap DeepShadowMap::build(const NbLight& light, const VolumeSet& volume
         std::vector<Vertex>().swap(rows[row]);
     }
     m.mOffsets.push_back(uint32_t(m.mVertices.size()));
+    for (size_t t = 0; t < m.mSampleIndex.size(); ++t)
+        m.mSampleIndex[t].tau = m.mSampleRows[t / size_t(res)].data() + m.mSampleIndex[t].first;
     m.mBuildSeconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     return m;
 }
@@ -237,13 +256,74 @@ void DeepShadowMap::compress(const std::vector<Vertex>& raw, float tolerance, st
         out.push_back(raw.back());
 }
 
-void DeepShadowMap::buildTexel(const VolumeSet& volumes, int face, int ix, int iy, std::vector<Vertex>& out) const
+void DeepShadowMap::buildTexel(const VolumeSet& volumes, int face, int ix, int iy, std::vector<Vertex>& out,
+                               std::vector<float>* samples, TexelSamples* where) const
 {
     float3 o, d;
     texelRay(face, (ix + 0.5f) / mRes, (iy + 0.5f) / mRes, o, d);
     thread_local std::vector<Vertex> raw;
     marchRay(volumes, o, d, mStepFraction, raw);
     compress(raw, mTolerance, out, mGrey ? 1 : 3);
+    if (!samples)
+        return;
+    // marchRay's vertices lie on z0 + k dz: runs of samples, with tau constant across the
+    // empty bricks skipped between runs. Spread them onto every k.
+    where->first = uint32_t(samples->size());
+    where->count = 0;
+    if (out.empty())
+        return;  // nothing along this ray
+    where->z0 = raw[0].z;
+    const float inv = 1.0f / mSampleDz;
+    long prev = -1;
+    for (const Vertex& v : raw) {
+        const long k = std::lround((v.z - where->z0) * inv);
+        if (k <= prev) {  // rounding put two vertices on one k: the later one holds
+            samples->back() = v.tau[0];
+            continue;
+        }
+        const float held = samples->size() > where->first ? samples->back() : 0.0f;
+        samples->insert(samples->end(), size_t(k - prev - 1), held);
+        samples->push_back(v.tau[0]);
+        prev = k;
+    }
+    where->count = uint32_t(samples->size() - where->first);
+}
+
+inline float DeepShadowMap::marchedDepth(uint32_t texel, float z) const
+{
+    const TexelSamples& s = mSampleIndex[texel];
+    if (s.count == 0)
+        return 0.0f;
+    const float x = (z - s.z0) * mInvSampleDz;
+    const float* tau = s.tau;
+    if (!(x > 0.0f))
+        return 0.0f;
+    if (x >= float(s.count - 1))
+        return tau[s.count - 1];
+    const int k = int(x);
+    const float w = x - float(k);
+    return tau[k] + w * (tau[k + 1] - tau[k]);
+}
+
+float DeepShadowMap::greyMarchedDepthTexel(float fx, float fy, float z) const
+{
+    const float last = float(mRes);
+    if (!(fx >= -0.5f && fx <= last - 0.5f && fy >= -0.5f && fy <= last - 0.5f))
+        return 0.0f;  // u or v outside [0, 1], as in opticalDepthAt
+    const int x0 = floorToInt(fx), y0 = floorToInt(fy);
+    const float wx = fx - float(x0), wy = fy - float(y0);
+    const uint32_t xa = uint32_t(std::max(x0, 0)), xb = uint32_t(std::min(x0 + 1, mRes - 1));
+    const uint32_t ra = uint32_t(std::max(y0, 0)) * uint32_t(mRes), rb = uint32_t(std::min(y0 + 1, mRes - 1)) * uint32_t(mRes);
+    const float a = marchedDepth(ra + xa, z), b = marchedDepth(ra + xb, z);
+    const float c = marchedDepth(rb + xa, z), d = marchedDepth(rb + xb, z);
+    const float lo = a + wx * (b - a), hi = c + wx * (d - c);
+    return lo + wy * (hi - lo);
+}
+
+void DeepShadowMap::releaseMarchSamples()
+{
+    std::vector<TexelSamples>().swap(mSampleIndex);
+    std::vector<std::vector<float>>().swap(mSampleRows);
 }
 
 bool DeepShadowMap::project(float3 p, int& face, float& u, float& v, float& z) const

@@ -79,6 +79,17 @@ public:
     // projection and the two other channels. Same bilinear interpolation and clamping.
     float greyOpticalDepthTexel(float fx, float fy, float z, Cursor& cursor) const;
 
+    // The uncompressed optical depth along each texel's ray, on its march lattice z0 + k dz:
+    // build() keeps it for an orthographic map over one grey volume (the march's uniform
+    // lattice) when it fits kMarchSamplesBudget. A lookup is then one index computation per
+    // texel instead of a search among compressed vertices, and exact to the march; the light
+    // cache bakes from it (greyMarchedDepthTexel: greyOpticalDepthTexel's interpolation and
+    // clamping), then releaseMarchSamples() frees it.
+    static constexpr size_t kMarchSamplesBudget = size_t(256) << 20;  // bytes
+    bool hasMarchSamples() const { return !mSampleRows.empty(); }
+    float greyMarchedDepthTexel(float fx, float fy, float z) const;
+    void releaseMarchSamples();
+
     Projection projection() const { return mProjection; }
     int resolution() const { return mRes; }
     size_t vertexCount() const { return mVertices.size(); }
@@ -116,13 +127,24 @@ private:
 
     Rgb lookup(uint32_t texel, uint32_t slot, float z, Cursor* cursor) const;
     float greyLookup(uint32_t texel, uint32_t slot, float z, Cursor& cursor) const;
-    void buildTexel(const VolumeSet& volumes, int face, int ix, int iy, std::vector<Vertex>& out) const;
+    // Where one texel's march samples lie in its row of mSampleRows.
+    struct TexelSamples {
+        float z0 = 0.0f;
+        uint32_t first = 0, count = 0;
+        const float* tau = nullptr;  // set once every row is built
+    };
+    void buildTexel(const VolumeSet& volumes, int face, int ix, int iy, std::vector<Vertex>& out,
+                    std::vector<float>* samples, TexelSamples* where) const;
+    float marchedDepth(uint32_t texel, float z) const;
 
     Projection mProjection = Projection::Orthographic;
     int mRes = 0;
     float mTolerance = 0.002f;
     float mStepFraction = 1.0f;
     bool mGrey = false;  // every volume's extinction is equal in R, G and B
+    float mSampleDz = 0.0f, mInvSampleDz = 0.0f;
+    std::vector<TexelSamples> mSampleIndex;       // per texel
+    std::vector<std::vector<float>> mSampleRows;  // per row of texels: their samples
     std::vector<Face> mFaces;
     std::vector<uint32_t> mOffsets;  // per texel: first vertex; one past the last at the end
     std::vector<Vertex> mVertices;

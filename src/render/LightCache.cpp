@@ -22,6 +22,19 @@ inline void store(float* values, int n, int channels, Rgb tau)
     }
 }
 
+// The optical depth at one point: from the march samples where the map kept them (grey,
+// orthographic), else from the compressed functions.
+inline Rgb opticalDepth(const DeepShadowMap& map, float3 p, int channels, DeepShadowMap::Cursor& cursor)
+{
+    int face;
+    float u, v, z;
+    if (channels == 1 && map.hasMarchSamples() && map.project(p, face, u, v, z)) {
+        const float res = float(map.resolution());
+        return splat(map.greyMarchedDepthTexel(u * res - 0.5f, v * res - 0.5f, z));
+    }
+    return map.opticalDepth(p, &cursor);
+}
+
 // The brick's own lattice points, [0, 8)^3 from its origin (the apron, at 8, belongs to the
 // neighbours). An orthographic map is affine in the point, and so in the lattice indices:
 // three projections give every point's (u, v, z) by stepping.
@@ -46,9 +59,16 @@ void bakeOwnPoints(const DeepShadowMap& map, const Transform& worldFromIndex, In
                 for (int y = 0; y < kB; ++y) {
                     const float3 row = a0 + ty * float(y) + tz * float(z);
                     float* out = values + (z * kS + y) * kS;
-                    for (int x = 0; x < kB; ++x) {
-                        const float3 q = row + tx * float(x);
-                        out[x] = map.greyOpticalDepthTexel(q.x, q.y, q.z, cursor);
+                    if (map.hasMarchSamples()) {
+                        for (int x = 0; x < kB; ++x) {
+                            const float3 q = row + tx * float(x);
+                            out[x] = map.greyMarchedDepthTexel(q.x, q.y, q.z);
+                        }
+                    } else {
+                        for (int x = 0; x < kB; ++x) {
+                            const float3 q = row + tx * float(x);
+                            out[x] = map.greyOpticalDepthTexel(q.x, q.y, q.z, cursor);
+                        }
                     }
                 }
             return;
@@ -109,7 +129,7 @@ LightCache LightCache::bake(const DeepShadowMap& map, const VolumeSet& volumes)
                                 std::copy(src, src + channels, values + size_t(n) * channels);
                             } else {
                                 const float3 p = worldFromIndex.point(make_float3(float(gx), float(gy), float(gz)));
-                                store(values, n, channels, map.opticalDepth(p, &cursor));
+                                store(values, n, channels, opticalDepth(map, p, channels, cursor));
                             }
                         }
             }

@@ -146,6 +146,7 @@ std::unique_ptr<RenderContext> RenderContext::create(const Scene& scene, bool bu
                 continue;
             ctx->lights[i].shadowMap = DeepShadowMap::build(ctx->lights[i].light, ctx->volumes, s);
             ctx->lights[i].cache = LightCache::bake(*ctx->lights[i].shadowMap, ctx->volumes);
+            ctx->lights[i].shadowMap->releaseMarchSamples();
             plan.lights[i].resolution = ctx->lights[i].shadowMap->resolution();
             plan.lights[i].shadowMapBytes = ctx->lights[i].shadowMap->memoryBytes();
             plan.lights[i].shadowMapSeconds = ctx->lights[i].shadowMap->buildSeconds();
