@@ -211,22 +211,11 @@ bool marchSingleFast(const RenderContext& ctx, float3 o, float3 d, float jitter,
     return true;
 }
 
-}  // namespace
-
-void marchSingle(const RenderContext& ctx, float3 o, float3 d, NbRng& rng, CameraSample& out, float* perLight)
+// Any scene: several volumes, emission, sampled area and environment lights, chromatic media.
+// Out of line, so that its frame does not weigh on the common cases above.
+[[gnu::noinline]] void marchSingleGeneral(const RenderContext& ctx, float3 o, float3 d, float jitter, NbRng& rng,
+                                          CameraSample& out, float* perLight)
 {
-    const float jitter = nbRngNext(&rng);
-    float tIn, tOut;
-    if (!ctx.volumes.worldBounds().intersect(o, safeInverse(d), 0.0f, 1e30f, tIn, tOut)) {
-        // Most camera rays of a typical frame miss every volume: the background, nothing else
-        // (and no further random numbers, as in the march below, which finds no span).
-        out.L0 += ctx.background;
-        out.transmittance = splat(1.0f);
-        out.depth = 0.0f;
-        return;
-    }
-    if (marchSingleFast(ctx, o, d, jitter, out, perLight))
-        return;
     const Scene& scene = *ctx.scene;
     const VolumeSet& vs = ctx.volumes;
     const auto& volumes = vs.volumes();
@@ -347,6 +336,24 @@ void marchSingle(const RenderContext& ctx, float3 o, float3 d, NbRng& rng, Camer
     out.transmittance = T;
     float alpha = 1.0f - nbAverage(T);
     out.depth = alpha > 0.0f ? depthSum / alpha : 0.0f;
+}
+
+}  // namespace
+
+void marchSingle(const RenderContext& ctx, float3 o, float3 d, NbRng& rng, CameraSample& out, float* perLight)
+{
+    const float jitter = nbRngNext(&rng);
+    float tIn, tOut;
+    if (!ctx.volumes.worldBounds().intersect(o, safeInverse(d), 0.0f, 1e30f, tIn, tOut)) {
+        // Most camera rays of a typical frame miss every volume: the background, nothing else
+        // (and no further random numbers, as in the general march, which finds no span).
+        out.L0 += ctx.background;
+        out.transmittance = splat(1.0f);
+        out.depth = 0.0f;
+        return;
+    }
+    if (!marchSingleFast(ctx, o, d, jitter, out, perLight))
+        marchSingleGeneral(ctx, o, d, jitter, rng, out, perLight);
 }
 
 }  // namespace nimbus
