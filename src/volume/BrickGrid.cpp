@@ -159,9 +159,11 @@ float BrickGrid::sample(float3 p, int c) const
 
 BrickGrid BrickGrid::sameTopology(int channels) const
 {
-    BrickGrid g = *this;
-    g.mChannels = channels;
-    g.mPool.assign(mBrickCount * kBrickValues * size_t(channels), 0.0f);
+    BrickGrid g;
+    g.mBrickLo = mBrickLo, g.mDims = mDims, g.mChannels = channels;
+    g.mTable = mTable, g.mMajorant = mMajorant, g.mBrickCount = mBrickCount, g.mMaxValue = mMaxValue;
+    g.mActiveBounds = mActiveBounds, g.mBrickOrigins = mBrickOrigins;
+    g.mPool.assign(mBrickCount * kBrickValues * size_t(channels), 0.0f);  // not a copy of ours
     return g;
 }
 
