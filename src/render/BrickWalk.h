@@ -14,6 +14,7 @@
 #pragma once
 
 #include "../volume/BrickGrid.h"
+#include "../volume/VolumeData.h"
 
 #include <algorithm>
 #include <cmath>
@@ -114,6 +115,19 @@ void walkOccupiedBricks(const BrickGrid& grid, float3 o, float3 d, float tIn, fl
         t = tExit;
         dda.advance();
     }
+}
+
+// The march of a world ray o + t d (d unit) through one volume's density: its index-space
+// image, clipped to the volume's world bounds and to the occupied bricks, walked from where it
+// enters them (so t_k = t_in + (k + jitter) dt, t in metres). visit as walkOccupiedBricks.
+template <class Visit>
+void walkVolume(const VolumeData& vol, float3 o, float3 d, float dt, float jitter, Visit&& visit)
+{
+    float t0, t1, s0, s1;
+    const float3 oi = vol.indexFromWorld.point(o), di = vol.indexFromWorld.vector(d);
+    if (vol.worldBounds.intersect(o, safeInverse(d), 0.0f, 1e30f, t0, t1) &&
+        vol.density.activeIndexBounds().intersect(oi, safeInverse(di), t0, t1, s0, s1))
+        walkOccupiedBricks(vol.density, oi, di, s0, s1, s0, dt, jitter, visit);
 }
 
 }  // namespace nimbus

@@ -167,13 +167,8 @@ void DeepShadowMap::marchRay(const VolumeSet& volumes, float3 o, float3 d, float
         const BrickGrid& density = vol.density;
         const Rgb kT = vol.sigmaT();
         const float dt = stepFraction * vol.voxelSize;
-        const float3 oi = vol.indexFromWorld.point(o), di = vol.indexFromWorld.vector(d);
-        float t0, t1, s0, s1;
-        if (!vol.worldBounds.intersect(o, safeInverse(d), 0.0f, 1e30f, t0, t1) ||
-            !density.activeIndexBounds().intersect(oi, safeInverse(di), t0, t1, s0, s1))
-            return;
         int last = -2;
-        walkOccupiedBricks(density, oi, di, s0, s1, s0, dt, 0.5f, [&](int k, float t, const BrickGrid::Stencil& st) {
+        walkVolume(vol, o, d, dt, 0.5f, [&](int k, float t, const BrickGrid::Stencil& st) {
             if (k != last + 1)
                 raw.push_back({t - 0.5f * dt, {tau[0], tau[1], tau[2]}});
             last = k;

@@ -67,60 +67,55 @@ void marchOneVolume(const RenderContext& ctx, const VolumeData& vol, float3 o, f
     const Active first = activeList.empty() ? Active{0, nullptr, false, splat(0.0f)} : activeList[0];
     Rgb T = splat(1.0f), L1 = splat(0.0f);
     float depthSum3 = 0.0f;
-    float t0, t1, s0, s1;
-    const float3 oi = vol.indexFromWorld.point(o), di = vol.indexFromWorld.vector(d);
-    if (vol.worldBounds.intersect(o, safeInverse(d), 0.0f, 1e30f, t0, t1) &&
-        density.activeIndexBounds().intersect(oi, safeInverse(di), t0, t1, s0, s1)) {
-        walkOccupiedBricks(density, oi, di, s0, s1, s0, dt, jitter, [&](int, float t, const BrickGrid::Stencil& st) {
-            const float rho = BrickGrid::trilinear<1>(density.brickData(st.brick) + st.corner, st.tx, st.ty, st.tz);
-            if (!(rho > 0.0f))
-                return true;
-            Rgb stepT, w;
-            stepTerms(kT.x * rho, dt, stepT.x, w.x);
-            if (Grey) {
-                stepT.y = stepT.z = stepT.x;
-                w.y = w.z = w.x;
-            } else {
-                stepTerms(kT.y * rho, dt, stepT.y, w.y);
-                stepTerms(kT.z * rho, dt, stepT.z, w.z);
-            }
-            const Rgb TwS = T * w * kS * rho;  // int over the step of T sigma_s (eq. 31 per step)
-            for (size_t ai = 0; ai < nActive; ++ai) {
-                const Active& a = OneDistant ? first : active[ai];
-                Rgb Li;
-                if (OneDistant || a.distant) {
-                    Li = a.weight;
-                } else {
-                    float3 wi;
-                    Rgb weight = ctx.deltaWeight(size_t(a.index), o + d * t, wi);  // sets wi first
-                    Li = weight * nbPhaseEval(phase, dot(wi, d));  // travel -wi, then -d
-                }
-                const float* tau = a.cache->brickData(st.brick) + st.corner * C;
-                Rgb Tl;
-                if (Grey) {
-                    Tl = splat(std::exp(-BrickGrid::trilinear<1>(tau, st.tx, st.ty, st.tz)));
-                } else {
-                    Tl = exp(-make_float3(BrickGrid::trilinear<3>(tau, st.tx, st.ty, st.tz),
-                                          BrickGrid::trilinear<3>(tau + 1, st.tx, st.ty, st.tz),
-                                          BrickGrid::trilinear<3>(tau + 2, st.tx, st.ty, st.tz)));
-                }
-                const Rgb c = TwS * Li * Tl;
-                L1 += c;
-                if (!OneDistant) {
-                    float* pl = perLight + 3 * a.index;
-                    pl[0] += c.x, pl[1] += c.y, pl[2] += c.z;
-                }
-            }
-            const float before = T.x + T.y + T.z;
-            T = T * stepT;
-            depthSum3 += (before - (T.x + T.y + T.z)) * t;
-            if (nbMaxComponent(T) < cutoff) {
-                T = splat(0.0f);
-                return false;
-            }
+    walkVolume(vol, o, d, dt, jitter, [&](int, float t, const BrickGrid::Stencil& st) {
+        const float rho = BrickGrid::trilinear<1>(density.brickData(st.brick) + st.corner, st.tx, st.ty, st.tz);
+        if (!(rho > 0.0f))
             return true;
-        });
-    }
+        Rgb stepT, w;
+        stepTerms(kT.x * rho, dt, stepT.x, w.x);
+        if (Grey) {
+            stepT.y = stepT.z = stepT.x;
+            w.y = w.z = w.x;
+        } else {
+            stepTerms(kT.y * rho, dt, stepT.y, w.y);
+            stepTerms(kT.z * rho, dt, stepT.z, w.z);
+        }
+        const Rgb TwS = T * w * kS * rho;  // int over the step of T sigma_s (eq. 31 per step)
+        for (size_t ai = 0; ai < nActive; ++ai) {
+            const Active& a = OneDistant ? first : active[ai];
+            Rgb Li;
+            if (OneDistant || a.distant) {
+                Li = a.weight;
+            } else {
+                float3 wi;
+                Rgb weight = ctx.deltaWeight(size_t(a.index), o + d * t, wi);  // sets wi first
+                Li = weight * nbPhaseEval(phase, dot(wi, d));  // travel -wi, then -d
+            }
+            const float* tau = a.cache->brickData(st.brick) + st.corner * C;
+            Rgb Tl;
+            if (Grey) {
+                Tl = splat(std::exp(-BrickGrid::trilinear<1>(tau, st.tx, st.ty, st.tz)));
+            } else {
+                Tl = exp(-make_float3(BrickGrid::trilinear<3>(tau, st.tx, st.ty, st.tz),
+                                      BrickGrid::trilinear<3>(tau + 1, st.tx, st.ty, st.tz),
+                                      BrickGrid::trilinear<3>(tau + 2, st.tx, st.ty, st.tz)));
+            }
+            const Rgb c = TwS * Li * Tl;
+            L1 += c;
+            if (!OneDistant) {
+                float* pl = perLight + 3 * a.index;
+                pl[0] += c.x, pl[1] += c.y, pl[2] += c.z;
+            }
+        }
+        const float before = T.x + T.y + T.z;
+        T = T * stepT;
+        depthSum3 += (before - (T.x + T.y + T.z)) * t;
+        if (nbMaxComponent(T) < cutoff) {
+            T = splat(0.0f);
+            return false;
+        }
+        return true;
+    });
     out.L1 += L1;
     if (OneDistant) {
         float* pl = perLight + 3 * first.index;
@@ -145,28 +140,23 @@ void marchGreyKeyLight(const RenderContext& ctx, const VolumeData& vol, const Li
     const float cutoff = ctx.scene->render.tolerance;
     const float dt = ctx.scene->render.step * vol.voxelSize;
     float T = 1.0f, L1 = 0.0f, depthSum = 0.0f;
-    float t0, t1, s0, s1;
-    const float3 oi = vol.indexFromWorld.point(o), di = vol.indexFromWorld.vector(d);
-    if (vol.worldBounds.intersect(o, safeInverse(d), 0.0f, 1e30f, t0, t1) &&
-        density.activeIndexBounds().intersect(oi, safeInverse(di), t0, t1, s0, s1)) {
-        walkOccupiedBricks(density, oi, di, s0, s1, s0, dt, jitter, [&](int, float t, const BrickGrid::Stencil& st) {
-            const float rho = BrickGrid::trilinear<1>(density.brickData(st.brick) + st.corner, st.tx, st.ty, st.tz);
-            if (!(rho > 0.0f))
-                return true;
-            float stepT, w;
-            stepTerms(kT * rho, dt, stepT, w);
-            const float tauLight = BrickGrid::trilinear<1>(cache.brickData(st.brick) + st.corner, st.tx, st.ty, st.tz);
-            L1 += T * w * rho * std::exp(-tauLight);  // eq. 31 per step, over sigma_s / rho and L_i p
-            const float after = T * stepT;
-            depthSum += (T - after) * t;
-            T = after;
-            if (T < cutoff) {
-                T = 0.0f;
-                return false;
-            }
+    walkVolume(vol, o, d, dt, jitter, [&](int, float t, const BrickGrid::Stencil& st) {
+        const float rho = BrickGrid::trilinear<1>(density.brickData(st.brick) + st.corner, st.tx, st.ty, st.tz);
+        if (!(rho > 0.0f))
             return true;
-        });
-    }
+        float stepT, w;
+        stepTerms(kT * rho, dt, stepT, w);
+        const float tauLight = BrickGrid::trilinear<1>(cache.brickData(st.brick) + st.corner, st.tx, st.ty, st.tz);
+        L1 += T * w * rho * std::exp(-tauLight);  // eq. 31 per step, over sigma_s / rho and L_i p
+        const float after = T * stepT;
+        depthSum += (T - after) * t;
+        T = after;
+        if (T < cutoff) {
+            T = 0.0f;
+            return false;
+        }
+        return true;
+    });
     // Light travels along its direction, then toward the camera (along -d).
     const Rgb weight = nbLoad3(key.light.color) * nbPhaseEval(vol.medium.phase, -dot(nbLoad3(key.light.direction), d));
     const Rgb l1 = vol.sigmaS() * weight * L1;
