@@ -91,7 +91,8 @@ void walkOccupiedBricks(const BrickGrid& grid, float3 o, float3 d, float tIn, fl
     int kNext = 0;
     BrickGrid::Stencil s;
     for (int i = 0; i < maxSteps && t < tOut; ++i) {
-        const float tExit = std::min(dda.exit(), tOut);
+        const int axis = dda.exitAxis();
+        const float tExit = std::min(dda.tNext[axis], tOut);
         const int brick = grid.occupiedBrick(cell[0], cell[1], cell[2]);
         if (brick >= 0 && tExit > t) {
             s.brick = brick;
@@ -113,7 +114,8 @@ void walkOccupiedBricks(const BrickGrid& grid, float3 o, float3 d, float tIn, fl
             kNext = k;
         }
         t = tExit;
-        dda.advance();
+        dda.cell[axis] += dda.stepDir[axis];  // dda.advance(), its exit axis known
+        dda.tNext[axis] += dda.tDelta[axis];
     }
 }
 

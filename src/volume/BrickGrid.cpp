@@ -18,6 +18,7 @@ void BrickGrid::reset(Int3 brickLo, Int3 dims, int channels)
     mChannels = channels;
     mTable.assign(size_t(mDims.x) * mDims.y * mDims.z, -1);
     mMajorant.assign(mTable.size(), 0.0f);
+    mOccupied.assign(mTable.size(), -1);
     mPool.clear();
     mBrickCount = 0;
     mMaxValue = 0.0f;
@@ -45,6 +46,7 @@ void BrickGrid::updateMajorants()
                 m = std::max(m, v[i]);
         }
         mMajorant[s] = m;
+        mOccupied[s] = m > 0.0f ? mTable[s] : -1;
         mMaxValue = std::max(mMaxValue, m);
     }
     updateActiveBounds();
@@ -161,7 +163,8 @@ BrickGrid BrickGrid::sameTopology(int channels) const
 {
     BrickGrid g;
     g.mBrickLo = mBrickLo, g.mDims = mDims, g.mChannels = channels;
-    g.mTable = mTable, g.mMajorant = mMajorant, g.mBrickCount = mBrickCount, g.mMaxValue = mMaxValue;
+    g.mTable = mTable, g.mMajorant = mMajorant, g.mOccupied = mOccupied;
+    g.mBrickCount = mBrickCount, g.mMaxValue = mMaxValue;
     g.mActiveBounds = mActiveBounds, g.mBrickOrigins = mBrickOrigins;
     g.mPool.assign(mBrickCount * kBrickValues * size_t(channels), 0.0f);  // not a copy of ours
     return g;

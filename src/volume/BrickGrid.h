@@ -121,8 +121,7 @@ public:
         bx -= mBrickLo.x, by -= mBrickLo.y, bz -= mBrickLo.z;
         if (unsigned(bx) >= unsigned(mDims.x) || unsigned(by) >= unsigned(mDims.y) || unsigned(bz) >= unsigned(mDims.z))
             return -1;
-        size_t slot = (size_t(bz) * mDims.y + by) * mDims.x + bx;
-        return mMajorant[slot] > 0.0f ? mTable[slot] : -1;
+        return mOccupied[(size_t(bz) * mDims.y + by) * mDims.x + bx];
     }
     // The allocated brick at brick coordinates (bx, by, bz), occupied or not, or -1.
     int allocatedBrick(int bx, int by, int bz) const
@@ -161,6 +160,7 @@ private:
     std::vector<int32_t> mTable;   // slot -> brick index or -1
     std::vector<float> mPool;      // brick values
     std::vector<float> mMajorant;  // slot -> max over channels of the brick's values
+    std::vector<int32_t> mOccupied;  // slot -> brick index where the majorant is positive, else -1
     size_t mBrickCount = 0;
     float mMaxValue = 0.0f;
     Bbox mActiveBounds;
