@@ -95,7 +95,8 @@ DeepShadowMap DeepShadowMap::build(const NbLight& light, const VolumeSet& volume
     // Keep the march samples for the bake where the march runs on one uniform lattice per ray
     // (one grey volume, DeepShadowMap::marchRay's brick walk) and they fit the budget.
     const auto& vols = volumes.volumes();
-    if (m.mProjection == Projection::Orthographic && m.mGrey && vols.size() == 1 && vols[0]->density.channels() == 1) {
+    if (settings.keepMarchSamples && m.mProjection == Projection::Orthographic && m.mGrey && vols.size() == 1 &&
+        vols[0]->density.channels() == 1) {
         m.mSampleDz = settings.stepFraction * vols[0]->voxelSize;
         const float3 e = bounds.hi - bounds.lo;
         const double perTexel = double(length(e)) / double(m.mSampleDz) + 3.0;

@@ -32,7 +32,17 @@ public:
         int resolution = 256;       // texels per side (per face for cube maps)
         float tolerance = 0.002f;   // max relative transmittance error of the compression
         float stepFraction = 1.0f;  // light-ray march step, voxels
+        // Keep the march samples where they can be kept (see hasMarchSamples), for a bake that
+        // follows; the caller releases them after.
+        bool keepMarchSamples = false;
     };
+
+    DeepShadowMap() = default;
+    // Move-only: the kept march samples are addressed by pointers into their rows.
+    DeepShadowMap(DeepShadowMap&&) noexcept = default;
+    DeepShadowMap& operator=(DeepShadowMap&&) noexcept = default;
+    DeepShadowMap(const DeepShadowMap&) = delete;
+    DeepShadowMap& operator=(const DeepShadowMap&) = delete;
 
     // Builds the map for a point, spot or distant light over the volumes (TBB-parallel).
     static DeepShadowMap build(const NbLight& light, const VolumeSet& volumes, const Settings& settings);
@@ -80,8 +90,8 @@ public:
     float greyOpticalDepthTexel(float fx, float fy, float z, Cursor& cursor) const;
 
     // The uncompressed optical depth along each texel's ray, on its march lattice z0 + k dz:
-    // build() keeps it for an orthographic map over one grey volume (the march's uniform
-    // lattice) when it fits kMarchSamplesBudget. A lookup is then one index computation per
+    // build() keeps it, when asked (Settings::keepMarchSamples), for an orthographic map over
+    // one grey volume (the march's uniform lattice) when it fits kMarchSamplesBudget. A lookup is then one index computation per
     // texel instead of a search among compressed vertices, and exact to the march; the light
     // cache bakes from it (greyMarchedDepthTexel: greyOpticalDepthTexel's interpolation and
     // clamping), then releaseMarchSamples() frees it.

@@ -141,6 +141,7 @@ std::unique_ptr<RenderContext> RenderContext::create(const Scene& scene, bool bu
         s.resolution = scene.render.shadowMapResolution;
         s.tolerance = scene.render.tolerance;
         s.stepFraction = scene.render.shadowStep;
+        s.keepMarchSamples = true;  // for the bake below, then released
         for (size_t i = 0; i < ctx->lights.size(); ++i) {
             if (!plan.lights[i].shadowMap)
                 continue;

@@ -113,7 +113,8 @@ void LightVolumes::build(const RenderContext& ctx, WkbSetup& setup, RenderPlan& 
 {
     mCtx = &ctx;
     mPyramids.assign(setup.volumes.size(), LightPyramid());
-    mOwnMaps.assign(setup.sources.size(), std::nullopt);
+    mOwnMaps.clear();
+    mOwnMaps.resize(setup.sources.size());
     mMaps.assign(setup.sources.size(), nullptr);
     if (!setup.active)
         return;

@@ -94,6 +94,8 @@ TEST(ShadowMap, BakeFromMarchSamplesIsTheMarch)
     s.resolution = 48;
     s.tolerance = 0.002f;
     s.stepFraction = 1.5f;
+    EXPECT_FALSE(DeepShadowMap::build(makeNbLight(l, 0), volumes, s).hasMarchSamples()) << "kept unasked";
+    s.keepMarchSamples = true;
     DeepShadowMap dsm = DeepShadowMap::build(makeNbLight(l, 0), volumes, s);
     ASSERT_TRUE(dsm.hasMarchSamples());
     const int res = dsm.resolution();
