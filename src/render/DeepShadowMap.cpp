@@ -316,6 +316,14 @@ float DeepShadowMap::greyMarchedDepthTexel(float fx, float fy, float z) const
     return lo + wy * (hi - lo);
 }
 
+size_t DeepShadowMap::marchSampleBytes() const
+{
+    size_t bytes = mSampleIndex.size() * sizeof(TexelSamples);
+    for (const auto& row : mSampleRows)
+        bytes += row.size() * sizeof(float);
+    return bytes;
+}
+
 void DeepShadowMap::releaseMarchSamples()
 {
     std::vector<TexelSamples>().swap(mSampleIndex);

@@ -97,6 +97,7 @@ public:
     // clamping), then releaseMarchSamples() frees it.
     static constexpr size_t kMarchSamplesBudget = size_t(256) << 20;  // bytes
     bool hasMarchSamples() const { return !mSampleRows.empty(); }
+    size_t marchSampleBytes() const;
     float greyMarchedDepthTexel(float fx, float fy, float z) const;
     void releaseMarchSamples();
 

@@ -147,6 +147,7 @@ std::unique_ptr<RenderContext> RenderContext::create(const Scene& scene, bool bu
                 continue;
             ctx->lights[i].shadowMap = DeepShadowMap::build(ctx->lights[i].light, ctx->volumes, s);
             ctx->lights[i].cache = LightCache::bake(*ctx->lights[i].shadowMap, ctx->volumes);
+            plan.lights[i].marchSampleBytes = ctx->lights[i].shadowMap->marchSampleBytes();
             ctx->lights[i].shadowMap->releaseMarchSamples();
             plan.lights[i].resolution = ctx->lights[i].shadowMap->resolution();
             plan.lights[i].shadowMapBytes = ctx->lights[i].shadowMap->memoryBytes();

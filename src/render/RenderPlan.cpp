@@ -56,6 +56,8 @@ std::string RenderPlan::describe() const
             if (l.shadowMapBytes)
                 s << ", " << bytes(l.shadowMapBytes) << ", built in " << l.shadowMapSeconds << " s; baked on the voxels, "
                   << bytes(l.cacheBytes) << ", " << l.cacheSeconds << " s";
+            if (l.marchSampleBytes > 0)
+                s << " (from the map's uncompressed march, " << bytes(l.marchSampleBytes) << ", freed after)";
         } else if (l.sampled)
             s << "sampled with shadow rays (" << l.reason << ")";
         s << "\n";

@@ -23,6 +23,7 @@ struct LightPlan {
     double shadowMapSeconds = 0;
     size_t cacheBytes = 0;  // the shadow map baked on the voxels (LightCache)
     double cacheSeconds = 0;
+    size_t marchSampleBytes = 0;  // the map's march samples the bake read (freed after), or 0
     // wkb: how this light feeds L2+ (empty for other methods), e.g. "E = weight * T from the
     // deep shadow map" or "SH order 2 (27 channels)" or "skipped: <why>".
     std::string l2plus;
