@@ -8,6 +8,7 @@
 #include "../wkb/WkbIntegrator.h"
 #include "RenderContext.h"
 #include "SingleScatter.h"
+#include "TileCulling.h"
 
 #include <tbb/blocked_range.h>
 #include <tbb/global_control.h>
@@ -61,18 +62,86 @@ void renderMarched(const RenderContext& ctx, Film& film, const RenderOptions& op
     for (size_t i = 0; i < nLights; ++i)
         perLightAov[i] = film.find(ctx.lights[i].aov);
 
+    // One pixel's samples, summed: the radiance terms, the opacity-weighted depth and the
+    // per-light L1.
+    struct PixelSum {
+        CameraSample sum;
+        float depthSum = 0.0f, depthWeight = 0.0f;
+        std::vector<float> perLight;
+        void reset(size_t n)
+        {
+            sum = CameraSample();
+            sum.transmittance = splat(0.0f);
+            depthSum = depthWeight = 0.0f;
+            perLight.assign(n, 0.0f);
+        }
+        void add(const CameraSample& cs, const float* light)
+        {
+            sum.L0 += cs.L0;
+            sum.L1 += cs.L1;
+            sum.L2plus += cs.L2plus;
+            sum.transmittance += cs.transmittance;
+            float a = 1.0f - nbAverage(cs.transmittance);
+            depthSum += a * cs.depth;
+            depthWeight += a;
+            for (size_t i = 0; i < perLight.size(); ++i)
+                perLight[i] += light[i];
+        }
+    };
+    const float inv = 1.0f / float(spp);
+    auto store = [&](int x, int y, const PixelSum& px) {
+        Rgb l0 = px.sum.L0 * inv, l1 = px.sum.L1 * inv, l2 = px.sum.L2plus * inv;
+        Rgb b = l0 + l1 + l2;
+        float a = 1.0f - nbAverage(px.sum.transmittance * inv);
+        float* pb = film.pixel(*beauty, x, y);
+        pb[0] = b.x, pb[1] = b.y, pb[2] = b.z, pb[3] = a;
+        auto put3 = [&](Aov* aov, Rgb v) {
+            if (!aov)
+                return;
+            float* p = film.pixel(*aov, x, y);
+            p[0] = v.x, p[1] = v.y, p[2] = v.z;
+        };
+        put3(L0, l0);
+        put3(L1, l1);
+        put3(L2, l2);
+        if (alpha)
+            *film.pixel(*alpha, x, y) = a;
+        if (depth)
+            *film.pixel(*depth, x, y) = px.depthWeight > 0.0f ? px.depthSum / px.depthWeight : 0.0f;
+        for (size_t i = 0; i < nLights; ++i)
+            put3(perLightAov[i], make_float3(px.perLight[3 * i] * inv, px.perLight[3 * i + 1] * inv,
+                                             px.perLight[3 * i + 2] * inv));
+    };
+    // What every sample of a pixel whose rays all miss the volumes gathers: the background
+    // (marchSingle's answer to such a ray, summed the same way, so the pixels are identical).
+    PixelSum background;
+    background.reset(3 * nLights);
+    {
+        CameraSample miss;
+        miss.L0 = ctx.background;
+        const std::vector<float> none(3 * nLights, 0.0f);
+        for (int s = 0; s < spp; ++s)
+            background.add(miss, none.data());
+    }
+
     tbb::parallel_for(tbb::blocked_range<int>(0, tileCount, 1), [&](const tbb::blocked_range<int>& r) {
-        std::vector<float> perLight(3 * nLights), perLightSum(3 * nLights);
+        std::vector<float> perLight(3 * nLights);
+        PixelSum px;
         for (int tile = r.begin(); tile != r.end(); ++tile) {
             if (cancelled.load(std::memory_order_relaxed))
                 return;
-            int tx0 = film.x0 + (tile % tilesX) * kTile, ty0 = film.y0 + (tile / tilesX) * kTile;
-            for (int y = ty0; y < std::min(ty0 + kTile, film.y1); ++y)
-                for (int x = tx0; x < std::min(tx0 + kTile, film.x1); ++x) {
-                    CameraSample sum;
-                    sum.transmittance = splat(0.0f);
-                    float depthSum = 0.0f, depthWeight = 0.0f;
-                    std::fill(perLightSum.begin(), perLightSum.end(), 0.0f);
+            const int tx0 = film.x0 + (tile % tilesX) * kTile, ty0 = film.y0 + (tile / tilesX) * kTile;
+            const int tx1 = std::min(tx0 + kTile, film.x1), ty1 = std::min(ty0 + kTile, film.y1);
+            // L2+ is not asked of such tiles: WKB keeps its own per-ray path.
+            const bool empty = !wkb && tileMissesBox(cam, film.width, film.height, tx0, ty0, tx1, ty1,
+                                                     ctx.volumes.worldBounds());
+            for (int y = ty0; y < ty1; ++y)
+                for (int x = tx0; x < tx1; ++x) {
+                    if (empty) {
+                        store(x, y, background);
+                        continue;
+                    }
+                    px.reset(3 * nLights);
                     nb_uint pixelIndex = nb_uint(y) * nb_uint(film.width) + nb_uint(x);
                     for (int s = 0; s < spp; ++s) {
                         NbRng rng = nbRngStart(scene.render.seed, pixelIndex, nb_uint(s));
@@ -84,38 +153,9 @@ void renderMarched(const RenderContext& ctx, Film& film, const RenderOptions& op
                         marchSingle(ctx, o, d, rng, cs, perLight.data());
                         if (wkb)
                             wkb->march(o, d, rng, cs, perLight.data());
-                        sum.L0 += cs.L0;
-                        sum.L1 += cs.L1;
-                        sum.L2plus += cs.L2plus;
-                        sum.transmittance += cs.transmittance;
-                        float a = 1.0f - nbAverage(cs.transmittance);
-                        depthSum += a * cs.depth;
-                        depthWeight += a;
-                        for (size_t i = 0; i < perLight.size(); ++i)
-                            perLightSum[i] += perLight[i];
+                        px.add(cs, perLight.data());
                     }
-                    const float inv = 1.0f / float(spp);
-                    Rgb l0 = sum.L0 * inv, l1 = sum.L1 * inv, l2 = sum.L2plus * inv;
-                    Rgb b = l0 + l1 + l2;
-                    float a = 1.0f - nbAverage(sum.transmittance * inv);
-                    float* pb = film.pixel(*beauty, x, y);
-                    pb[0] = b.x, pb[1] = b.y, pb[2] = b.z, pb[3] = a;
-                    auto put3 = [&](Aov* aov, Rgb v) {
-                        if (!aov)
-                            return;
-                        float* p = film.pixel(*aov, x, y);
-                        p[0] = v.x, p[1] = v.y, p[2] = v.z;
-                    };
-                    put3(L0, l0);
-                    put3(L1, l1);
-                    put3(L2, l2);
-                    if (alpha)
-                        *film.pixel(*alpha, x, y) = a;
-                    if (depth)
-                        *film.pixel(*depth, x, y) = depthWeight > 0.0f ? depthSum / depthWeight : 0.0f;
-                    for (size_t i = 0; i < nLights; ++i)
-                        put3(perLightAov[i], make_float3(perLightSum[3 * i] * inv, perLightSum[3 * i + 1] * inv,
-                                                         perLightSum[3 * i + 2] * inv));
+                    store(x, y, px);
                 }
             int finished = ++done;
             bool keepGoing = true;
