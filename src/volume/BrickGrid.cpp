@@ -135,29 +135,7 @@ float BrickGrid::voxel(int i, int j, int k, int c) const
     return v[((lk * kStored + lj) * kStored + li) * mChannels + c];
 }
 
-float BrickGrid::sample(float3 p, int c) const
-{
-    if (!(p.x > -1e9f && p.x < 1e9f && p.y > -1e9f && p.y < 1e9f && p.z > -1e9f && p.z < 1e9f))
-        return 0.0f;
-    int i = floorToInt(p.x), j = floorToInt(p.y), k = floorToInt(p.z);
-    float fx = float(i), fy = float(j), fz = float(k);
-    int bx = i >> kBrickLog2, by = j >> kBrickLog2, bz = k >> kBrickLog2;
-    int slot = slotOf(bx, by, bz);
-    if (slot < 0 || mTable[slot] < 0)
-        return 0.0f;
-    float tx = p.x - fx, ty = p.y - fy, tz = p.z - fz;
-    int li = i - (bx << kBrickLog2), lj = j - (by << kBrickLog2), lk = k - (bz << kBrickLog2);
-    const float* v = mPool.data() + size_t(mTable[slot]) * kBrickValues * mChannels;
-    const int sx = mChannels, sy = kStored * mChannels, sz = kStored * kStored * mChannels;
-    const float* q = v + lk * sz + lj * sy + li * sx + c;
-    float c00 = q[0] + tx * (q[sx] - q[0]);
-    float c10 = q[sy] + tx * (q[sy + sx] - q[sy]);
-    float c01 = q[sz] + tx * (q[sz + sx] - q[sz]);
-    float c11 = q[sz + sy] + tx * (q[sz + sy + sx] - q[sz + sy]);
-    float c0 = c00 + ty * (c10 - c00);
-    float c1 = c01 + ty * (c11 - c01);
-    return c0 + tz * (c1 - c0);
-}
+float BrickGrid::sample(float3 p, int c) const { return interpolate(stencil(p), c); }
 
 BrickGrid BrickGrid::sameTopology(int channels) const
 {
