@@ -87,6 +87,7 @@ int runRender(const SceneArgs& args, const std::string& output, const std::strin
     Progress progress("render", 1000, ProgressOptions{quiet, {}});
     float last = 0.0f;
     RenderOptions options;
+    options.outputAovsOnly = true;  // selectAovs below keeps no others
     options.progress = [&](float fraction) {
         size_t now = size_t(fraction * 1000.0f), before = size_t(last * 1000.0f);
         last = std::max(last, fraction);

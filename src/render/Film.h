@@ -6,6 +6,8 @@
 // (alpha, depth, variance) as float.
 #pragma once
 
+#include "../core/BulkAllocator.h"
+
 #include <string>
 #include <vector>
 
@@ -15,7 +17,7 @@ struct Aov {
     std::string name;
     int channels = 3;     // 1 (data) or 3 (RGB); beauty is 4 (RGBA)
     bool isData = false;  // written as float rather than half
-    std::vector<float> pixels;  // row-major from the top-left, channels interleaved
+    BulkVector<float> pixels;  // row-major from the top-left, channels interleaved
 };
 
 struct Film {

@@ -103,7 +103,7 @@ LightCache LightCache::bake(const DeepShadowMap& map, const VolumeSet& volumes)
     }
     const int channels = grey ? 1 : 3;
     for (auto& v : volumes.volumes()) {
-        BrickGrid g = v->density.sameTopology(channels);
+        BrickGrid g = v->density.sameTopologyUnfilled(channels);  // both passes write every value
         const Transform& worldFromIndex = v->worldFromIndex;
         // Pass 1: every brick's own points. Pass 2: the apron (x, y or z = 8) is the next
         // brick's own point where that brick is allocated, copied; else looked up here.

@@ -14,6 +14,7 @@
 #include <tbb/global_control.h>
 #include <tbb/parallel_for.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <memory>
@@ -171,7 +172,7 @@ void renderMarched(const RenderContext& ctx, Film& film, const RenderOptions& op
 
 }  // namespace
 
-void setupFilm(Film& film, const Scene& scene, Method method)
+void setupFilm(Film& film, const Scene& scene, Method method, bool outputAovsOnly)
 {
     const Camera& c = scene.camera;
     film.width = c.width;
@@ -180,7 +181,13 @@ void setupFilm(Film& film, const Scene& scene, Method method)
     film.x1 = std::min(c.width, int(std::ceil(c.crop[1] * c.width)));
     film.y0 = std::max(0, int(std::floor(c.crop[2] * c.height)));
     film.y1 = std::min(c.height, int(std::ceil(c.crop[3] * c.height)));
+    // A plane is 1-4 floats per pixel, allocated and zeroed before the first ray: where only the
+    // output's are wanted, no others (the beauty is always there: every integrator writes it).
+    const auto& wanted = scene.output.aovs;
     for (const std::string& name : aovNames(scene, method)) {
+        if (outputAovsOnly && name != "beauty" && !wanted.empty() &&
+            std::find(wanted.begin(), wanted.end(), name) == wanted.end())
+            continue;
         bool data = name == "alpha" || name == "depth" || name == "variance";
         film.add(name, name == "beauty" ? 4 : (data ? 1 : 3), data);
     }
@@ -237,7 +244,7 @@ RenderResult renderChecked(const Scene& scene, const RenderOptions& options)
         threads = std::make_unique<tbb::global_control>(tbb::global_control::max_allowed_parallelism,
                                                         size_t(scene.render.threads));
     RenderResult result;
-    setupFilm(result.film, scene, scene.render.method);
+    setupFilm(result.film, scene, scene.render.method, options.outputAovsOnly);
 
     switch (scene.render.method) {
     case Method::Single: {

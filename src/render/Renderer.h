@@ -18,6 +18,9 @@ struct RenderOptions {
     // cancel (the render then throws Cancelled).
     std::function<bool(float fraction)> progress;
     const std::atomic<bool>* cancel = nullptr;
+    // The film holds the beauty and the AOVs scene.output.aovs names, not every AOV of the
+    // method (callers that write only those: the CLI). Off, a frame has them all.
+    bool outputAovsOnly = false;
     // Method "pathtrace" only: device, checkpoints, statistics.
     PathtraceOptions pathtrace;
 };
@@ -43,7 +46,8 @@ RenderPlan planRender(const Scene& scene);
 // Every AOV name a method can produce for this scene, in output order.
 std::vector<std::string> aovNames(const Scene& scene, Method method);
 
-// Sizes the film for the camera (crop = data window) and adds every AOV of the method.
-void setupFilm(Film& film, const Scene& scene, Method method);
+// Sizes the film for the camera (crop = data window) and adds every AOV of the method, or with
+// outputAovsOnly the beauty and those scene.output.aovs names (all where it is empty).
+void setupFilm(Film& film, const Scene& scene, Method method, bool outputAovsOnly = false);
 
 }  // namespace nimbus

@@ -1,5 +1,8 @@
 #include "BrickGrid.h"
 
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
 #include <cstring>
 
 #include <algorithm>
@@ -35,16 +38,54 @@ float* BrickGrid::allocateBrick(int bx, int by, int bz)
     return mPool.data() + size_t(mTable[slot]) * kBrickValues * mChannels;
 }
 
+void BrickGrid::allocateUnfilledBricks(const std::vector<uint64_t>& slots)
+{
+    for (uint64_t slot : slots)
+        mTable[slot] = int32_t(mBrickCount++);
+    mPool.resize(mBrickCount * kBrickValues * mChannels);  // BulkVector: not zeroed
+}
+
+namespace {
+
+// Each brick's largest value (channel max, 0 at least), and whether any value is non-zero.
+struct BrickScan {
+    std::vector<float> max;
+    std::vector<char> nonZero;
+};
+
+BrickScan scanBricks(const float* pool, size_t bricks, size_t valuesPerBrick)
+{
+    BrickScan scan;
+    scan.max.resize(bricks);
+    scan.nonZero.resize(bricks);
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, bricks, 16), [&](const tbb::blocked_range<size_t>& r) {
+        for (size_t b = r.begin(); b != r.end(); ++b) {
+            const float* v = pool + b * valuesPerBrick;
+            float m = 0.0f;
+            bool any = false;
+            for (size_t i = 0; i < valuesPerBrick; ++i) {
+                m = std::max(m, v[i]);
+                any |= v[i] != 0.0f;
+            }
+            scan.max[b] = m;
+            scan.nonZero[b] = any;
+        }
+    });
+    return scan;
+}
+
+}  // namespace
+
 void BrickGrid::updateMajorants()
+{
+    setMajorants(scanBricks(mPool.data(), mBrickCount, size_t(kBrickValues) * mChannels).max);
+}
+
+void BrickGrid::setMajorants(const std::vector<float>& brickMax)
 {
     mMaxValue = 0.0f;
     for (size_t s = 0; s < mTable.size(); ++s) {
-        float m = 0.0f;
-        if (mTable[s] >= 0) {
-            const float* v = mPool.data() + size_t(mTable[s]) * kBrickValues * mChannels;
-            for (int i = 0; i < kBrickValues * mChannels; ++i)
-                m = std::max(m, v[i]);
-        }
+        const float m = mTable[s] >= 0 ? brickMax[size_t(mTable[s])] : 0.0f;
         mMajorant[s] = m;
         mOccupied[s] = m > 0.0f ? mTable[s] : -1;
         mMaxValue = std::max(mMaxValue, m);
@@ -55,42 +96,44 @@ void BrickGrid::updateMajorants()
 void BrickGrid::pruneZeroBricks()
 {
     const size_t n = size_t(kBrickValues) * mChannels;
+    const BrickScan scan = scanBricks(mPool.data(), mBrickCount, n);
     std::vector<int32_t*> kept;  // table entries of non-zero bricks, in table order
     kept.reserve(mBrickCount);
     bool ascending = true;
     for (auto& entry : mTable) {
         if (entry < 0)
             continue;
-        const float* v = mPool.data() + size_t(entry) * n;
-        if (std::all_of(v, v + n, [](float x) { return x == 0.0f; })) {
+        if (!scan.nonZero[size_t(entry)]) {
             entry = -1;
             continue;
         }
         ascending = ascending && (kept.empty() || entry > *kept.back());
         kept.push_back(&entry);
     }
+    std::vector<float> brickMax(kept.size());
     if (ascending) {
         // Pool order follows table order (bricks allocated by ascending slot, as the loaders
         // do): compact in place, each brick moving down or staying, no second pool.
         for (size_t k = 0; k < kept.size(); ++k) {
+            brickMax[k] = scan.max[size_t(*kept[k])];
             if (size_t(*kept[k]) != k)
                 std::memmove(mPool.data() + k * n, mPool.data() + size_t(*kept[k]) * n, n * sizeof(float));
             *kept[k] = int32_t(k);
         }
         mPool.resize(kept.size() * n);
     } else {
-        std::vector<float> pool(kept.size() * n);
+        BulkVector<float> pool(kept.size() * n);
         for (size_t k = 0; k < kept.size(); ++k) {
+            brickMax[k] = scan.max[size_t(*kept[k])];
             std::copy_n(mPool.data() + size_t(*kept[k]) * n, n, pool.data() + k * n);
             *kept[k] = int32_t(k);
         }
         mPool.swap(pool);
     }
     mBrickCount = kept.size();
-    updateMajorants();
+    setMajorants(brickMax);
 }
 
-void BrickGrid::reserveBricks(size_t bricks) { mPool.reserve(bricks * size_t(kBrickValues) * mChannels); }
 
 size_t BrickGrid::memoryBytes() const
 {
@@ -137,14 +180,14 @@ float BrickGrid::voxel(int i, int j, int k, int c) const
 
 float BrickGrid::sample(float3 p, int c) const { return interpolate(stencil(p), c); }
 
-BrickGrid BrickGrid::sameTopology(int channels) const
+BrickGrid BrickGrid::sameTopologyUnfilled(int channels) const
 {
     BrickGrid g;
     g.mBrickLo = mBrickLo, g.mDims = mDims, g.mChannels = channels;
     g.mTable = mTable, g.mMajorant = mMajorant, g.mOccupied = mOccupied;
     g.mBrickCount = mBrickCount, g.mMaxValue = mMaxValue;
     g.mActiveBounds = mActiveBounds, g.mBrickOrigins = mBrickOrigins;
-    g.mPool.assign(mBrickCount * kBrickValues * size_t(channels), 0.0f);  // not a copy of ours
+    g.mPool.resize(mBrickCount * kBrickValues * size_t(channels));  // neither zeroed nor a copy of ours
     return g;
 }
 

@@ -12,6 +12,7 @@
 // Index space follows OpenVDB: voxel (i,j,k) has its centre at integer coordinates.
 #pragma once
 
+#include "../core/BulkAllocator.h"
 #include "../core/Transform.h"
 #include "../core/Vec.h"
 
@@ -35,8 +36,10 @@ public:
     // Allocates storage for slot (bx,by,bz) in table coordinates; returns its value pointer
     // (kBrickValues * channels floats, x fastest, channel innermost), zero-filled.
     float* allocateBrick(int bx, int by, int bz);
-    // Room for this many bricks in the pool, so allocateBrick does not regrow it.
-    void reserveBricks(size_t bricks);
+    // Allocates the bricks at these table slots ((bz * dims.y + by) * dims.x + bx, ascending,
+    // none allocated yet) without initialising their values: the caller writes every value
+    // of every one (brickValues), typically in parallel, so their pages are first touched there.
+    void allocateUnfilledBricks(const std::vector<uint64_t>& slots);
     // Recomputes every slot's majorant from its stored values (after filling).
     void updateMajorants();
     // Frees bricks whose values are all zero.
@@ -60,7 +63,7 @@ public:
     float voxel(int i, int j, int k, int c = 0) const;
 
     // Where a trilinear lookup at index position p reads: the brick and the cell's corner inside
-    // it, plus the weights. Grids that share this grid's topology (sameTopology) can be read
+    // it, plus the weights. Grids that share this grid's topology (sameTopologyUnfilled) can be read
     // through the same stencil, so several quantities on one lattice cost one address
     // computation (density and baked light transmittance in the single-scattering march).
     struct Stencil {
@@ -134,8 +137,9 @@ public:
     // Values of allocated brick b (kBrickValues * channels floats, x fastest, channel innermost).
     const float* brickData(int b) const { return mPool.data() + size_t(b) * kBrickValues * mChannels; }
 
-    // A grid with this grid's bricks and table but its own zeroed values (`channels` each).
-    BrickGrid sameTopology(int channels) const;
+    // A grid with this grid's bricks and table and room for its own values (`channels` each),
+    // not initialised: the caller writes every value of every brick (LightCache::bake).
+    BrickGrid sameTopologyUnfilled(int channels) const;
     // Writable values of allocated brick b (kBrickValues * channels floats).
     float* brickValues(size_t b) { return mPool.data() + b * kBrickValues * mChannels; }
     // Index-space position of the lower corner of allocated brick b.
@@ -148,17 +152,19 @@ public:
 
     // Flat arrays (for OpenCL upload and tests).
     const std::vector<int32_t>& table() const { return mTable; }
-    const std::vector<float>& pool() const { return mPool; }
+    const BulkVector<float>& pool() const { return mPool; }
     const std::vector<float>& majorants() const { return mMajorant; }  // per slot, channel max
 
 private:
     int slotOf(int bx, int by, int bz) const;  // -1 if outside the table
     void updateActiveBounds();
+    // Slot majorants, occupancy and the maximum from each allocated brick's maximum.
+    void setMajorants(const std::vector<float>& brickMax);
 
     Int3 mBrickLo, mDims;
     int mChannels = 1;
     std::vector<int32_t> mTable;   // slot -> brick index or -1
-    std::vector<float> mPool;      // brick values
+    BulkVector<float> mPool;       // brick values
     std::vector<float> mMajorant;  // slot -> max over channels of the brick's values
     std::vector<int32_t> mOccupied;  // slot -> brick index where the majorant is positive, else -1
     size_t mBrickCount = 0;

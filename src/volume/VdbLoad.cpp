@@ -77,9 +77,13 @@ struct ClampCount {
 
 // Sets a bad value to 0 and counts it `weight` times (the voxels a tile stands for); true if
 // the value changed.
+// Non-negative and finite: what a fog volume's values may be.
+inline bool isClean(float v) { return v >= 0.0f && v <= std::numeric_limits<float>::max(); }
+inline bool isClean(const openvdb::Vec3s& v) { return isClean(v[0]) && isClean(v[1]) && isClean(v[2]); }
+
 inline bool clampValue(float& v, ClampCount& c, uint64_t weight)
 {
-    if (v >= 0.0f && v <= std::numeric_limits<float>::max())
+    if (isClean(v))
         return false;
     (std::isnan(v) ? c.nan : std::isinf(v) ? c.infinite : c.negative) += weight;
     v = 0.0f;
@@ -106,12 +110,16 @@ ClampCount clampGrid(GridT& grid)
     ClampCount count = tbb::parallel_reduce(
         tbb::blocked_range<size_t>(0, leaves.size()), ClampCount(),
         [&](const tbb::blocked_range<size_t>& r, ClampCount c) {
-            for (size_t i = r.begin(); i != r.end(); ++i)
-                for (auto it = leaves[i]->beginValueOn(); it; ++it) {
-                    typename GridT::ValueType v = *it;
-                    if (clampValue(v, c, 1))
-                        it.setValue(v);
-                }
+            // Straight through each leaf's buffer (an iterator over active values costs ~5 ns
+            // a voxel). Inactive bad values are zeroed too, uncounted: a trilinear lookup at a
+            // leaf's edge may read them.
+            ClampCount inactive;
+            for (size_t i = r.begin(); i != r.end(); ++i) {
+                typename GridT::ValueType* v = leaves[i]->buffer().data();
+                for (openvdb::Index n = 0; n < LeafT::SIZE; ++n)
+                    if (!isClean(v[n]))
+                        clampValue(v[n], leaves[i]->isValueOn(n) ? c : inactive, 1);
+            }
             return c;
         },
         [](ClampCount a, const ClampCount& b) {
@@ -210,24 +218,22 @@ BrickGrid toBricks(const GridT& grid, int channels, const std::string& where)
         throw InputError(where + ": " + std::to_string(list.size()) + " bricks of 8^3 voxels are active, more than " +
                          std::to_string(kMaxBricks));
 
-    // Allocation grows the pool, so it runs serially; the fill below only reads the table.
+    // Brick i holds slot list[i]; its values are first written (and its pages first touched)
+    // by the parallel fill, which writes all of them.
     bricks.reset({lo.x(), lo.y(), lo.z()}, {dims.x(), dims.y(), dims.z()}, channels);
     auto tableCoord = [&](uint64_t s) {
         return Coord(int(s % uint64_t(dims.x())), int((s / uint64_t(dims.x())) % uint64_t(dims.y())),
                      int(s / (uint64_t(dims.x()) * dims.y())));
     };
-    bricks.reserveBricks(list.size());
-    for (uint64_t s : list) {
-        Coord t = tableCoord(s);
-        bricks.allocateBrick(t.x(), t.y(), t.z());
-    }
+    bricks.allocateUnfilledBricks(list);
 
     constexpr int S = BrickGrid::kStored;
     tbb::parallel_for(tbb::blocked_range<size_t>(0, list.size(), 16), [&](const tbb::blocked_range<size_t>& r) {
         typename GridT::ConstAccessor acc = grid.getConstAccessor();
         for (size_t i = r.begin(); i != r.end(); ++i) {
             const Coord t = tableCoord(list[i]);
-            float* out = bricks.allocateBrick(t.x(), t.y(), t.z());  // existing brick: no allocation
+            float* out = bricks.brickValues(i);
+            std::fill(out, out + size_t(BrickGrid::kBrickValues) * channels, 0.0f);
             const Coord origin((t.x() + lo.x()) * BrickGrid::kBrick, (t.y() + lo.y()) * BrickGrid::kBrick,
                                (t.z() + lo.z()) * BrickGrid::kBrick);
             auto store = [&](int x, int y, int z, const ValueT& v) {
