@@ -34,6 +34,7 @@
 #include <filesystem>
 #include <limits>
 #include <map>
+#include <type_traits>
 
 namespace nimbus {
 
@@ -241,31 +242,46 @@ BrickGrid toBricks(const GridT& grid, int channels, const std::string& where)
                 for (int c = 0; c < channels; ++c)
                     dst[c] = channel(v, c);
             };
-            // The 8^3 core is one leaf, or lies inside one tile (or background).
-            if (const LeafT* leaf = acc.probeConstLeaf(origin)) {
-                for (int x = 0; x < 8; ++x)
-                    for (int y = 0; y < 8; ++y)
-                        for (int z = 0; z < 8; ++z) {
-                            const openvdb::Index offset = (x << 6) | (y << 3) | z;
-                            if (leaf->isValueOn(offset))
-                                store(x, y, z, leaf->getValue(offset));
+            // The 8^3 core, then the apron (the faces at local index 8), are each read from
+            // the leaf covering them (its active values), or from the one tile or background
+            // that covers that whole leaf-sized block: eight node lookups a brick, not one per
+            // apron value. n = (dx, dy, dz) in {0, 1}^3: the block at origin + 8 n, of which
+            // the brick holds local x in [0, 8) where dx = 0, else x = 8 only.
+            for (int n = 0; n < 8; ++n) {
+                const int dx = n & 1, dy = (n >> 1) & 1, dz = n >> 2;
+                const Coord block = origin + Coord(dx * 8, dy * 8, dz * 8);
+                const int x0 = dx * 8, x1 = dx ? S : 8, y0 = dy * 8, y1 = dy ? S : 8, z0 = dz * 8, z1 = dz ? S : 8;
+                if (const LeafT* leaf = acc.probeConstLeaf(block)) {
+                    const ValueT* data = leaf->buffer().data();  // loaded: the file was read whole
+                    const auto& mask = leaf->getValueMask();
+                    if constexpr (std::is_same_v<ValueT, float>) {
+                        if (mask.isOn()) {  // every value active (the common case): a plain transpose
+                            for (int z = z0; z < z1; ++z)
+                                for (int y = y0; y < y1; ++y) {
+                                    float* row = out + (z * S + y) * S;
+                                    const float* column = data + (((y & 7) << 3) | (z & 7));
+                                    for (int x = x0; x < x1; ++x)
+                                        row[x] = column[(x & 7) << 6];
+                                }
+                            continue;
                         }
-            } else {
-                ValueT v;
-                if (acc.probeValue(origin, v) && !isZero(v))
-                    for (int z = 0; z < 8; ++z)
-                        for (int y = 0; y < 8; ++y)
-                            for (int x = 0; x < 8; ++x)
-                                store(x, y, z, v);
-            }
-            // The apron: the three faces at local index 8.
-            for (int z = 0; z < S; ++z)
-                for (int y = 0; y < S; ++y)
-                    for (int x = (z == 8 || y == 8) ? 0 : 8; x < S; ++x) {
-                        ValueT v;
-                        if (acc.probeValue(origin + Coord(x, y, z), v))
-                            store(x, y, z, v);
                     }
+                    for (int z = z0; z < z1; ++z)
+                        for (int y = y0; y < y1; ++y)
+                            for (int x = x0; x < x1; ++x) {
+                                const openvdb::Index offset = ((x & 7) << 6) | ((y & 7) << 3) | (z & 7);
+                                if (mask.isOn(offset))
+                                    store(x, y, z, data[offset]);
+                            }
+                } else {
+                    ValueT v;
+                    if (acc.probeValue(block, v) && !isZero(v))
+                        for (int z = z0; z < z1; ++z)
+                            for (int y = y0; y < y1; ++y)
+                                for (int x = x0; x < x1; ++x)
+                                    store(x, y, z, v);
+                }
+            }
         }
     });
     bricks.pruneZeroBricks();  // also computes the majorants and the active bounds
