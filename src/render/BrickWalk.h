@@ -120,16 +120,20 @@ void walkOccupiedBricks(const BrickGrid& grid, float3 o, float3 d, float tIn, fl
 }
 
 // The march of a world ray o + t d (d unit) through one volume's density: its index-space
-// image, clipped to the volume's world bounds and to the occupied bricks, walked from where it
-// enters them (so t_k = t_in + (k + jitter) dt, t in metres). visit as walkOccupiedBricks.
+// image, clipped to the volume's world bounds and to the occupied bricks. The lattice starts
+// where the ray enters them (t_k = t_in + (k + jitter) dt, t in metres), or with
+// Lattice::FromOrigin at the ray's origin (t_k = (k + jitter) dt: rays that start on one plane
+// then share their sample depths, as a shadow map's do). visit as walkOccupiedBricks.
+enum class Lattice { FromEntry, FromOrigin };
 template <class Visit>
-void walkVolume(const VolumeData& vol, float3 o, float3 d, float dt, float jitter, Visit&& visit)
+void walkVolume(const VolumeData& vol, float3 o, float3 d, float dt, float jitter, Visit&& visit,
+                Lattice lattice = Lattice::FromEntry)
 {
     float t0, t1, s0, s1;
     const float3 oi = vol.indexFromWorld.point(o), di = vol.indexFromWorld.vector(d);
     if (vol.worldBounds.intersect(o, safeInverse(d), 0.0f, 1e30f, t0, t1) &&
         vol.density.activeIndexBounds().intersect(oi, safeInverse(di), t0, t1, s0, s1))
-        walkOccupiedBricks(vol.density, oi, di, s0, s1, s0, dt, jitter, visit);
+        walkOccupiedBricks(vol.density, oi, di, s0, s1, lattice == Lattice::FromEntry ? s0 : 0.0f, dt, jitter, visit);
 }
 
 }  // namespace nimbus

@@ -10,6 +10,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <limits>
 
 namespace nimbus {
 
@@ -123,21 +124,28 @@ DeepShadowMap DeepShadowMap::build(const NbLight& light, const VolumeSet& volume
             }
         }
     });
-    m.mOffsets.reserve(texels + 1);
-    size_t total = 0;
-    for (auto& row : rows)
-        total += row.size();
-    m.mVertices.reserve(total);
-    // Rows were built in parallel; concatenate them, recording where each texel starts.
-    for (size_t row = 0; row < rows.size(); ++row) {
-        for (uint32_t count : rowCounts[row]) {
-            m.mOffsets.push_back(uint32_t(m.mVertices.size()));
-            m.mVertices.resize(m.mVertices.size() + count);
+    // Rows were built in parallel; concatenate them, in parallel, each row's texels starting
+    // where the rows before it end.
+    std::vector<size_t> rowStart(rows.size() + 1, 0);
+    for (size_t row = 0; row < rows.size(); ++row)
+        rowStart[row + 1] = rowStart[row] + rows[row].size();
+    if (rowStart.back() > size_t(UINT32_MAX))
+        throw Error("deep shadow map: more than 2^32 vertices; lower the shadow-map resolution");
+    m.mOffsets.resize(texels + 1);
+    m.mVertices.resize(rowStart.back());  // BulkVector: filled below, not zeroed first
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, rows.size()), [&](const tbb::blocked_range<size_t>& r) {
+        for (size_t row = r.begin(); row != r.end(); ++row) {
+            uint32_t offset = uint32_t(rowStart[row]);
+            uint32_t* texelOffset = m.mOffsets.data() + row * size_t(res);
+            for (uint32_t count : rowCounts[row]) {
+                *texelOffset++ = offset;
+                offset += count;
+            }
+            std::copy(rows[row].begin(), rows[row].end(), m.mVertices.begin() + ptrdiff_t(rowStart[row]));
+            std::vector<Vertex>().swap(rows[row]);
         }
-        std::copy(rows[row].begin(), rows[row].end(), m.mVertices.end() - rows[row].size());
-        std::vector<Vertex>().swap(rows[row]);
-    }
-    m.mOffsets.push_back(uint32_t(m.mVertices.size()));
+    });
+    m.mOffsets[texels] = uint32_t(rowStart.back());
     for (size_t t = 0; t < m.mSampleIndex.size(); ++t)
         m.mSampleIndex[t].tau = m.mSampleRows[t / size_t(res)].data() + m.mSampleIndex[t].first;
     m.mBuildSeconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
@@ -162,8 +170,9 @@ void DeepShadowMap::marchRay(const VolumeSet& volumes, float3 o, float3 d, float
     float tau[3] = {0, 0, 0};
     if (volumes.volumes().size() == 1 && volumes.volumes()[0]->density.channels() == 1) {
         // One volume: walk its occupied bricks in index space (BrickWalk.h), midpoint rule on
-        // the lattice t_k = t_in + (k + 1/2) dt; a vertex where a run of samples starts and
-        // at the end of every step.
+        // the lattice t_k = (k + 1/2) dt from the ray's origin (so every texel ray of an
+        // orthographic map, starting on its plane, samples the same depths); a vertex where a
+        // run of samples starts and at the end of every step, so on the depths k dt.
         const VolumeData& vol = *volumes.volumes()[0];
         const BrickGrid& density = vol.density;
         const Rgb kT = vol.sigmaT();
@@ -177,7 +186,7 @@ void DeepShadowMap::marchRay(const VolumeSet& volumes, float3 o, float3 d, float
             tau[0] += kT.x * rho * dt, tau[1] += kT.y * rho * dt, tau[2] += kT.z * rho * dt;
             raw.push_back({t + 0.5f * dt, {tau[0], tau[1], tau[2]}});
             return true;
-        });
+        }, Lattice::FromOrigin);
         return;
     }
     thread_local std::vector<Span> spanList;
@@ -262,56 +271,57 @@ void DeepShadowMap::buildTexel(const VolumeSet& volumes, int face, int ix, int i
     compress(raw, mTolerance, out, mGrey ? 1 : 3);
     if (!samples)
         return;
-    // marchRay's vertices lie on z0 + k dz: runs of samples, with tau constant across the
-    // empty bricks skipped between runs. Spread them onto every k.
-    where->first = uint32_t(samples->size());
+    // marchRay's vertices lie on the depths k dz: runs of samples, with tau constant across
+    // the empty bricks skipped between runs. Spread them onto every k from the first.
+    const size_t first = samples->size();
+    where->first = uint32_t(first);
     where->count = 0;
     if (out.empty())
         return;  // nothing along this ray
-    where->z0 = raw[0].z;
     const float inv = 1.0f / mSampleDz;
-    long prev = -1;
+    where->k0 = int32_t(std::lround(raw[0].z * inv));
+    long prev = long(where->k0) - 1;
     for (const Vertex& v : raw) {
-        const long k = std::lround((v.z - where->z0) * inv);
+        const long k = std::lround(v.z * inv);
         if (k <= prev) {  // rounding put two vertices on one k: the later one holds
             samples->back() = v.tau[0];
             continue;
         }
-        const float held = samples->size() > where->first ? samples->back() : 0.0f;
+        const float held = samples->size() > first ? samples->back() : 0.0f;
         samples->insert(samples->end(), size_t(k - prev - 1), held);
         samples->push_back(v.tau[0]);
         prev = k;
     }
-    where->count = uint32_t(samples->size() - where->first);
+    where->count = uint32_t(samples->size() - first);
 }
 
-inline float DeepShadowMap::marchedDepth(uint32_t texel, float z) const
+inline float DeepShadowMap::marchedDepth(uint32_t texel, int j, float w) const
 {
     const TexelSamples& s = mSampleIndex[texel];
-    if (s.count == 0)
-        return 0.0f;
-    const float x = (z - s.z0) * mInvSampleDz;
-    const float* tau = s.tau;
-    if (!(x > 0.0f))
-        return 0.0f;
-    if (x >= float(s.count - 1))
-        return tau[s.count - 1];
-    const int k = int(x);
-    const float w = x - float(k);
-    return tau[k] + w * (tau[k + 1] - tau[k]);
+    const int i = j - s.k0;
+    if (i < 0 || s.count == 0)
+        return 0.0f;  // before the texel's first vertex (tau 0 there), or nothing on its ray
+    if (i >= int(s.count) - 1)
+        return s.tau[s.count - 1];
+    return s.tau[i] + w * (s.tau[i + 1] - s.tau[i]);
 }
 
-float DeepShadowMap::greyMarchedDepthTexel(float fx, float fy, float z) const
+float DeepShadowMap::greyMarchedDepthTexel(float fx, float fy, float zSteps) const
 {
     const float last = float(mRes);
     if (!(fx >= -0.5f && fx <= last - 0.5f && fy >= -0.5f && fy <= last - 0.5f))
         return 0.0f;  // u or v outside [0, 1], as in opticalDepthAt
     const int x0 = floorToInt(fx), y0 = floorToInt(fy);
     const float wx = fx - float(x0), wy = fy - float(y0);
+    // One depth lattice for every texel: the step and the weight along it are shared.
+    if (!(zSteps > 0.0f))
+        return 0.0f;  // on or before the map's plane, before every ray's first vertex
+    const int j = std::min(int(zSteps), std::numeric_limits<int>::max() - 1);
+    const float w = zSteps - float(j);
     const uint32_t xa = uint32_t(std::max(x0, 0)), xb = uint32_t(std::min(x0 + 1, mRes - 1));
     const uint32_t ra = uint32_t(std::max(y0, 0)) * uint32_t(mRes), rb = uint32_t(std::min(y0 + 1, mRes - 1)) * uint32_t(mRes);
-    const float a = marchedDepth(ra + xa, z), b = marchedDepth(ra + xb, z);
-    const float c = marchedDepth(rb + xa, z), d = marchedDepth(rb + xb, z);
+    const float a = marchedDepth(ra + xa, j, w), b = marchedDepth(ra + xb, j, w);
+    const float c = marchedDepth(rb + xa, j, w), d = marchedDepth(rb + xb, j, w);
     const float lo = a + wx * (b - a), hi = c + wx * (d - c);
     return lo + wy * (hi - lo);
 }

@@ -18,6 +18,7 @@
 #pragma once
 
 #include "../../kernels/shared/light.h"
+#include "../core/BulkAllocator.h"
 #include "VolumeSet.h"
 
 #include <vector>
@@ -89,16 +90,19 @@ public:
     // projection and the two other channels. Same bilinear interpolation and clamping.
     float greyOpticalDepthTexel(float fx, float fy, float z, Cursor& cursor) const;
 
-    // The uncompressed optical depth along each texel's ray, on its march lattice z0 + k dz:
-    // build() keeps it, when asked (Settings::keepMarchSamples), for an orthographic map over
-    // one grey volume (the march's uniform lattice) when it fits kMarchSamplesBudget. A lookup is then one index computation per
-    // texel instead of a search among compressed vertices, and exact to the march; the light
-    // cache bakes from it (greyMarchedDepthTexel: greyOpticalDepthTexel's interpolation and
-    // clamping), then releaseMarchSamples() frees it.
+    // The uncompressed optical depth along each texel's ray at the depths k dz of its march
+    // (dz = marchSampleStep(), one lattice for all texels: their rays start on the map's
+    // plane): build() keeps it, when asked (Settings::keepMarchSamples), for an orthographic
+    // map over one grey volume (the march's uniform lattice) when it fits kMarchSamplesBudget.
+    // A lookup is then one index computation per texel instead of a search among compressed
+    // vertices, and exact to the march; the light cache bakes from it, then
+    // releaseMarchSamples() frees it. greyMarchedDepthTexel: greyOpticalDepthTexel's
+    // interpolation and clamping, with the depth in steps (zSteps = z / dz).
     static constexpr size_t kMarchSamplesBudget = size_t(256) << 20;  // bytes
     bool hasMarchSamples() const { return !mSampleRows.empty(); }
     size_t marchSampleBytes() const;
-    float greyMarchedDepthTexel(float fx, float fy, float z) const;
+    float marchSampleStep() const { return mSampleDz; }
+    float greyMarchedDepthTexel(float fx, float fy, float zSteps) const;
     void releaseMarchSamples();
 
     Projection projection() const { return mProjection; }
@@ -140,13 +144,14 @@ private:
     float greyLookup(uint32_t texel, uint32_t slot, float z, Cursor& cursor) const;
     // Where one texel's march samples lie in its row of mSampleRows.
     struct TexelSamples {
-        float z0 = 0.0f;
-        uint32_t first = 0, count = 0;
-        const float* tau = nullptr;  // set once every row is built
+        int32_t k0 = 0;               // the first sample's depth, k0 dz
+        uint32_t first = 0, count = 0;  // where in the row, how many (depths (k0 + i) dz)
+        const float* tau = nullptr;   // set once every row is built
     };
     void buildTexel(const VolumeSet& volumes, int face, int ix, int iy, std::vector<Vertex>& out,
                     std::vector<float>* samples, TexelSamples* where) const;
-    float marchedDepth(uint32_t texel, float z) const;
+    // Texel's tau at depth (j + w) dz.
+    float marchedDepth(uint32_t texel, int j, float w) const;
 
     Projection mProjection = Projection::Orthographic;
     int mRes = 0;
@@ -158,7 +163,7 @@ private:
     std::vector<std::vector<float>> mSampleRows;  // per row of texels: their samples
     std::vector<Face> mFaces;
     std::vector<uint32_t> mOffsets;  // per texel: first vertex; one past the last at the end
-    std::vector<Vertex> mVertices;
+    BulkVector<Vertex> mVertices;
     double mBuildSeconds = 0.0;
 };
 

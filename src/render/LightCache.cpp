@@ -30,7 +30,7 @@ inline Rgb opticalDepth(const DeepShadowMap& map, float3 p, int channels, DeepSh
     float u, v, z;
     if (channels == 1 && map.hasMarchSamples() && map.project(p, face, u, v, z)) {
         const float res = float(map.resolution());
-        return splat(map.greyMarchedDepthTexel(u * res - 0.5f, v * res - 0.5f, z));
+        return splat(map.greyMarchedDepthTexel(u * res - 0.5f, v * res - 0.5f, z / map.marchSampleStep()));
     }
     return map.opticalDepth(p, &cursor);
 }
@@ -50,9 +50,9 @@ void bakeOwnPoints(const DeepShadowMap& map, const Transform& worldFromIndex, In
         map.project(worldFromIndex.point(index(0, 1, 0)), face, ay.x, ay.y, ay.z);
         map.project(worldFromIndex.point(index(0, 0, 1)), face, az.x, az.y, az.z);
         const float3 dx = ax - a, dy = ay - a, dz = az - a;
-        if (channels == 1) {  // grey: in texel units, one channel
+        if (channels == 1) {  // grey: in texel units (depth in march steps where kept), one channel
             const float res = float(map.resolution());
-            const float3 scale = make_float3(res, res, 1.0f);
+            const float3 scale = make_float3(res, res, map.hasMarchSamples() ? 1.0f / map.marchSampleStep() : 1.0f);
             const float3 a0 = a * scale - make_float3(0.5f, 0.5f, 0.0f);
             const float3 tx = dx * scale, ty = dy * scale, tz = dz * scale;
             for (int z = 0; z < kB; ++z)

@@ -219,72 +219,119 @@ BrickGrid toBricks(const GridT& grid, int channels, const std::string& where)
         throw InputError(where + ": " + std::to_string(list.size()) + " bricks of 8^3 voxels are active, more than " +
                          std::to_string(kMaxBricks));
 
-    // Brick i holds slot list[i]; its values are first written (and its pages first touched)
-    // by the parallel fill, which writes all of them.
-    bricks.reset({lo.x(), lo.y(), lo.z()}, {dims.x(), dims.y(), dims.z()}, channels);
     auto tableCoord = [&](uint64_t s) {
         return Coord(int(s % uint64_t(dims.x())), int((s / uint64_t(dims.x())) % uint64_t(dims.y())),
                      int(s / (uint64_t(dims.x()) * dims.y())));
     };
-    bricks.allocateUnfilledBricks(list);
+    auto brickOrigin = [&](uint64_t s) {
+        const Coord t = tableCoord(s);
+        return Coord((t.x() + lo.x()) * BrickGrid::kBrick, (t.y() + lo.y()) * BrickGrid::kBrick,
+                     (t.z() + lo.z()) * BrickGrid::kBrick);
+    };
+    // A brick's core and apron (the faces at local index 8) come from the 8 leaf-sized blocks
+    // at origin + 8 n, n in {0, 1}^3: from each, the active values of its leaf, or the one tile
+    // (or background) that covers the whole block. One node lookup per block, not one accessor
+    // probe per apron value. Block n supplies local x in [0, 8) where n.x = 0, else x = 8 only.
+    // visit(x0, x1, y0, y1, z0, z1, leaf or nullptr, tile value): false stops.
+    auto forEachBlock = [&](typename GridT::ConstAccessor& acc, const Coord& origin, auto&& visit) {
+        constexpr int S = BrickGrid::kStored;
+        for (int n = 0; n < 8; ++n) {
+            const int dx = n & 1, dy = (n >> 1) & 1, dz = n >> 2;
+            const Coord block = origin + Coord(dx * 8, dy * 8, dz * 8);
+            const int x0 = dx * 8, x1 = dx ? S : 8, y0 = dy * 8, y1 = dy ? S : 8, z0 = dz * 8, z1 = dz ? S : 8;
+            ValueT tile = openvdb::zeroVal<ValueT>();
+            const LeafT* leaf = acc.probeConstLeaf(block);
+            if (!leaf && !(acc.probeValue(block, tile) && !isZero(tile)))
+                continue;  // inactive or zero: the brick keeps its zeros there
+            if (!visit(x0, x1, y0, y1, z0, z1, leaf, tile))
+                return;
+        }
+    };
+    auto offsetIn = [](int x, int y, int z) { return openvdb::Index(((x & 7) << 6) | ((y & 7) << 3) | (z & 7)); };
 
+    // Keep only the slots whose brick would hold a non-zero value (active blocks of zeros, and
+    // the -1 neighbours of leaves whose low faces are zero, would be all zero: a quarter of the
+    // candidates on a typical cloud), so that none is filled and then pruned.
+    std::vector<char> nonZero(list.size(), 0);
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, list.size(), 16), [&](const tbb::blocked_range<size_t>& r) {
+        typename GridT::ConstAccessor acc = grid.getConstAccessor();
+        for (size_t i = r.begin(); i != r.end(); ++i)
+            forEachBlock(acc, brickOrigin(list[i]),
+                         [&](int x0, int x1, int y0, int y1, int z0, int z1, const LeafT* leaf, const ValueT&) {
+                             if (leaf) {
+                                 const ValueT* data = leaf->buffer().data();
+                                 const auto& mask = leaf->getValueMask();
+                                 for (int z = z0; z < z1; ++z)
+                                     for (int y = y0; y < y1; ++y)
+                                         for (int x = x0; x < x1; ++x) {
+                                             const openvdb::Index offset = offsetIn(x, y, z);
+                                             if (mask.isOn(offset) && !isZero(data[offset])) {
+                                                 nonZero[i] = 1;
+                                                 return false;
+                                             }
+                                         }
+                                 return true;
+                             }
+                             nonZero[i] = 1;  // a non-zero tile
+                             return false;
+                         });
+    });
+    size_t kept = 0;
+    for (size_t i = 0; i < list.size(); ++i)
+        if (nonZero[i])
+            list[kept++] = list[i];
+    list.resize(kept);
+
+    // Brick i holds slot list[i]; its values are first written (and its pages first touched)
+    // by the parallel fill, which writes all of them.
+    bricks.reset({lo.x(), lo.y(), lo.z()}, {dims.x(), dims.y(), dims.z()}, channels);
+    bricks.allocateUnfilledBricks(list);
     constexpr int S = BrickGrid::kStored;
     tbb::parallel_for(tbb::blocked_range<size_t>(0, list.size(), 16), [&](const tbb::blocked_range<size_t>& r) {
         typename GridT::ConstAccessor acc = grid.getConstAccessor();
         for (size_t i = r.begin(); i != r.end(); ++i) {
-            const Coord t = tableCoord(list[i]);
             float* out = bricks.brickValues(i);
             std::fill(out, out + size_t(BrickGrid::kBrickValues) * channels, 0.0f);
-            const Coord origin((t.x() + lo.x()) * BrickGrid::kBrick, (t.y() + lo.y()) * BrickGrid::kBrick,
-                               (t.z() + lo.z()) * BrickGrid::kBrick);
             auto store = [&](int x, int y, int z, const ValueT& v) {
                 float* dst = out + ((z * S + y) * S + x) * channels;
                 for (int c = 0; c < channels; ++c)
                     dst[c] = channel(v, c);
             };
-            // The 8^3 core, then the apron (the faces at local index 8), are each read from
-            // the leaf covering them (its active values), or from the one tile or background
-            // that covers that whole leaf-sized block: eight node lookups a brick, not one per
-            // apron value. n = (dx, dy, dz) in {0, 1}^3: the block at origin + 8 n, of which
-            // the brick holds local x in [0, 8) where dx = 0, else x = 8 only.
-            for (int n = 0; n < 8; ++n) {
-                const int dx = n & 1, dy = (n >> 1) & 1, dz = n >> 2;
-                const Coord block = origin + Coord(dx * 8, dy * 8, dz * 8);
-                const int x0 = dx * 8, x1 = dx ? S : 8, y0 = dy * 8, y1 = dy ? S : 8, z0 = dz * 8, z1 = dz ? S : 8;
-                if (const LeafT* leaf = acc.probeConstLeaf(block)) {
-                    const ValueT* data = leaf->buffer().data();  // loaded: the file was read whole
-                    const auto& mask = leaf->getValueMask();
-                    if constexpr (std::is_same_v<ValueT, float>) {
-                        if (mask.isOn()) {  // every value active (the common case): a plain transpose
-                            for (int z = z0; z < z1; ++z)
-                                for (int y = y0; y < y1; ++y) {
-                                    float* row = out + (z * S + y) * S;
-                                    const float* column = data + (((y & 7) << 3) | (z & 7));
-                                    for (int x = x0; x < x1; ++x)
-                                        row[x] = column[(x & 7) << 6];
-                                }
-                            continue;
-                        }
-                    }
-                    for (int z = z0; z < z1; ++z)
-                        for (int y = y0; y < y1; ++y)
-                            for (int x = x0; x < x1; ++x) {
-                                const openvdb::Index offset = ((x & 7) << 6) | ((y & 7) << 3) | (z & 7);
-                                if (mask.isOn(offset))
-                                    store(x, y, z, data[offset]);
-                            }
-                } else {
-                    ValueT v;
-                    if (acc.probeValue(block, v) && !isZero(v))
-                        for (int z = z0; z < z1; ++z)
-                            for (int y = y0; y < y1; ++y)
-                                for (int x = x0; x < x1; ++x)
-                                    store(x, y, z, v);
-                }
-            }
+            forEachBlock(acc, brickOrigin(list[i]),
+                         [&](int x0, int x1, int y0, int y1, int z0, int z1, const LeafT* leaf, const ValueT& tile) {
+                             if (!leaf) {
+                                 for (int z = z0; z < z1; ++z)
+                                     for (int y = y0; y < y1; ++y)
+                                         for (int x = x0; x < x1; ++x)
+                                             store(x, y, z, tile);
+                                 return true;
+                             }
+                             const ValueT* data = leaf->buffer().data();  // loaded: the file was read whole
+                             const auto& mask = leaf->getValueMask();
+                             if constexpr (std::is_same_v<ValueT, float>) {
+                                 if (mask.isOn()) {  // every value active (the common case): a plain transpose
+                                     for (int z = z0; z < z1; ++z)
+                                         for (int y = y0; y < y1; ++y) {
+                                             float* row = out + (z * S + y) * S;
+                                             const float* column = data + offsetIn(0, y, z);
+                                             for (int x = x0; x < x1; ++x)
+                                                 row[x] = column[(x & 7) << 6];
+                                         }
+                                     return true;
+                                 }
+                             }
+                             for (int z = z0; z < z1; ++z)
+                                 for (int y = y0; y < y1; ++y)
+                                     for (int x = x0; x < x1; ++x) {
+                                         const openvdb::Index offset = offsetIn(x, y, z);
+                                         if (mask.isOn(offset))
+                                             store(x, y, z, data[offset]);
+                                     }
+                             return true;
+                         });
         }
     });
-    bricks.pruneZeroBricks();  // also computes the majorants and the active bounds
+    bricks.updateMajorants();  // and the active bounds
     return bricks;
 }
 
