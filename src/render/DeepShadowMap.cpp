@@ -14,6 +14,8 @@
 
 namespace nimbus {
 
+const float DeepShadowMap::kEmptyTexelSamples[2] = {0.0f, 0.0f};
+
 namespace {
 
 // Cube faces: forward axes +x, -x, +y, -y, +z, -z with right/up completing a right-handed frame.
@@ -143,11 +145,14 @@ DeepShadowMap DeepShadowMap::build(const NbLight& light, const VolumeSet& volume
             }
             std::copy(rows[row].begin(), rows[row].end(), m.mVertices.begin() + ptrdiff_t(rowStart[row]));
             std::vector<Vertex>().swap(rows[row]);
+            if (m.hasMarchSamples())  // the row's samples no longer move: point into them
+                for (size_t t = row * size_t(res); t < (row + 1) * size_t(res); ++t) {
+                    TexelSamples& s = m.mSampleIndex[t];
+                    s.tau = s.first == kEmptyTexel ? kEmptyTexelSamples + 1 : m.mSampleRows[row].data() + s.first;
+                }
         }
     });
     m.mOffsets[texels] = uint32_t(rowStart.back());
-    for (size_t t = 0; t < m.mSampleIndex.size(); ++t)
-        m.mSampleIndex[t].tau = m.mSampleRows[t / size_t(res)].data() + m.mSampleIndex[t].first;
     m.mBuildSeconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     return m;
 }
@@ -272,58 +277,33 @@ void DeepShadowMap::buildTexel(const VolumeSet& volumes, int face, int ix, int i
     if (!samples)
         return;
     // marchRay's vertices lie on the depths k dz: runs of samples, with tau constant across
-    // the empty bricks skipped between runs. Spread them onto every k from the first.
+    // the empty bricks skipped between runs. Spread them onto every k from the first, between
+    // a leading 0 and a copy of the last (so a lookup clamps its index instead of branching).
+    where->count = 0;
+    where->k0 = 0;
+    if (out.empty()) {  // nothing along this ray
+        where->first = kEmptyTexel;
+        return;
+    }
+    samples->push_back(0.0f);
     const size_t first = samples->size();
     where->first = uint32_t(first);
-    where->count = 0;
-    if (out.empty())
-        return;  // nothing along this ray
     const float inv = 1.0f / mSampleDz;
-    where->k0 = int32_t(std::lround(raw[0].z * inv));
+    auto nearest = [&](float z) { return long(floorToInt(z * inv + 0.5f)); };  // not lround: a libm call
+    where->k0 = int32_t(nearest(raw[0].z));
     long prev = long(where->k0) - 1;
     for (const Vertex& v : raw) {
-        const long k = std::lround(v.z * inv);
+        const long k = nearest(v.z);
         if (k <= prev) {  // rounding put two vertices on one k: the later one holds
             samples->back() = v.tau[0];
             continue;
         }
-        const float held = samples->size() > first ? samples->back() : 0.0f;
-        samples->insert(samples->end(), size_t(k - prev - 1), held);
+        samples->insert(samples->end(), size_t(k - prev - 1), samples->back());
         samples->push_back(v.tau[0]);
         prev = k;
     }
     where->count = uint32_t(samples->size() - first);
-}
-
-inline float DeepShadowMap::marchedDepth(uint32_t texel, int j, float w) const
-{
-    const TexelSamples& s = mSampleIndex[texel];
-    const int i = j - s.k0;
-    if (i < 0 || s.count == 0)
-        return 0.0f;  // before the texel's first vertex (tau 0 there), or nothing on its ray
-    if (i >= int(s.count) - 1)
-        return s.tau[s.count - 1];
-    return s.tau[i] + w * (s.tau[i + 1] - s.tau[i]);
-}
-
-float DeepShadowMap::greyMarchedDepthTexel(float fx, float fy, float zSteps) const
-{
-    const float last = float(mRes);
-    if (!(fx >= -0.5f && fx <= last - 0.5f && fy >= -0.5f && fy <= last - 0.5f))
-        return 0.0f;  // u or v outside [0, 1], as in opticalDepthAt
-    const int x0 = floorToInt(fx), y0 = floorToInt(fy);
-    const float wx = fx - float(x0), wy = fy - float(y0);
-    // One depth lattice for every texel: the step and the weight along it are shared.
-    if (!(zSteps > 0.0f))
-        return 0.0f;  // on or before the map's plane, before every ray's first vertex
-    const int j = std::min(int(zSteps), std::numeric_limits<int>::max() - 1);
-    const float w = zSteps - float(j);
-    const uint32_t xa = uint32_t(std::max(x0, 0)), xb = uint32_t(std::min(x0 + 1, mRes - 1));
-    const uint32_t ra = uint32_t(std::max(y0, 0)) * uint32_t(mRes), rb = uint32_t(std::min(y0 + 1, mRes - 1)) * uint32_t(mRes);
-    const float a = marchedDepth(ra + xa, j, w), b = marchedDepth(ra + xb, j, w);
-    const float c = marchedDepth(rb + xa, j, w), d = marchedDepth(rb + xb, j, w);
-    const float lo = a + wx * (b - a), hi = c + wx * (d - c);
-    return lo + wy * (hi - lo);
+    samples->push_back(samples->back());
 }
 
 size_t DeepShadowMap::marchSampleBytes() const
@@ -336,7 +316,7 @@ size_t DeepShadowMap::marchSampleBytes() const
 
 void DeepShadowMap::releaseMarchSamples()
 {
-    std::vector<TexelSamples>().swap(mSampleIndex);
+    BulkVector<TexelSamples>().swap(mSampleIndex);
     std::vector<std::vector<float>>().swap(mSampleRows);
 }
 

@@ -21,6 +21,7 @@
 #include "../core/BulkAllocator.h"
 #include "VolumeSet.h"
 
+#include <algorithm>
 #include <vector>
 
 namespace nimbus {
@@ -102,7 +103,25 @@ public:
     bool hasMarchSamples() const { return !mSampleRows.empty(); }
     size_t marchSampleBytes() const;
     float marchSampleStep() const { return mSampleDz; }
-    float greyMarchedDepthTexel(float fx, float fy, float zSteps) const;
+    float greyMarchedDepthTexel(float fx, float fy, float zSteps) const
+    {
+        const float last = float(mRes);
+        if (!(fx >= -0.5f && fx <= last - 0.5f && fy >= -0.5f && fy <= last - 0.5f))
+            return 0.0f;  // u or v outside [0, 1], as in opticalDepthAt
+        // One depth lattice for every texel: the step and the weight along it are shared.
+        if (!(zSteps > 0.0f))
+            return 0.0f;  // on or before the map's plane, before every ray's first vertex
+        const int x0 = floorToInt(fx), y0 = floorToInt(fy);
+        const float wx = fx - float(x0), wy = fy - float(y0);
+        const int j = int(std::min(zSteps, 1e9f));
+        const float w = zSteps - float(j);
+        const uint32_t xa = uint32_t(std::max(x0, 0)), xb = uint32_t(std::min(x0 + 1, mRes - 1));
+        const uint32_t ra = uint32_t(std::max(y0, 0)) * uint32_t(mRes), rb = uint32_t(std::min(y0 + 1, mRes - 1)) * uint32_t(mRes);
+        const float a = marchedDepth(ra + xa, j, w), b = marchedDepth(ra + xb, j, w);
+        const float c = marchedDepth(rb + xa, j, w), d = marchedDepth(rb + xb, j, w);
+        const float lo = a + wx * (b - a), hi = c + wx * (d - c);
+        return lo + wy * (hi - lo);
+    }
     void releaseMarchSamples();
 
     Projection projection() const { return mProjection; }
@@ -143,15 +162,26 @@ private:
     Rgb lookup(uint32_t texel, uint32_t slot, float z, Cursor* cursor) const;
     float greyLookup(uint32_t texel, uint32_t slot, float z, Cursor& cursor) const;
     // Where one texel's march samples lie in its row of mSampleRows.
+    // No initialisers: buildTexel writes every field, from the parallel build, so the index is
+    // first touched there (BulkVector).
     struct TexelSamples {
-        int32_t k0 = 0;               // the first sample's depth, k0 dz
-        uint32_t first = 0, count = 0;  // where in the row, how many (depths (k0 + i) dz)
-        const float* tau = nullptr;   // set once every row is built
+        int32_t k0;               // the first sample's depth, k0 dz
+        uint32_t first, count;    // where in the row, how many (depths (k0 + i) dz)
+        // Set once every row is built. tau[-1] = 0 and tau[count] = tau[count - 1] (padding);
+        // a texel whose ray meets nothing has count 0 and points at kEmptyTexelSamples + 1.
+        const float* tau;
     };
+    static constexpr uint32_t kEmptyTexel = ~0u;  // TexelSamples::first of such a texel
+    static const float kEmptyTexelSamples[2];
     void buildTexel(const VolumeSet& volumes, int face, int ix, int iy, std::vector<Vertex>& out,
                     std::vector<float>* samples, TexelSamples* where) const;
-    // Texel's tau at depth (j + w) dz.
-    float marchedDepth(uint32_t texel, int j, float w) const;
+    // Texel's tau at depth (j + w) dz: 0 before its first sample, the last after its last.
+    float marchedDepth(uint32_t texel, int j, float w) const
+    {
+        const TexelSamples& s = mSampleIndex[texel];
+        const int i = std::min(std::max(j - s.k0, -1), int(s.count) - 1);
+        return s.tau[i] + w * (s.tau[i + 1] - s.tau[i]);
+    }
 
     Projection mProjection = Projection::Orthographic;
     int mRes = 0;
@@ -159,7 +189,7 @@ private:
     float mStepFraction = 1.0f;
     bool mGrey = false;  // every volume's extinction is equal in R, G and B
     float mSampleDz = 0.0f, mInvSampleDz = 0.0f;
-    std::vector<TexelSamples> mSampleIndex;       // per texel
+    BulkVector<TexelSamples> mSampleIndex;        // per texel
     std::vector<std::vector<float>> mSampleRows;  // per row of texels: their samples
     std::vector<Face> mFaces;
     std::vector<uint32_t> mOffsets;  // per texel: first vertex; one past the last at the end
