@@ -2,6 +2,8 @@
 
 #include "BrickWalk.h"
 
+#include "../core/ExpNeg.h"
+
 #include <cmath>
 #include <vector>
 
@@ -20,7 +22,7 @@ inline void stepTerms(float sigma, float dt, float& transmit, float& weight)
         transmit = 1.0f - x * (1.0f - 0.5f * x);
         weight = dt * (1.0f - x * (0.5f - x * (1.0f / 6.0f)));
     } else {
-        transmit = std::exp(-x);
+        transmit = expNeg(x);
         weight = (1.0f - transmit) / sigma;
     }
 }
@@ -94,11 +96,11 @@ void marchOneVolume(const RenderContext& ctx, const VolumeData& vol, float3 o, f
             const float* tau = a.cache->brickData(st.brick) + st.corner * C;
             Rgb Tl;
             if (Grey) {
-                Tl = splat(std::exp(-BrickGrid::trilinear<1>(tau, st.tx, st.ty, st.tz)));
+                Tl = splat(expNeg(BrickGrid::trilinear<1>(tau, st.tx, st.ty, st.tz)));
             } else {
-                Tl = exp(-make_float3(BrickGrid::trilinear<3>(tau, st.tx, st.ty, st.tz),
-                                      BrickGrid::trilinear<3>(tau + 1, st.tx, st.ty, st.tz),
-                                      BrickGrid::trilinear<3>(tau + 2, st.tx, st.ty, st.tz)));
+                Tl = make_float3(expNeg(BrickGrid::trilinear<3>(tau, st.tx, st.ty, st.tz)),
+                                 expNeg(BrickGrid::trilinear<3>(tau + 1, st.tx, st.ty, st.tz)),
+                                 expNeg(BrickGrid::trilinear<3>(tau + 2, st.tx, st.ty, st.tz)));
             }
             const Rgb c = TwS * Li * Tl;
             L1 += c;
@@ -147,7 +149,7 @@ void marchGreyKeyLight(const RenderContext& ctx, const VolumeData& vol, const Li
         float stepT, w;
         stepTerms(kT * rho, dt, stepT, w);
         const float tauLight = BrickGrid::trilinear<1>(cache.brickData(st.brick) + st.corner, st.tx, st.ty, st.tz);
-        L1 += T * w * rho * std::exp(-tauLight);  // eq. 31 per step, over sigma_s / rho and L_i p
+        L1 += T * w * rho * expNeg(tauLight);  // eq. 31 per step, over sigma_s / rho and L_i p
         const float after = T * stepT;
         depthSum += (T - after) * t;
         T = after;

@@ -1,0 +1,38 @@
+// ExpNeg.h: e^{-x}, the transmittance of optical depth x, in single precision without a libm call.
+//
+// The single-scattering march takes two per sample (the step's transmittance and the light's);
+// glibc's expf is a call with its own special-case checks. Here: e^{-x} = 2^{-k} e^{k ln2 - x}
+// with k = round(x / ln 2), so the reduced argument r = k ln2 - x lies in [-ln2/2, ln2/2], and
+// e^r by its degree-6 Taylor polynomial (truncation |r|^7/7! <= 1.2e-7 relative), the power of
+// two by exponent bits. Relative error within 3e-7 of std::exp over the clamp range (tested in
+// test_expneg). x is clamped to [-87, 87]: e^{-87} = 1.6e-38, the smallest normal float
+// magnitude, below which every caller treats the medium as opaque.
+#pragma once
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <cstring>
+
+namespace nimbus {
+
+inline float expNeg(float x)
+{
+    x = std::min(std::max(x, -87.0f), 87.0f);  // (a NaN stays NaN, as in std::exp)
+    const float k = std::floor(x * 1.44269504089f + 0.5f);
+    // k ln2 in two parts (Cody-Waite), so r keeps full precision.
+    const float r = std::fma(k, 0.693145751953125f, -x) + k * 1.428606765330187e-06f;
+    float p = 1.0f / 720.0f;
+    p = std::fma(p, r, 1.0f / 120.0f);
+    p = std::fma(p, r, 1.0f / 24.0f);
+    p = std::fma(p, r, 1.0f / 6.0f);
+    p = std::fma(p, r, 0.5f);
+    p = std::fma(p, r, 1.0f);
+    p = std::fma(p, r, 1.0f);
+    const int32_t bits = (127 - int32_t(k)) << 23;  // 2^{-k}, k in [-126, 126]
+    float scale;
+    std::memcpy(&scale, &bits, sizeof scale);
+    return p * scale;
+}
+
+}  // namespace nimbus
