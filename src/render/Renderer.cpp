@@ -125,6 +125,23 @@ void renderMarched(const RenderContext& ctx, Film& film, const RenderOptions& op
             background.add(miss, none.data());
     }
 
+    // Tiles whose rays can meet an occupied brick of some volume (density or emission); the
+    // others see only the background. Not with WKB, which keeps its own per-ray path.
+    std::vector<char> seesBricks(size_t(tileCount), 1);
+    if (!wkb) {
+        std::fill(seesBricks.begin(), seesBricks.end(), 0);
+        bool bounded = true;
+        for (const auto& v : ctx.volumes.volumes()) {
+            bounded = bounded && markTilesSeeingBricks(cam, film.width, film.height, film.x0, film.y0, kTile, tilesX,
+                                                       tilesY, v->density, v->worldFromIndex, seesBricks);
+            if (v->hasEmission())
+                bounded = bounded && markTilesSeeingBricks(cam, film.width, film.height, film.x0, film.y0, kTile,
+                                                           tilesX, tilesY, v->emission, v->worldFromIndex, seesBricks);
+        }
+        if (!bounded)
+            std::fill(seesBricks.begin(), seesBricks.end(), 1);
+    }
+
     tbb::parallel_for(tbb::blocked_range<int>(0, tileCount, 1), [&](const tbb::blocked_range<int>& r) {
         std::vector<float> perLight(3 * nLights);
         PixelSum px;
@@ -134,8 +151,8 @@ void renderMarched(const RenderContext& ctx, Film& film, const RenderOptions& op
             const int tx0 = film.x0 + (tile % tilesX) * kTile, ty0 = film.y0 + (tile / tilesX) * kTile;
             const int tx1 = std::min(tx0 + kTile, film.x1), ty1 = std::min(ty0 + kTile, film.y1);
             // L2+ is not asked of such tiles: WKB keeps its own per-ray path.
-            const bool empty = !wkb && tileMissesBox(cam, film.width, film.height, tx0, ty0, tx1, ty1,
-                                                     ctx.volumes.worldBounds());
+            const bool empty = !wkb && (!seesBricks[size_t(tile)] || tileMissesBox(cam, film.width, film.height, tx0, ty0,
+                                                                                   tx1, ty1, ctx.volumes.worldBounds()));
             for (int y = ty0; y < ty1; ++y)
                 for (int x = tx0; x < tx1; ++x) {
                     if (empty) {
