@@ -117,21 +117,29 @@ LightCache LightCache::bake(const DeepShadowMap& map, const VolumeSet& volumes)
             for (size_t b = r.begin(); b != r.end(); ++b) {
                 float* values = g.brickValues(b);
                 const Int3 o = g.brickOrigin(b);
-                for (int z = 0; z < kS; ++z)
-                    for (int y = 0; y < kS; ++y)
-                        for (int x = (z == kB || y == kB) ? 0 : kB; x < kS; ++x) {
-                            const int n = (z * kS + y) * kS + x;
-                            const int gx = o.x + x, gy = o.y + y, gz = o.z + z;
-                            const int nb = g.allocatedBrick(gx >> 3, gy >> 3, gz >> 3);
-                            if (nb >= 0) {
-                                const int m = ((gz & (kB - 1)) * kS + (gy & (kB - 1))) * kS + (gx & (kB - 1));
-                                const float* src = g.brickValues(size_t(nb)) + size_t(m) * channels;
-                                std::copy(src, src + channels, values + size_t(n) * channels);
-                            } else {
-                                const float3 p = worldFromIndex.point(make_float3(float(gx), float(gy), float(gz)));
-                                store(values, n, channels, opticalDepth(map, p, channels, cursor));
+                // The apron by neighbour: n = (dx, dy, dz) != 0 supplies local x = 8 where
+                // dx = 1, else x in [0, 8) (likewise y, z): one table lookup per neighbour.
+                for (int n = 1; n < 8; ++n) {
+                    const int dx = n & 1, dy = (n >> 1) & 1, dz = n >> 2;
+                    const int x0 = dx * kB, x1 = dx ? kS : kB, y0 = dy * kB, y1 = dy ? kS : kB, z0 = dz * kB,
+                              z1 = dz ? kS : kB;
+                    const int nb = g.allocatedBrick((o.x >> 3) + dx, (o.y >> 3) + dy, (o.z >> 3) + dz);
+                    const float* src = nb >= 0 ? g.brickValues(size_t(nb)) : nullptr;
+                    for (int z = z0; z < z1; ++z)
+                        for (int y = y0; y < y1; ++y)
+                            for (int x = x0; x < x1; ++x) {
+                                const int at = (z * kS + y) * kS + x;
+                                if (src) {
+                                    const int m = ((z & (kB - 1)) * kS + (y & (kB - 1))) * kS + (x & (kB - 1));
+                                    std::copy(src + size_t(m) * channels, src + size_t(m + 1) * channels,
+                                              values + size_t(at) * channels);
+                                } else {
+                                    const float3 p = worldFromIndex.point(
+                                        make_float3(float(o.x + x), float(o.y + y), float(o.z + z)));
+                                    store(values, at, channels, opticalDepth(map, p, channels, cursor));
+                                }
                             }
-                        }
+                }
             }
         });
         cache.mGrids.push_back(std::move(g));
