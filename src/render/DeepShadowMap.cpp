@@ -111,6 +111,8 @@ DeepShadowMap DeepShadowMap::build(const NbLight& light, const VolumeSet& volume
                 row.reserve(size_t(double(res) * perTexel));
         }
     }
+    const std::vector<char> texelMeetsBricks =
+        m.mProjection == Projection::Orthographic ? m.texelsMeetingBricks(volumes) : std::vector<char>();
     std::vector<std::vector<Vertex>> rows(size_t(res) * m.mFaces.size());
     std::vector<std::vector<uint32_t>> rowCounts(rows.size());
     tbb::parallel_for(tbb::blocked_range<size_t>(0, rows.size()), [&](const tbb::blocked_range<size_t>& r) {
@@ -119,8 +121,15 @@ DeepShadowMap DeepShadowMap::build(const NbLight& light, const VolumeSet& volume
             int face = int(row / res), iy = int(row % res);
             const bool keep = m.hasMarchSamples();
             for (int ix = 0; ix < res; ++ix) {
-                m.buildTexel(volumes, face, ix, iy, texel, keep ? &m.mSampleRows[row] : nullptr,
-                             keep ? &m.mSampleIndex[row * size_t(res) + size_t(ix)] : nullptr);
+                const size_t t = row * size_t(res) + size_t(ix);
+                if (!texelMeetsBricks.empty() && !texelMeetsBricks[t]) {
+                    texel.clear();  // what the march would find: no density, an empty function
+                    if (keep)
+                        m.mSampleIndex[t] = {0, kEmptyTexel, 0, nullptr};
+                } else {
+                    m.buildTexel(volumes, face, ix, iy, texel, keep ? &m.mSampleRows[row] : nullptr,
+                                 keep ? &m.mSampleIndex[t] : nullptr);
+                }
                 rows[row].insert(rows[row].end(), texel.begin(), texel.end());
                 rowCounts[row].push_back(uint32_t(texel.size()));
             }
@@ -155,6 +164,46 @@ DeepShadowMap DeepShadowMap::build(const NbLight& light, const VolumeSet& volume
     m.mOffsets[texels] = uint32_t(rowStart.back());
     m.mBuildSeconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     return m;
+}
+
+std::vector<char> DeepShadowMap::texelsMeetingBricks(const VolumeSet& volumes) const
+{
+    // Texel (ix, iy)'s ray crosses the plane at fx = ix, fy = iy in texel units (centres at
+    // integers). A brick's trilinear support, index box [origin, origin + 8]^3, projects inside
+    // the rectangle of its corners' projections; a ray outside every such rectangle meets no
+    // density. Half a texel of margin for rounding.
+    const Face& f = mFaces[0];
+    const float scale = float(mRes) / f.extent, B = float(BrickGrid::kBrick);
+    std::vector<char> meets(size_t(mRes) * size_t(mRes), 0);
+    for (const auto& v : volumes.volumes()) {
+        const BrickGrid& g = v->density;
+        const Transform& w = v->worldFromIndex;
+        const float3 ex = w.vector(make_float3(B, 0, 0)), ey = w.vector(make_float3(0, B, 0)),
+                     ez = w.vector(make_float3(0, 0, B));
+        const Int3 lo = g.brickLo(), dims = g.dims();
+        for (int bz = 0; bz < dims.z; ++bz)
+            for (int by = 0; by < dims.y; ++by)
+                for (int bx = 0; bx < dims.x; ++bx) {
+                    if (!(g.majorants()[(size_t(bz) * dims.y + by) * dims.x + bx] > 0.0f))
+                        continue;
+                    const float3 c0 =
+                        w.point(make_float3(float(lo.x + bx) * B, float(lo.y + by) * B, float(lo.z + bz) * B)) - f.origin;
+                    float xLo = 1e30f, xHi = -1e30f, yLo = 1e30f, yHi = -1e30f;
+                    for (int i = 0; i < 8; ++i) {
+                        const float3 q = c0 + ex * float(i & 1) + ey * float((i >> 1) & 1) + ez * float(i >> 2);
+                        const float fx = dot(q, f.right) * scale - 0.5f, fy = dot(q, f.up) * scale - 0.5f;
+                        xLo = std::min(xLo, fx), xHi = std::max(xHi, fx), yLo = std::min(yLo, fy), yHi = std::max(yHi, fy);
+                    }
+                    const int x0 = std::max(0, int(std::ceil(xLo - 0.5f))), x1 = std::min(mRes - 1, int(std::floor(xHi + 0.5f)));
+                    const int y0 = std::max(0, int(std::ceil(yLo - 0.5f))), y1 = std::min(mRes - 1, int(std::floor(yHi + 0.5f)));
+                    if (x0 > x1)
+                        continue;  // beside the map (cannot happen: the footprint covers the bounds)
+                    for (int y = y0; y <= y1; ++y)
+                        std::fill(meets.begin() + ptrdiff_t(size_t(y) * mRes + x0),
+                                  meets.begin() + ptrdiff_t(size_t(y) * mRes + x1 + 1), char(1));
+                }
+    }
+    return meets;
 }
 
 void DeepShadowMap::texelRay(int face, float u, float v, float3& o, float3& d) const

@@ -173,6 +173,9 @@ private:
     };
     static constexpr uint32_t kEmptyTexel = ~0u;  // TexelSamples::first of such a texel
     static const float kEmptyTexelSamples[2];
+    // Orthographic maps: per texel, whether its ray can meet an occupied brick of some volume
+    // (the others are empty without marching).
+    std::vector<char> texelsMeetingBricks(const VolumeSet& volumes) const;
     void buildTexel(const VolumeSet& volumes, int face, int ix, int iy, std::vector<Vertex>& out,
                     std::vector<float>* samples, TexelSamples* where) const;
     // Texel's tau at depth (j + w) dz: 0 before its first sample, the last after its last.

@@ -72,6 +72,54 @@ TEST(ShadowMap, CompressionStaysWithinTolerance)
     }
 }
 
+// Orthographic maps skip the texels whose rays cannot meet an occupied brick (their functions
+// are empty without a march). On a sparse volume (a few cubes of density, most bricks empty) under a
+// rotated placement, from several directions, every texel must still hold its march: a
+// wrongly skipped texel reads 0 where the march has density.
+TEST(ShadowMap, TexelsSkippedOverEmptyBricksAreThoseWithNothingToMarch)
+{
+    // Whole bricks of density (so it reaches every brick's faces, where a rectangle drawn too
+    // tight would cut it), four of the 6^3.
+    const int cubes[4][3] = {{1, 1, 3}, {3, 1, 1}, {2, 4, 2}, {5, 5, 5}};
+    auto vol = handMadeVolume(48, 0.04f, make_float3(-1, -1, -1), [&](int i, int j, int k) {
+        for (const auto& c : cubes)
+            if (i / 8 == c[0] && j / 8 == c[1] && k / 8 == c[2])
+                return 5.0f;
+        return 0.0f;
+    });
+    vol->worldFromIndex = Transform::rotateDegrees(37.0, 0.3, 1.0, -0.2) * vol->worldFromIndex;
+    vol->indexFromWorld = vol->worldFromIndex.inverse();
+    vol->worldBounds = vol->worldFromIndex.box(vol->density.activeIndexBounds());
+    VolumeSet volumes({vol}, 0.5f);
+    size_t texelsWithDensity = 0, texels = 0;
+    for (float3 dir : {make_float3(-0.4f, -1.0f, 0.3f), make_float3(1, 0.2f, 0.1f), make_float3(0.3f, 0.5f, -1)}) {
+        Light l;
+        l.type = LightType::Distant;
+        l.direction = normalize(dir);
+        DeepShadowMap::Settings s;
+        s.resolution = 64;
+        DeepShadowMap dsm = DeepShadowMap::build(makeNbLight(l, 0), volumes, s);
+        std::vector<DeepShadowMap::Vertex> raw;
+        for (int iy = 0; iy < s.resolution; ++iy)
+            for (int ix = 0; ix < s.resolution; ++ix) {
+                float3 o, d;
+                dsm.texelRay(0, (ix + 0.5f) / s.resolution, (iy + 0.5f) / s.resolution, o, d);
+                DeepShadowMap::marchRay(volumes, o, d, s.stepFraction, raw);
+                ++texels;
+                if (raw.empty() || raw.back().tau[0] <= 0.0f)
+                    continue;
+                ++texelsWithDensity;
+                const float stored = dsm.texelOpticalDepth(0, ix, iy, raw.back().z + 1.0f).x;
+                EXPECT_NEAR(stored, raw.back().tau[0], 1e-3f * raw.back().tau[0])
+                    << "texel " << ix << "," << iy << ": the map lost its march";
+            }
+    }
+    // Not vacuous: some texels see the blobs, most see nothing.
+    EXPECT_GT(texelsWithDensity, 100u);
+    EXPECT_LT(texelsWithDensity, texels / 2);
+    std::printf("%zu of %zu texel rays meet density\n", texelsWithDensity, texels);
+}
+
 // The light-cache bake reads an orthographic map of one grey volume from its march samples
 // (DeepShadowMap::hasMarchSamples) instead of the compressed functions. Those samples must be
 // the march itself, and the baked optical depth at a voxel must be the bilinear mix of the
