@@ -14,8 +14,6 @@
 
 namespace nimbus {
 
-const float DeepShadowMap::kEmptyTexelSamples[2] = {0.0f, 0.0f};
-
 namespace {
 
 // Cube faces: forward axes +x, -x, +y, -y, +z, -z with right/up completing a right-handed frame.
@@ -98,16 +96,20 @@ DeepShadowMap DeepShadowMap::build(const NbLight& light, const VolumeSet& volume
     // Keep the march samples for the bake where the march runs on one uniform lattice per ray
     // (one grey volume, DeepShadowMap::marchRay's brick walk) and they fit the budget.
     const auto& vols = volumes.volumes();
+    bool keep = false;
+    BulkVector<TexelSamples> sampleIndex;        // per texel, while the rows are built
+    std::vector<std::vector<float>> sampleRows;  // per row of texels: their samples
     if (settings.keepMarchSamples && m.mProjection == Projection::Orthographic && m.mGrey && vols.size() == 1 &&
         vols[0]->density.channels() == 1) {
         m.mSampleDz = settings.stepFraction * vols[0]->voxelSize;
         const float3 e = bounds.hi - bounds.lo;
         const double perTexel = double(length(e)) / double(m.mSampleDz) + 3.0;
         if (m.mSampleDz > 0.0f && double(texels) * perTexel * sizeof(float) <= double(kMarchSamplesBudget)) {
+            keep = true;
             m.mInvSampleDz = 1.0f / m.mSampleDz;
-            m.mSampleIndex.resize(texels);
-            m.mSampleRows.resize(size_t(res));
-            for (auto& row : m.mSampleRows)  // address space only: pages arrive as rows fill
+            sampleIndex.resize(texels);
+            sampleRows.resize(size_t(res));
+            for (auto& row : sampleRows)  // address space only: pages arrive as rows fill
                 row.reserve(size_t(double(res) * perTexel));
         }
     }
@@ -119,16 +121,15 @@ DeepShadowMap DeepShadowMap::build(const NbLight& light, const VolumeSet& volume
         std::vector<Vertex> texel;
         for (size_t row = r.begin(); row != r.end(); ++row) {
             int face = int(row / res), iy = int(row % res);
-            const bool keep = m.hasMarchSamples();
             for (int ix = 0; ix < res; ++ix) {
                 const size_t t = row * size_t(res) + size_t(ix);
                 if (!texelMeetsBricks.empty() && !texelMeetsBricks[t]) {
                     texel.clear();  // what the march would find: no density, an empty function
                     if (keep)
-                        m.mSampleIndex[t] = {0, kEmptyTexel, 0, nullptr};
+                        sampleIndex[t] = {0, kEmptyTexel, 0};
                 } else {
-                    m.buildTexel(volumes, face, ix, iy, texel, keep ? &m.mSampleRows[row] : nullptr,
-                                 keep ? &m.mSampleIndex[t] : nullptr);
+                    m.buildTexel(volumes, face, ix, iy, texel, keep ? &sampleRows[row] : nullptr,
+                                 keep ? &sampleIndex[t] : nullptr);
                 }
                 rows[row].insert(rows[row].end(), texel.begin(), texel.end());
                 rowCounts[row].push_back(uint32_t(texel.size()));
@@ -144,6 +145,15 @@ DeepShadowMap DeepShadowMap::build(const NbLight& light, const VolumeSet& volume
         throw Error("deep shadow map: more than 2^32 vertices; lower the shadow-map resolution");
     m.mOffsets.resize(texels + 1);
     m.mVertices.resize(rowStart.back());  // BulkVector: filled below, not zeroed first
+    // The kept samples end to end after two zeros, with per-texel indices (DeepShadowMap.h).
+    std::vector<size_t> sampleStart(sampleRows.size() + 1, 2);
+    for (size_t row = 0; row < sampleRows.size(); ++row)
+        sampleStart[row + 1] = sampleStart[row] + sampleRows[row].size();
+    if (keep) {
+        m.mSamples.resize(sampleStart.back());
+        m.mSamples[0] = m.mSamples[1] = 0.0f;
+        m.mSampleBase.resize(texels), m.mSampleLo.resize(texels), m.mSampleHi.resize(texels);
+    }
     tbb::parallel_for(tbb::blocked_range<size_t>(0, rows.size()), [&](const tbb::blocked_range<size_t>& r) {
         for (size_t row = r.begin(); row != r.end(); ++row) {
             uint32_t offset = uint32_t(rowStart[row]);
@@ -154,11 +164,22 @@ DeepShadowMap DeepShadowMap::build(const NbLight& light, const VolumeSet& volume
             }
             std::copy(rows[row].begin(), rows[row].end(), m.mVertices.begin() + ptrdiff_t(rowStart[row]));
             std::vector<Vertex>().swap(rows[row]);
-            if (m.hasMarchSamples())  // the row's samples no longer move: point into them
+            if (keep) {
+                std::copy(sampleRows[row].begin(), sampleRows[row].end(),
+                          m.mSamples.begin() + ptrdiff_t(sampleStart[row]));
+                std::vector<float>().swap(sampleRows[row]);
                 for (size_t t = row * size_t(res); t < (row + 1) * size_t(res); ++t) {
-                    TexelSamples& s = m.mSampleIndex[t];
-                    s.tau = s.first == kEmptyTexel ? kEmptyTexelSamples + 1 : m.mSampleRows[row].data() + s.first;
+                    const TexelSamples& ts = sampleIndex[t];
+                    if (ts.first == kEmptyTexel) {  // the two leading zeros
+                        m.mSampleBase[t] = m.mSampleLo[t] = m.mSampleHi[t] = 0;
+                        continue;
+                    }
+                    const int32_t first = int32_t(sampleStart[row] + ts.first);
+                    m.mSampleLo[t] = first - 1;
+                    m.mSampleHi[t] = first + int32_t(ts.count) - 1;
+                    m.mSampleBase[t] = first - ts.k0;
                 }
+            }
         }
     });
     m.mOffsets[texels] = uint32_t(rowStart.back());
@@ -357,16 +378,15 @@ void DeepShadowMap::buildTexel(const VolumeSet& volumes, int face, int ix, int i
 
 size_t DeepShadowMap::marchSampleBytes() const
 {
-    size_t bytes = mSampleIndex.size() * sizeof(TexelSamples);
-    for (const auto& row : mSampleRows)
-        bytes += row.size() * sizeof(float);
-    return bytes;
+    return mSamples.size() * sizeof(float) + 3 * mSampleBase.size() * sizeof(int32_t);
 }
 
 void DeepShadowMap::releaseMarchSamples()
 {
-    BulkVector<TexelSamples>().swap(mSampleIndex);
-    std::vector<std::vector<float>>().swap(mSampleRows);
+    BulkVector<float>().swap(mSamples);
+    BulkVector<int32_t>().swap(mSampleBase);
+    BulkVector<int32_t>().swap(mSampleLo);
+    BulkVector<int32_t>().swap(mSampleHi);
 }
 
 bool DeepShadowMap::project(float3 p, int& face, float& u, float& v, float& z) const

@@ -60,10 +60,7 @@ void bakeOwnPoints(const DeepShadowMap& map, const Transform& worldFromIndex, In
                     const float3 row = a0 + ty * float(y) + tz * float(z);
                     float* out = values + (z * kS + y) * kS;
                     if (map.hasMarchSamples()) {
-                        for (int x = 0; x < kB; ++x) {
-                            const float3 q = row + tx * float(x);
-                            out[x] = map.greyMarchedDepthTexel(q.x, q.y, q.z);
-                        }
+                        map.greyMarchedDepthRow(row.x, row.y, row.z, tx.x, tx.y, tx.z, kB, out);
                     } else {
                         for (int x = 0; x < kB; ++x) {
                             const float3 q = row + tx * float(x);
