@@ -93,7 +93,7 @@ int main(int argc, char** argv)
     const std::string nimbus = argv[1];
     const std::string report = argc > 2 && argv[2][0] != '-' ? argv[2] : "";
     const bool quick = std::string(argv[argc - 1]) == "--quick";
-    const int repeats = quick ? 1 : 5;
+    const int repeats = quick ? 1 : 9;
     const int width = quick ? 320 : 640, height = quick ? 180 : 360;
 
     try {
