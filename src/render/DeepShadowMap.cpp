@@ -2,6 +2,8 @@
 
 #include "BrickWalk.h"
 
+#include "../volume/OccupiedBricks.h"
+
 #include "../core/Error.h"
 
 #include <tbb/blocked_range.h>
@@ -194,36 +196,25 @@ std::vector<char> DeepShadowMap::texelsMeetingBricks(const VolumeSet& volumes) c
     // the rectangle of its corners' projections; a ray outside every such rectangle meets no
     // density. Half a texel of margin for rounding.
     const Face& f = mFaces[0];
-    const float scale = float(mRes) / f.extent, B = float(BrickGrid::kBrick);
+    const float scale = float(mRes) / f.extent;
     std::vector<char> meets(size_t(mRes) * size_t(mRes), 0);
-    for (const auto& v : volumes.volumes()) {
-        const BrickGrid& g = v->density;
-        const Transform& w = v->worldFromIndex;
-        const float3 ex = w.vector(make_float3(B, 0, 0)), ey = w.vector(make_float3(0, B, 0)),
-                     ez = w.vector(make_float3(0, 0, B));
-        const Int3 lo = g.brickLo(), dims = g.dims();
-        for (int bz = 0; bz < dims.z; ++bz)
-            for (int by = 0; by < dims.y; ++by)
-                for (int bx = 0; bx < dims.x; ++bx) {
-                    if (!(g.majorants()[(size_t(bz) * dims.y + by) * dims.x + bx] > 0.0f))
-                        continue;
-                    const float3 c0 =
-                        w.point(make_float3(float(lo.x + bx) * B, float(lo.y + by) * B, float(lo.z + bz) * B)) - f.origin;
-                    float xLo = 1e30f, xHi = -1e30f, yLo = 1e30f, yHi = -1e30f;
-                    for (int i = 0; i < 8; ++i) {
-                        const float3 q = c0 + ex * float(i & 1) + ey * float((i >> 1) & 1) + ez * float(i >> 2);
-                        const float fx = dot(q, f.right) * scale - 0.5f, fy = dot(q, f.up) * scale - 0.5f;
-                        xLo = std::min(xLo, fx), xHi = std::max(xHi, fx), yLo = std::min(yLo, fy), yHi = std::max(yHi, fy);
-                    }
-                    const int x0 = std::max(0, int(std::ceil(xLo - 0.5f))), x1 = std::min(mRes - 1, int(std::floor(xHi + 0.5f)));
-                    const int y0 = std::max(0, int(std::ceil(yLo - 0.5f))), y1 = std::min(mRes - 1, int(std::floor(yHi + 0.5f)));
-                    if (x0 > x1)
-                        continue;  // beside the map (cannot happen: the footprint covers the bounds)
-                    for (int y = y0; y <= y1; ++y)
-                        std::fill(meets.begin() + ptrdiff_t(size_t(y) * mRes + x0),
-                                  meets.begin() + ptrdiff_t(size_t(y) * mRes + x1 + 1), char(1));
-                }
-    }
+    for (const auto& v : volumes.volumes())
+        forEachOccupiedBrick(v->density, v->worldFromIndex, [&](const float3* corners) {
+            float xLo = 1e30f, xHi = -1e30f, yLo = 1e30f, yHi = -1e30f;
+            for (int i = 0; i < 8; ++i) {
+                const float3 q = corners[i] - f.origin;
+                const float fx = dot(q, f.right) * scale - 0.5f, fy = dot(q, f.up) * scale - 0.5f;
+                xLo = std::min(xLo, fx), xHi = std::max(xHi, fx), yLo = std::min(yLo, fy), yHi = std::max(yHi, fy);
+            }
+            const int x0 = std::max(0, int(std::ceil(xLo - 0.5f))), x1 = std::min(mRes - 1, int(std::floor(xHi + 0.5f)));
+            const int y0 = std::max(0, int(std::ceil(yLo - 0.5f))), y1 = std::min(mRes - 1, int(std::floor(yHi + 0.5f)));
+            if (x0 > x1)
+                return true;  // beside the map (cannot happen: the footprint covers the bounds)
+            for (int y = y0; y <= y1; ++y)
+                std::fill(meets.begin() + ptrdiff_t(size_t(y) * mRes + x0),
+                          meets.begin() + ptrdiff_t(size_t(y) * mRes + x1 + 1), char(1));
+            return true;
+        });
     return meets;
 }
 

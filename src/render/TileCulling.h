@@ -4,9 +4,8 @@
 #pragma once
 
 #include "../../kernels/shared/camera.h"
-#include "../core/Transform.h"
 #include "../core/Vec.h"
-#include "../volume/BrickGrid.h"
+#include "../volume/OccupiedBricks.h"
 
 #include <algorithm>
 #include <cmath>
@@ -63,39 +62,28 @@ inline bool markTilesSeeingBricks(const NbCamera& cam, int width, int height, in
     const float3 o = nbLoad3(cam.originOpen), f = nbLoad3(cam.forwardOpen), r = nbLoad3(cam.rightOpen);
     const float3 u = cross(r, f);
     const double kx = 0.5 * width / (double(cam.tanHalfFov) * cam.aspect), ky = 0.5 * height / double(cam.tanHalfFov);
-    const float B = float(BrickGrid::kBrick);
-    const float3 ex = worldFromIndex.vector(make_float3(B, 0, 0)), ey = worldFromIndex.vector(make_float3(0, B, 0)),
-                 ez = worldFromIndex.vector(make_float3(0, 0, B));
-    const Int3 lo = grid.brickLo(), dims = grid.dims();
-    const std::vector<float>& majorant = grid.majorants();
-    for (int bz = 0; bz < dims.z; ++bz)
-        for (int by = 0; by < dims.y; ++by)
-            for (int bx = 0; bx < dims.x; ++bx) {
-                if (!(majorant[(size_t(bz) * dims.y + by) * dims.x + bx] > 0.0f))
-                    continue;
-                const float3 corner0 = worldFromIndex.point(
-                    make_float3(float(lo.x + bx) * B, float(lo.y + by) * B, float(lo.z + bz) * B));
-                double pxLo = 1e300, pxHi = -1e300, pyLo = 1e300, pyHi = -1e300;
-                for (int i = 0; i < 8; ++i) {
-                    const float3 q = corner0 + ex * float(i & 1) + ey * float((i >> 1) & 1) + ez * float(i >> 2) - o;
-                    const double cz = dot(q, f);
-                    if (!(cz > 1e-6 * double(length(q))))
-                        return false;  // at or behind the eye's plane: no bounded image
-                    const double px = (double(dot(q, r)) / cz) * kx + 0.5 * width;
-                    const double py = 0.5 * height - (double(dot(q, u)) / cz) * ky;  // y runs down the image
-                    pxLo = std::min(pxLo, px), pxHi = std::max(pxHi, px);
-                    pyLo = std::min(pyLo, py), pyHi = std::max(pyHi, py);
-                }
-                // Pixels [floor(lo) - 1, hi + 1] hold every ray that can pass the rectangle.
-                const double x0 = std::floor(pxLo) - 1.0 - fx0, x1 = pxHi + 1.0 - fx0;
-                const double y0 = std::floor(pyLo) - 1.0 - fy0, y1 = pyHi + 1.0 - fy0;
-                const int tx0 = int(std::max(0.0, std::floor(x0 / tile))), tx1 = int(std::min(double(tilesX - 1), std::floor(x1 / tile)));
-                const int ty0 = int(std::max(0.0, std::floor(y0 / tile))), ty1 = int(std::min(double(tilesY - 1), std::floor(y1 / tile)));
-                for (int ty = ty0; ty <= ty1; ++ty)
-                    for (int tx = tx0; tx <= tx1; ++tx)
-                        seen[size_t(ty) * tilesX + tx] = 1;
-            }
-    return true;
+    return forEachOccupiedBrick(grid, worldFromIndex, [&](const float3* corners) {
+        double pxLo = 1e300, pxHi = -1e300, pyLo = 1e300, pyHi = -1e300;
+        for (int i = 0; i < 8; ++i) {
+            const float3 q = corners[i] - o;
+            const double cz = dot(q, f);
+            if (!(cz > 1e-6 * double(length(q))))
+                return false;  // at or behind the eye's plane: no bounded image
+            const double px = (double(dot(q, r)) / cz) * kx + 0.5 * width;
+            const double py = 0.5 * height - (double(dot(q, u)) / cz) * ky;  // y runs down the image
+            pxLo = std::min(pxLo, px), pxHi = std::max(pxHi, px);
+            pyLo = std::min(pyLo, py), pyHi = std::max(pyHi, py);
+        }
+        // Pixels [floor(lo) - 1, hi + 1] hold every ray that can pass the rectangle.
+        const double x0 = std::floor(pxLo) - 1.0 - fx0, x1 = pxHi + 1.0 - fx0;
+        const double y0 = std::floor(pyLo) - 1.0 - fy0, y1 = pyHi + 1.0 - fy0;
+        const int tx0 = int(std::max(0.0, std::floor(x0 / tile))), tx1 = int(std::min(double(tilesX - 1), std::floor(x1 / tile)));
+        const int ty0 = int(std::max(0.0, std::floor(y0 / tile))), ty1 = int(std::min(double(tilesY - 1), std::floor(y1 / tile)));
+        for (int ty = ty0; ty <= ty1; ++ty)
+            for (int tx = tx0; tx <= tx1; ++tx)
+                seen[size_t(ty) * tilesX + tx] = 1;
+        return true;
+    });
 }
 
 }  // namespace nimbus
