@@ -115,7 +115,8 @@ public:
         return tau;
     }
     // greyMarchedDepthTexel at n points (fx + i dx, fy + i dy, zSteps + i dz), i = 0..n-1: a
-    // row of the bake's voxels. Branch-free, so that the compiler can vectorise it (gathers).
+    // row of the bake's voxels. Where the CPU has AVX2 and FMA, a row of eight runs as eight
+    // lanes with gathers (greyMarchedDepthRow8); else, and for other n, the loop below.
     void greyMarchedDepthRow(float fx, float fy, float zSteps, float dx, float dy, float dz, int n, float* out) const
     {
         const float last = float(mRes) - 0.5f;
@@ -152,7 +153,45 @@ public:
             out[i] = inside ? top + wy * (bottom - top) : 0.0f;
         }
     }
+    void releaseMarchSamples();
+
+    Projection projection() const { return mProjection; }
+    int resolution() const { return mRes; }
+    size_t vertexCount() const { return mVertices.size(); }
+    size_t memoryBytes() const;
+    double buildSeconds() const { return mBuildSeconds; }
+
+    // The optical depth stored in texel (face, ix, iy) at depth z, and the texel's ray
+    // (u, v in [0,1] across the face): for tests and debugging views.
+    Rgb texelOpticalDepth(int face, int ix, int iy, float z) const;
+    void texelRay(int face, float u, float v, float3& o, float3& d) const;
+    int faceCount() const { return int(mFaces.size()); }
+
+    // One vertex of a texel's optical-depth function: depth z (metres) and tau per channel.
+    struct Vertex {
+        float z;
+        float tau[3];
+    };
+    // The uncompressed march along a light ray: a vertex at the start of every span and at the
+    // end of every step (midpoint rule), optical depth accumulated from the ray origin.
+    static void marchRay(const VolumeSet& volumes, float3 o, float3 d, float stepFraction, std::vector<Vertex>& raw);
+    // Greedy piecewise-linear compression of `raw` whose transmittance T' stays within
+    // |T' - T| <= tolerance * max(T, kRelativeFloor) of raw's at every raw vertex (and so
+    // everywhere between them, both being linear in between).
+    static constexpr float kRelativeFloor = 0.01f;
+    // channels 1: a grey medium, whose three optical depths are equal; only the first is fitted
+    // (the others, equal at every raw vertex, follow exactly).
+    static void compress(const std::vector<Vertex>& raw, float tolerance, std::vector<Vertex>& out, int channels = 3);
+
+private:
+    struct Face {
+        float3 origin;    // orthographic: a corner of the footprint plane; perspective: apex
+        float3 right, up, forward;
+        float extent;     // orthographic: footprint side, metres; perspective: tan(half angle)
+    };
+
 #if defined(__AVX2__) && defined(__FMA__)
+    // greyMarchedDepthRow for n = 8, one lane per point: the same arithmetic, with gathers.
     void greyMarchedDepthRow8(float fx, float fy, float zSteps, float dx, float dy, float dz, float* out) const
     {
         const __m256 lane = _mm256_setr_ps(0, 1, 2, 3, 4, 5, 6, 7);
@@ -192,42 +231,6 @@ public:
         _mm256_storeu_ps(out, _mm256_and_ps(_mm256_fmadd_ps(wy, _mm256_sub_ps(lower, upper), upper), inside));
     }
 #endif
-    void releaseMarchSamples();
-
-    Projection projection() const { return mProjection; }
-    int resolution() const { return mRes; }
-    size_t vertexCount() const { return mVertices.size(); }
-    size_t memoryBytes() const;
-    double buildSeconds() const { return mBuildSeconds; }
-
-    // The optical depth stored in texel (face, ix, iy) at depth z, and the texel's ray
-    // (u, v in [0,1] across the face): for tests and debugging views.
-    Rgb texelOpticalDepth(int face, int ix, int iy, float z) const;
-    void texelRay(int face, float u, float v, float3& o, float3& d) const;
-    int faceCount() const { return int(mFaces.size()); }
-
-    // One vertex of a texel's optical-depth function: depth z (metres) and tau per channel.
-    struct Vertex {
-        float z;
-        float tau[3];
-    };
-    // The uncompressed march along a light ray: a vertex at the start of every span and at the
-    // end of every step (midpoint rule), optical depth accumulated from the ray origin.
-    static void marchRay(const VolumeSet& volumes, float3 o, float3 d, float stepFraction, std::vector<Vertex>& raw);
-    // Greedy piecewise-linear compression of `raw` whose transmittance T' stays within
-    // |T' - T| <= tolerance * max(T, kRelativeFloor) of raw's at every raw vertex (and so
-    // everywhere between them, both being linear in between).
-    static constexpr float kRelativeFloor = 0.01f;
-    // channels 1: a grey medium, whose three optical depths are equal; only the first is fitted
-    // (the others, equal at every raw vertex, follow exactly).
-    static void compress(const std::vector<Vertex>& raw, float tolerance, std::vector<Vertex>& out, int channels = 3);
-
-private:
-    struct Face {
-        float3 origin;    // orthographic: a corner of the footprint plane; perspective: apex
-        float3 right, up, forward;
-        float extent;     // orthographic: footprint side, metres; perspective: tan(half angle)
-    };
 
     Rgb lookup(uint32_t texel, uint32_t slot, float z, Cursor* cursor) const;
     float greyLookup(uint32_t texel, uint32_t slot, float z, Cursor& cursor) const;
