@@ -309,16 +309,19 @@ BrickGrid toBricks(const GridT& grid, int channels, const std::string& where)
                              const ValueT* data = leaf->buffer().data();  // loaded: the file was read whole
                              const auto& mask = leaf->getValueMask();
                              if constexpr (std::is_same_v<ValueT, float>) {
-                                 if (mask.isOn()) {  // every value active (the common case): a plain transpose
-                                     for (int z = z0; z < z1; ++z)
-                                         for (int y = y0; y < y1; ++y) {
-                                             float* row = out + (z * S + y) * S;
-                                             const float* column = data + offsetIn(0, y, z);
-                                             for (int x = x0; x < x1; ++x)
-                                                 row[x] = column[(x & 7) << 6];
+                                 // A transpose (VDB leaves run z fastest, bricks x), every value
+                                 // active (the common case) or masked without a branch.
+                                 const bool full = mask.isOn();
+                                 for (int z = z0; z < z1; ++z)
+                                     for (int y = y0; y < y1; ++y) {
+                                         float* row = out + (z * S + y) * S;
+                                         const openvdb::Index column = offsetIn(0, y, z);
+                                         for (int x = x0; x < x1; ++x) {
+                                             const openvdb::Index offset = column + openvdb::Index((x & 7) << 6);
+                                             row[x] = full || mask.isOn(offset) ? data[offset] : 0.0f;
                                          }
-                                     return true;
-                                 }
+                                     }
+                                 return true;
                              }
                              for (int z = z0; z < z1; ++z)
                                  for (int y = y0; y < y1; ++y)
