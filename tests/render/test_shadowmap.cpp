@@ -217,7 +217,11 @@ TEST(ShadowMap, BakeFromMarchSamplesIsTheMarch)
             rowWorst = std::max(rowWorst, double(std::fabs(row[i] - one)) / std::max(1.0, double(one)));
         }
     }
+    // The same arithmetic in both: they differ only where the compiler does not fuse the scalar
+    // loop's multiply-adds as the eight-lane one does, a few float ulps of tau (<= 40 here), so
+    // ~1e-6 relative with the max(1, tau) normaliser; measured 0 with GCC's default contraction.
     EXPECT_LT(rowWorst, 1e-5) << "a row of eight differs from eight single lookups";
+    std::printf("row of eight vs single lookups: worst relative difference %.2g\n", rowWorst);
     EXPECT_GT(outside, 1000) << "not vacuous: many points off the map or before its plane";
 
     dsm.releaseMarchSamples();
