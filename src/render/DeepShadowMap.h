@@ -134,14 +134,16 @@ public:
         for (int i = 0; i < n; ++i) {
             const float x = fx + float(i) * dx, y = fy + float(i) * dy, z = zSteps + float(i) * dz;
             // Outside [0, 1] in u or v (as in opticalDepthAt), or on or before the map's plane
-            // (before every ray's first vertex): 0. Every index below stays in range anyway.
+            // (before every ray's first vertex): 0. Every index below stays in range anyway
+            // (a point clamped to x = res reads texel res - 1, masked out).
             const bool inside = (x >= -0.5f) & (x <= last) & (y >= -0.5f) & (y <= last) & (z > 0.0f);
             const float xc = std::min(std::max(x, -1.0f), float(res)), yc = std::min(std::max(y, -1.0f), float(res));
             const float zc = z > 0.0f ? std::min(z, 1e9f) : 0.0f;
             const int x0 = int(std::floor(xc)), y0 = int(std::floor(yc)), j = int(zc);
             const float wx = xc - float(x0), wy = yc - float(y0), w = zc - float(j);
-            const int xa = std::max(x0, 0), xb = std::min(x0 + 1, res - 1);
-            const int ra = std::max(y0, 0) * res, rb = std::min(y0 + 1, res - 1) * res;
+            // x0, y0 lie in [-1, res]: both neighbours clamped into [0, res - 1].
+            const int xa = std::min(std::max(x0, 0), res - 1), xb = std::min(x0 + 1, res - 1);
+            const int ra = std::min(std::max(y0, 0), res - 1) * res, rb = std::min(y0 + 1, res - 1) * res;
             // One depth lattice for every texel: the step j and weight w are shared; a texel's
             // samples run from lo + 1 (depth k0) to hi, with a 0 at lo and a copy after hi.
             auto at = [&](int t) {
@@ -212,8 +214,9 @@ private:
         const __m256i x0 = _mm256_cvttps_epi32(x0f), y0 = _mm256_cvttps_epi32(y0f), j = _mm256_cvttps_epi32(jf);
         const __m256i izero = _mm256_setzero_si256(), one = _mm256_set1_epi32(1), top = _mm256_set1_epi32(mRes - 1);
         const __m256i resV = _mm256_set1_epi32(mRes);
-        const __m256i xa = _mm256_max_epi32(x0, izero), xb = _mm256_min_epi32(_mm256_add_epi32(x0, one), top);
-        const __m256i ra = _mm256_mullo_epi32(_mm256_max_epi32(y0, izero), resV);
+        const __m256i xa = _mm256_min_epi32(_mm256_max_epi32(x0, izero), top);
+        const __m256i xb = _mm256_min_epi32(_mm256_add_epi32(x0, one), top);
+        const __m256i ra = _mm256_mullo_epi32(_mm256_min_epi32(_mm256_max_epi32(y0, izero), top), resV);
         const __m256i rb = _mm256_mullo_epi32(_mm256_min_epi32(_mm256_add_epi32(y0, one), top), resV);
         auto at = [&](__m256i t) {
             const __m256i b = _mm256_i32gather_epi32(mSampleBase.data(), t, 4);
