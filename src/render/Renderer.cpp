@@ -82,9 +82,10 @@ void renderMarched(const RenderContext& ctx, Film& film, const RenderOptions& op
             sum.L1 += cs.L1;
             sum.L2plus += cs.L2plus;
             sum.transmittance += cs.transmittance;
-            float a = 1.0f - nbAverage(cs.transmittance);
-            depthSum += a * cs.depth;
-            depthWeight += a;
+            // Each sample's depth weighs by its opacity, summed step by step (SingleScatter.cpp:
+            // 1 - T of a nearly clear ray is rounding).
+            depthSum += cs.opacity * cs.depth;
+            depthWeight += cs.opacity;
             for (size_t i = 0; i < perLight.size(); ++i)
                 perLight[i] += light[i];
         }
@@ -142,8 +143,14 @@ void renderMarched(const RenderContext& ctx, Film& film, const RenderOptions& op
             std::fill(seesBricks.begin(), seesBricks.end(), 1);
     }
 
+    const size_t perLightStride = 3 * nLights;
     tbb::parallel_for(tbb::blocked_range<int>(0, tileCount, 1), [&](const tbb::blocked_range<int>& r) {
-        std::vector<float> perLight(3 * nLights);
+        // One row of a tile at a time: every sample's ray first, then their marches together
+        // (marchSingleRays takes eight at once where it can), then the pixels' sums.
+        std::vector<float3> origins, directions;
+        std::vector<NbRng> rngs;
+        std::vector<CameraSample> samples;
+        std::vector<float> perLight;
         PixelSum px;
         for (int tile = r.begin(); tile != r.end(); ++tile) {
             if (cancelled.load(std::memory_order_relaxed))
@@ -153,28 +160,43 @@ void renderMarched(const RenderContext& ctx, Film& film, const RenderOptions& op
             // L2+ is not asked of such tiles: WKB keeps its own per-ray path.
             const bool empty = !wkb && (!seesBricks[size_t(tile)] || tileMissesBox(cam, film.width, film.height, tx0, ty0,
                                                                                    tx1, ty1, ctx.volumes.worldBounds()));
-            for (int y = ty0; y < ty1; ++y)
-                for (int x = tx0; x < tx1; ++x) {
-                    if (empty) {
+            for (int y = ty0; y < ty1; ++y) {
+                if (empty) {
+                    for (int x = tx0; x < tx1; ++x)
                         store(x, y, background);
-                        continue;
-                    }
-                    px.reset(3 * nLights);
+                    continue;
+                }
+                const size_t rays = size_t(tx1 - tx0) * size_t(spp);
+                origins.resize(rays), directions.resize(rays), rngs.resize(rays);
+                samples.assign(rays, CameraSample());
+                perLight.assign(rays * perLightStride, 0.0f);
+                for (int x = tx0, i = 0; x < tx1; ++x) {
                     nb_uint pixelIndex = nb_uint(y) * nb_uint(film.width) + nb_uint(x);
-                    for (int s = 0; s < spp; ++s) {
-                        NbRng rng = nbRngStart(scene.render.seed, pixelIndex, nb_uint(s));
+                    for (int s = 0; s < spp; ++s, ++i) {
+                        NbRng& rng = rngs[size_t(i)];
+                        rng = nbRngStart(scene.render.seed, pixelIndex, nb_uint(s));
                         float jx = nbRngNext(&rng), jy = nbRngNext(&rng), time = nbRngNext(&rng);
-                        float3 o, d;
-                        nbCameraRay(cam, x + jx, y + jy, film.width, film.height, time, &o, &d);
-                        CameraSample cs;
-                        std::fill(perLight.begin(), perLight.end(), 0.0f);
-                        marchSingle(ctx, o, d, rng, cs, perLight.data());
-                        if (wkb)
-                            wkb->march(o, d, rng, cs, perLight.data());
-                        px.add(cs, perLight.data());
+                        nbCameraRay(cam, x + jx, y + jy, film.width, film.height, time, &origins[size_t(i)],
+                                    &directions[size_t(i)]);
                     }
+                }
+                if (wkb) {
+                    for (size_t i = 0; i < rays; ++i) {
+                        float* pl = perLight.data() + perLightStride * i;
+                        marchSingle(ctx, origins[i], directions[i], rngs[i], samples[i], pl);
+                        wkb->march(origins[i], directions[i], rngs[i], samples[i], pl);
+                    }
+                } else {
+                    marchSingleRays(ctx, int(rays), origins.data(), directions.data(), rngs.data(), samples.data(),
+                                    perLight.data());
+                }
+                for (int x = tx0, i = 0; x < tx1; ++x) {
+                    px.reset(3 * nLights);
+                    for (int s = 0; s < spp; ++s, ++i)
+                        px.add(samples[size_t(i)], perLight.data() + perLightStride * size_t(i));
                     store(x, y, px);
                 }
+            }
             int finished = ++done;
             bool keepGoing = true;
             if (options.progress)

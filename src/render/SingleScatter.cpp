@@ -1,9 +1,11 @@
 #include "SingleScatter.h"
 
 #include "BrickWalk.h"
+#include "MarchEightRays.h"
 
 #include "../core/ExpNeg.h"
 
+#include <algorithm>
 #include <cmath>
 #include <vector>
 
@@ -12,7 +14,10 @@ namespace nimbus {
 namespace {
 
 // Transmittance of one step and the integral over the step of exp(-sigma_t s) ds,
-// (1 - e^{-sigma_t dt}) / sigma_t, per channel. One exp per channel; for optically thin steps
+// (1 - e^{-sigma_t dt}) / sigma_t, per channel. (stepOpacity: a step's share of the ray's
+// opacity, T (1 - e^{-sigma_t dt}), is T sigma_t w, so the depth AOV, sum of opacity t over sum
+// of opacity, does not suffer the cancellation of T - T e^{-sigma_t dt} on thin steps, where
+// 1 - T of a nearly clear ray is all rounding.) One exp per channel; for optically thin steps
 // (sigma_t dt < 1e-3) the series 1 - x/2 + x^2/6 keeps full float precision where 1 - e^{-x}
 // would cancel, and stiff steps (sigma_t dt ~ 1e4) give 1/sigma_t without overflow.
 inline void stepTerms(float sigma, float dt, float& transmit, float& weight)
@@ -68,7 +73,7 @@ void marchOneVolume(const RenderContext& ctx, const VolumeData& vol, float3 o, f
     // Copied out of the list: a local the loop's stores cannot alias stays in registers.
     const Active first = activeList.empty() ? Active{0, nullptr, false, splat(0.0f)} : activeList[0];
     Rgb T = splat(1.0f), L1 = splat(0.0f);
-    float depthSum3 = 0.0f;
+    float depthSum = 0.0f, opacitySum = 0.0f;
     walkVolume(vol, o, d, dt, jitter, [&](int, float t, const BrickGrid::Stencil& st) {
         const float rho = BrickGrid::trilinear<1>(density.brickData(st.brick) + st.corner, st.tx, st.ty, st.tz);
         if (!(rho > 0.0f))
@@ -109,9 +114,10 @@ void marchOneVolume(const RenderContext& ctx, const VolumeData& vol, float3 o, f
                 pl[0] += c.x, pl[1] += c.y, pl[2] += c.z;
             }
         }
-        const float before = T.x + T.y + T.z;
+        const float opacity = nbAverage(T * w * kT) * rho;  // stepOpacity
+        opacitySum += opacity;
+        depthSum += opacity * t;
         T = T * stepT;
-        depthSum3 += (before - (T.x + T.y + T.z)) * t;
         if (nbMaxComponent(T) < cutoff) {
             T = splat(0.0f);
             return false;
@@ -123,11 +129,10 @@ void marchOneVolume(const RenderContext& ctx, const VolumeData& vol, float3 o, f
         float* pl = perLight + 3 * first.index;
         pl[0] += L1.x, pl[1] += L1.y, pl[2] += L1.z;
     }
-    const float depthSum = depthSum3 / 3.0f;  // sum over steps of the drop in mean T, times t
     out.L0 += T * ctx.background;
     out.transmittance = T;
-    float alpha = 1.0f - nbAverage(T);
-    out.depth = alpha > 0.0f ? depthSum / alpha : 0.0f;
+    out.depth = opacitySum > 0.0f ? depthSum / opacitySum : 0.0f;
+    out.opacity = opacitySum;
 }
 
 // The commonest case of all, a grey medium (equal RGB extinction) lit by one distant light:
@@ -141,7 +146,7 @@ void marchGreyKeyLight(const RenderContext& ctx, const VolumeData& vol, const Li
     const float kT = vol.sigmaT().x;
     const float cutoff = ctx.scene->render.tolerance;
     const float dt = ctx.scene->render.step * vol.voxelSize;
-    float T = 1.0f, L1 = 0.0f, depthSum = 0.0f;
+    float T = 1.0f, L1 = 0.0f, depthSum = 0.0f, opacitySum = 0.0f;
     walkVolume(vol, o, d, dt, jitter, [&](int, float t, const BrickGrid::Stencil& st) {
         const float rho = BrickGrid::trilinear<1>(density.brickData(st.brick) + st.corner, st.tx, st.ty, st.tz);
         if (!(rho > 0.0f))
@@ -150,9 +155,10 @@ void marchGreyKeyLight(const RenderContext& ctx, const VolumeData& vol, const Li
         stepTerms(kT * rho, dt, stepT, w);
         const float tauLight = BrickGrid::trilinear<1>(cache.brickData(st.brick) + st.corner, st.tx, st.ty, st.tz);
         L1 += T * w * rho * expNeg(tauLight);  // eq. 31 per step, over sigma_s / rho and L_i p
-        const float after = T * stepT;
-        depthSum += (T - after) * t;
-        T = after;
+        const float opacity = T * w * kT * rho;  // stepOpacity
+        opacitySum += opacity;
+        depthSum += opacity * t;
+        T *= stepT;
         if (T < cutoff) {
             T = 0.0f;
             return false;
@@ -167,36 +173,53 @@ void marchGreyKeyLight(const RenderContext& ctx, const VolumeData& vol, const Li
     pl[0] += l1.x, pl[1] += l1.y, pl[2] += l1.z;
     out.L0 += T * ctx.background;
     out.transmittance = splat(T);
-    const float alpha = 1.0f - T;
-    out.depth = alpha > 0.0f ? depthSum / alpha : 0.0f;
+    out.depth = opacitySum > 0.0f ? depthSum / opacitySum : 0.0f;
+    out.opacity = opacitySum;
 }
 
-bool marchSingleFast(const RenderContext& ctx, float3 o, float3 d, float jitter, CameraSample& out, float* perLight)
+// Which tight loop a scene's camera rays take: one volume without emission whose every used
+// light is baked on its voxels (FastMarch::None otherwise: the general march).
+// `allDistant`, when given, is set where every used light is distant (and one at least).
+enum class FastMarch { None, GreyKeyLight, Grey, OneDistant, Chromatic };
+FastMarch fastMarchOf(const RenderContext& ctx, const LightEntry** key, bool* allDistant = nullptr)
 {
     const VolumeSet& vs = ctx.volumes;
     if (vs.volumes().size() != 1)
-        return false;
+        return FastMarch::None;
     const VolumeData& vol = *vs.volumes()[0];
     if (vol.hasEmission() || vol.density.channels() != 1)
-        return false;
+        return FastMarch::None;
     const Rgb kT = vol.sigmaT();
     const bool grey = kT.x == kT.y && kT.y == kT.z;
     for (const LightEntry& e : ctx.lights)
         if (e.used && (!e.cache || e.cache->grid(0).channels() != (grey ? 1 : 3)))
-            return false;
+            return FastMarch::None;
     size_t used = 0, distant = 0;
     for (const LightEntry& e : ctx.lights) {
         used += e.used;
         distant += e.used && e.light.type == NB_LIGHT_DISTANT;
+        if (e.used)
+            *key = &e;
     }
     const bool oneDistant = used == 1 && distant == 1;
-    if (grey && oneDistant) {
-        for (const LightEntry& e : ctx.lights)
-            if (e.used)
-                marchGreyKeyLight(ctx, vol, e, o, d, jitter, out, perLight);
-    } else if (grey)
+    if (allDistant)
+        *allDistant = used > 0 && distant == used;
+    return grey && oneDistant ? FastMarch::GreyKeyLight
+                              : grey ? FastMarch::Grey : oneDistant ? FastMarch::OneDistant : FastMarch::Chromatic;
+}
+
+bool marchSingleFast(const RenderContext& ctx, float3 o, float3 d, float jitter, CameraSample& out, float* perLight)
+{
+    const LightEntry* key = nullptr;
+    const FastMarch fast = fastMarchOf(ctx, &key);
+    if (fast == FastMarch::None)
+        return false;
+    const VolumeData& vol = *ctx.volumes.volumes()[0];
+    if (fast == FastMarch::GreyKeyLight)
+        marchGreyKeyLight(ctx, vol, *key, o, d, jitter, out, perLight);
+    else if (fast == FastMarch::Grey)
         marchOneVolume<true, false>(ctx, vol, o, d, jitter, out, perLight);
-    else if (oneDistant)
+    else if (fast == FastMarch::OneDistant)
         marchOneVolume<false, true>(ctx, vol, o, d, jitter, out, perLight);
     else
         marchOneVolume<false, false>(ctx, vol, o, d, jitter, out, perLight);
@@ -244,7 +267,7 @@ bool marchSingleFast(const RenderContext& ctx, float3 o, float3 d, float jitter,
     // (DESIGN: term cut-offs follow render.tolerance; vdb_render stops at 0.005).
     const float cutoff = scene.render.tolerance;
     Rgb T = splat(1.0f);
-    float depthSum = 0.0f;
+    float depthSum = 0.0f, opacitySum = 0.0f;
     bool done = false;
 
     for (const Span& span : spanList) {
@@ -313,9 +336,10 @@ bool marchSingleFast(const RenderContext& ctx, float3 o, float3 d, float jitter,
                     perLight[3 * i + 2] += contribution.z;
                 }
             }
-            float before = nbAverage(T);
+            const float opacity = nbAverage(Tw * m.sigma_t);  // stepOpacity
+            opacitySum += opacity;
+            depthSum += opacity * t;
             T = T * stepT;
-            depthSum += (before - nbAverage(T)) * t;
             if (nbMaxComponent(T) < cutoff) {
                 T = splat(0.0f);
                 done = true;
@@ -326,8 +350,8 @@ bool marchSingleFast(const RenderContext& ctx, float3 o, float3 d, float jitter,
     }
     out.L0 += T * ctx.background;
     out.transmittance = T;
-    float alpha = 1.0f - nbAverage(T);
-    out.depth = alpha > 0.0f ? depthSum / alpha : 0.0f;
+    out.depth = opacitySum > 0.0f ? depthSum / opacitySum : 0.0f;
+    out.opacity = opacitySum;
 }
 
 }  // namespace
@@ -346,6 +370,51 @@ void marchSingle(const RenderContext& ctx, float3 o, float3 d, NbRng& rng, Camer
     }
     if (!marchSingleFast(ctx, o, d, jitter, out, perLight))
         marchSingleGeneral(ctx, o, d, jitter, rng, out, perLight);
+}
+
+void marchSingleRays(const RenderContext& ctx, int n, const float3* o, const float3* d, NbRng* rng, CameraSample* out,
+                     float* perLight)
+{
+    const size_t stride = 3 * ctx.lights.size();
+#if NIMBUS_EIGHT_RAY_MARCH
+    // A grey medium lit only by distant lights: eight rays at once (MarchEightRays.h).
+    const LightEntry* key = nullptr;
+    bool allDistant = false;
+    const FastMarch fast = fastMarchOf(ctx, &key, &allDistant);
+    const LightEntry* lights[kMaxEightRayLights];
+    int lightCount = 0;
+    for (const LightEntry& e : ctx.lights) {
+        if (!e.used)
+            continue;
+        if (lightCount == kMaxEightRayLights) {  // too many for the lanes' accumulators
+            lightCount = 0;
+            break;
+        }
+        lights[lightCount++] = &e;
+    }
+    if (n > 1 && allDistant && lightCount > 0 && (fast == FastMarch::GreyKeyLight || fast == FastMarch::Grey)) {
+        const VolumeData& vol = *ctx.volumes.volumes()[0];
+        for (int first = 0; first < n; first += 8) {
+            const int m = std::min(8, n - first);
+            float jitter[8];
+            NbRng start[8];
+            for (int i = 0; i < m; ++i) {
+                start[i] = rng[first + i];
+                jitter[i] = nbRngNext(&rng[first + i]);  // as marchSingle draws it
+            }
+            if (!marchGreyDistantEight(ctx, vol, lights, lightCount, m, o + first, d + first, jitter, out + first,
+                                       perLight + stride * size_t(first), stride))
+                for (int i = 0; i < m; ++i) {
+                    rng[first + i] = start[i];
+                    marchSingle(ctx, o[first + i], d[first + i], rng[first + i], out[first + i],
+                                perLight + stride * size_t(first + i));
+                }
+        }
+        return;
+    }
+#endif
+    for (int i = 0; i < n; ++i)
+        marchSingle(ctx, o[i], d[i], rng[i], out[i], perLight + stride * size_t(i));
 }
 
 }  // namespace nimbus

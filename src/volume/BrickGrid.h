@@ -152,6 +152,8 @@ public:
 
     // Flat arrays (for OpenCL upload and tests).
     const std::vector<int32_t>& table() const { return mTable; }
+    // Per slot, as occupiedBrick: the brick index where the majorant is positive, else -1.
+    const std::vector<int32_t>& occupiedTable() const { return mOccupied; }
     const BulkVector<float>& pool() const { return mPool; }
     const std::vector<float>& majorants() const { return mMajorant; }  // per slot, channel max
 

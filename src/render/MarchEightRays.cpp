@@ -1,0 +1,172 @@
+#include "MarchEightRays.h"
+
+#include "BrickLanes.h"
+
+#include "../core/ExpNeg.h"
+
+#include <cmath>
+#include <cstdint>
+#include <limits>
+
+namespace nimbus {
+
+#if NIMBUS_EIGHT_RAY_MARCH
+
+bool marchGreyDistantEight(const RenderContext& ctx, const VolumeData& vol, const LightEntry* const* lights,
+                           int lightCount, int n, const float3* o, const float3* d, const float* jitter,
+                           CameraSample* out, float* perLight, size_t perLightStride)
+{
+    const BrickGrid& density = vol.density;
+    // Gathers index the pools with 32-bit integers; each light's baked optical depth shares the
+    // density's bricks (LightCache), so one stencil index serves every pool.
+    if (lightCount < 1 || lightCount > kMaxEightRayLights || !lanes::gatherable(density))
+        return false;
+    const float* tauPools[kMaxEightRayLights];
+    for (int l = 0; l < lightCount; ++l) {
+        const BrickGrid& cache = lights[l]->cache->grid(0);
+        if (cache.pool().size() != density.pool().size())
+            return false;
+        tauPools[l] = cache.pool().data();
+    }
+    const float kT = vol.sigmaT().x;
+    const float cutoff = ctx.scene->render.tolerance;
+    const float dt = ctx.scene->render.step * vol.voxelSize;
+    constexpr float B = float(BrickGrid::kBrick);
+
+    // Each lane's ray in the grid's index space, clipped as walkVolume clips it: to the
+    // volume's world bounds, then to the occupied bricks' index bounds. Lanes past n, and rays
+    // that miss, start dead.
+    alignas(32) float ox[8], oy[8], oz[8], dx[8], dy[8], dz[8], tIn[8], tOut[8], jit[8];
+    alignas(32) int32_t live[8];
+    // Sample indices k are floats, exact up to 2^24: longer marches (a step thousands of times
+    // finer than the volume) go to the scalar walk.
+    constexpr float kLongestMarch = 1 << 22;
+    for (int i = 0; i < 8; ++i) {
+        ox[i] = oy[i] = oz[i] = dx[i] = dy[i] = dz[i] = tIn[i] = tOut[i] = jit[i] = 0.0f;
+        live[i] = 0;
+        if (i >= n)
+            continue;
+        const float3 oi = vol.indexFromWorld.point(o[i]), di = vol.indexFromWorld.vector(d[i]);
+        float t0, t1, s0, s1;
+        if (!(dt > 0.0f) || !vol.worldBounds.intersect(o[i], safeInverse(d[i]), 0.0f, 1e30f, t0, t1) ||
+            !density.activeIndexBounds().intersect(oi, safeInverse(di), t0, t1, s0, s1) || !(s1 > s0))
+            continue;
+        const float3 p = oi + di * s0;
+        if (!(std::fabs(p.x) < 1e9f && std::fabs(p.y) < 1e9f && std::fabs(p.z) < 1e9f))
+            continue;  // as BrickDda::start: nothing to walk
+        if (!((s1 - s0) / dt < kLongestMarch))
+            return false;
+        ox[i] = oi.x, oy[i] = oi.y, oz[i] = oi.z, dx[i] = di.x, dy[i] = di.y, dz[i] = di.z;
+        tIn[i] = s0, tOut[i] = s1, jit[i] = jitter[i];
+        live[i] = -1;
+    }
+    const __m256 Ox = _mm256_load_ps(ox), Oy = _mm256_load_ps(oy), Oz = _mm256_load_ps(oz);
+    const __m256 Dx = _mm256_load_ps(dx), Dy = _mm256_load_ps(dy), Dz = _mm256_load_ps(dz);
+    const __m256 TIn = _mm256_load_ps(tIn), TOut = _mm256_load_ps(tOut), Jit = _mm256_load_ps(jit);
+    __m256 alive = _mm256_castsi256_ps(_mm256_load_si256(reinterpret_cast<const __m256i*>(live)));
+
+    // An empty brick's exit along each axis: the face ahead, at (cell + 1) 8 for a positive
+    // direction, cell 8 for a negative one; never, along an axis the ray does not move on.
+    const __m256 zero = _mm256_setzero_ps(), one = _mm256_set1_ps(1.0f);
+    const __m256 inf = _mm256_set1_ps(std::numeric_limits<float>::infinity());
+    const __m256 aheadX = _mm256_and_ps(_mm256_cmp_ps(Dx, zero, _CMP_GT_OQ), one);
+    const __m256 aheadY = _mm256_and_ps(_mm256_cmp_ps(Dy, zero, _CMP_GT_OQ), one);
+    const __m256 aheadZ = _mm256_and_ps(_mm256_cmp_ps(Dz, zero, _CMP_GT_OQ), one);
+    const __m256 stillX = _mm256_cmp_ps(Dx, zero, _CMP_EQ_OQ), stillY = _mm256_cmp_ps(Dy, zero, _CMP_EQ_OQ);
+    const __m256 stillZ = _mm256_cmp_ps(Dz, zero, _CMP_EQ_OQ);
+    const __m256 invDx = _mm256_div_ps(one, Dx), invDy = _mm256_div_ps(one, Dy), invDz = _mm256_div_ps(one, Dz);
+
+    const __m256 Dt = _mm256_set1_ps(dt), InvDt = _mm256_set1_ps(1.0f / dt);
+    const __m256 KT = _mm256_set1_ps(kT), Cutoff = _mm256_set1_ps(cutoff);
+    const __m256 brickSide = _mm256_set1_ps(B);
+    const lanes::BrickTable table(density);
+    const float* rhoPool = density.pool().data();
+
+    // L1[l]: light l's sum over samples of T w rho e^{-tau_l}, eq. 31 per step over sigma_s / rho
+    // and L_l p_l (constant along the ray for a distant light, applied after the march).
+    __m256 L1[kMaxEightRayLights];
+    for (int l = 0; l < lightCount; ++l)
+        L1[l] = _mm256_setzero_ps();
+    __m256 k = zero, T = one, depthSum = zero, opacitySum = zero;
+    for (;;) {
+        const __m256 tk = _mm256_fmadd_ps(_mm256_add_ps(k, Jit), Dt, TIn);
+        alive = _mm256_and_ps(alive, _mm256_cmp_ps(tk, TOut, _CMP_LT_OQ));
+        if (lanes::none(alive))
+            break;
+        const __m256 qx = _mm256_fmadd_ps(Dx, tk, Ox), qy = _mm256_fmadd_ps(Dy, tk, Oy), qz = _mm256_fmadd_ps(Dz, tk, Oz);
+        __m256 cellX, cellY, cellZ;
+        const __m256i brick = table.brickAt(qx, qy, qz, alive, cellX, cellY, cellZ);
+        const __m256 occ = _mm256_castsi256_ps(_mm256_cmpgt_epi32(brick, _mm256_set1_epi32(-1)));
+
+        if (!lanes::none(occ)) {
+            const lanes::Stencil8 st = lanes::stencilAt(brick, occ, qx, qy, qz, cellX, cellY, cellZ);
+            // Lanes outside an occupied brick read index 0 (a valid value), masked out here.
+            const __m256 rho = _mm256_and_ps(occ, _mm256_max_ps(lanes::trilinear(rhoPool, st), zero));
+            // stepTerms (SingleScatter.cpp): the step's transmittance and int exp(-sigma s) ds,
+            // by the series where sigma dt < 1e-3, else from one exponential.
+            const __m256 sigma = _mm256_mul_ps(KT, rho), x = _mm256_mul_ps(sigma, Dt);
+            const __m256 thin = _mm256_cmp_ps(x, _mm256_set1_ps(1e-3f), _CMP_LT_OQ);
+            const __m256 e = expNeg8(x);
+            const __m256 transmitThin = _mm256_fnmadd_ps(x, _mm256_fnmadd_ps(_mm256_set1_ps(0.5f), x, one), one);
+            const __m256 weightThin = _mm256_mul_ps(
+                Dt, _mm256_fnmadd_ps(x, _mm256_fnmadd_ps(x, _mm256_set1_ps(1.0f / 6.0f), _mm256_set1_ps(0.5f)), one));
+            const __m256 transmit = _mm256_blendv_ps(e, transmitThin, thin);
+            const __m256 weight = _mm256_blendv_ps(_mm256_div_ps(_mm256_sub_ps(one, e), sigma), weightThin, thin);
+            const __m256 Twrho = _mm256_and_ps(occ, _mm256_mul_ps(_mm256_mul_ps(T, weight), rho));
+            for (int l = 0; l < lightCount; ++l)
+                L1[l] = _mm256_add_ps(L1[l], _mm256_mul_ps(Twrho, expNeg8(lanes::trilinear(tauPools[l], st))));
+            const __m256 opacity = _mm256_mul_ps(Twrho, KT);  // stepOpacity (SingleScatter.cpp)
+            opacitySum = _mm256_add_ps(opacitySum, opacity);
+            depthSum = _mm256_fmadd_ps(opacity, tk, depthSum);
+            T = _mm256_blendv_ps(T, _mm256_mul_ps(T, transmit), occ);
+            const __m256 opaque = _mm256_and_ps(occ, _mm256_cmp_ps(T, Cutoff, _CMP_LT_OQ));
+            T = _mm256_andnot_ps(opaque, T);
+            alive = _mm256_andnot_ps(opaque, alive);
+        }
+
+        // Lanes in an empty brick (or, by rounding, just outside the table) move to the first
+        // sample past the brick's exit, as the scalar walk's next occupied brick would start.
+        __m256 kNext = _mm256_add_ps(k, one);
+        const __m256 skip = _mm256_andnot_ps(occ, alive);
+        if (!lanes::none(skip)) {
+            auto exitAlong = [&](__m256 cell, __m256 ahead, __m256 o, __m256 invD, __m256 still) {
+                const __m256 face = _mm256_mul_ps(_mm256_add_ps(cell, ahead), brickSide);
+                return _mm256_blendv_ps(_mm256_mul_ps(_mm256_sub_ps(face, o), invD), inf, still);
+            };
+            const __m256 tExit = _mm256_min_ps(
+                _mm256_min_ps(exitAlong(cellX, aheadX, Ox, invDx, stillX), exitAlong(cellY, aheadY, Oy, invDy, stillY)),
+                exitAlong(cellZ, aheadZ, Oz, invDz, stillZ));
+            const __m256 kExit = _mm256_ceil_ps(_mm256_sub_ps(_mm256_mul_ps(_mm256_sub_ps(tExit, TIn), InvDt), Jit));
+            kNext = _mm256_blendv_ps(kNext, _mm256_max_ps(kNext, kExit), skip);
+        }
+        k = kNext;
+    }
+
+    alignas(32) float Ts[8], depthSums[8], opacitySums[8], L1s[kMaxEightRayLights][8];
+    _mm256_store_ps(Ts, T);
+    _mm256_store_ps(depthSums, depthSum);
+    _mm256_store_ps(opacitySums, opacitySum);
+    for (int l = 0; l < lightCount; ++l)
+        _mm256_store_ps(L1s[l], L1[l]);
+    const Rgb sigmaS = vol.sigmaS();
+    for (int i = 0; i < n; ++i) {
+        for (int l = 0; l < lightCount; ++l) {
+            const LightEntry& e = *lights[l];
+            // Light travels along its direction, then toward the camera (along -d).
+            const Rgb weight = nbLoad3(e.light.color) * nbPhaseEval(vol.medium.phase, -dot(nbLoad3(e.light.direction), d[i]));
+            const Rgb l1 = sigmaS * weight * L1s[l][i];
+            out[i].L1 += l1;
+            float* pl = perLight + perLightStride * size_t(i) + 3 * size_t(&e - ctx.lights.data());
+            pl[0] += l1.x, pl[1] += l1.y, pl[2] += l1.z;
+        }
+        out[i].L0 += Ts[i] * ctx.background;
+        out[i].transmittance = splat(Ts[i]);
+        out[i].depth = opacitySums[i] > 0.0f ? depthSums[i] / opacitySums[i] : 0.0f;
+        out[i].opacity = opacitySums[i];
+    }
+    return true;
+}
+
+#endif
+
+}  // namespace nimbus
