@@ -1,6 +1,7 @@
 #include "DeepShadowMap.h"
 
 #include "BrickWalk.h"
+#include "MarchParallelRays.h"
 
 #include "../volume/OccupiedBricks.h"
 
@@ -119,19 +120,36 @@ DeepShadowMap DeepShadowMap::build(const NbLight& light, const VolumeSet& volume
         m.mProjection == Projection::Orthographic ? m.texelsMeetingBricks(volumes) : std::vector<char>();
     std::vector<std::vector<Vertex>> rows(size_t(res) * m.mFaces.size());
     std::vector<std::vector<uint32_t>> rowCounts(rows.size());
+    // An orthographic map over one grey volume marches its texel rays eight at a time
+    // (MarchParallelRays.h): parallel rays on one depth lattice.
+    const bool eightAtOnce = NIMBUS_EIGHT_TEXEL_MARCH && m.mProjection == Projection::Orthographic && m.mGrey &&
+                             vols.size() == 1 && vols[0]->density.channels() == 1;
     tbb::parallel_for(tbb::blocked_range<size_t>(0, rows.size()), [&](const tbb::blocked_range<size_t>& r) {
         std::vector<Vertex> texel;
+        std::vector<std::vector<Vertex>> rowRaw(eightAtOnce ? size_t(res) : 0);
+        std::vector<int> toMarch;
         for (size_t row = r.begin(); row != r.end(); ++row) {
             int face = int(row / res), iy = int(row % res);
+            auto meets = [&](int ix) { return texelMeetsBricks.empty() || texelMeetsBricks[row * size_t(res) + size_t(ix)]; };
+            if (eightAtOnce) {
+                toMarch.clear();
+                for (int ix = 0; ix < res; ++ix)
+                    if (meets(ix))
+                        toMarch.push_back(ix);
+                m.marchTexelsEightAtOnce(volumes, face, iy, toMarch, rowRaw);
+            }
             for (int ix = 0; ix < res; ++ix) {
                 const size_t t = row * size_t(res) + size_t(ix);
-                if (!texelMeetsBricks.empty() && !texelMeetsBricks[t]) {
+                std::vector<float>* samples = keep ? &sampleRows[row] : nullptr;
+                TexelSamples* where = keep ? &sampleIndex[t] : nullptr;
+                if (!meets(ix)) {
                     texel.clear();  // what the march would find: no density, an empty function
                     if (keep)
                         sampleIndex[t] = {0, kEmptyTexel, 0};
+                } else if (eightAtOnce) {
+                    m.finishTexel(rowRaw[size_t(ix)], texel, samples, where);
                 } else {
-                    m.buildTexel(volumes, face, ix, iy, texel, keep ? &sampleRows[row] : nullptr,
-                                 keep ? &sampleIndex[t] : nullptr);
+                    m.buildTexel(volumes, face, ix, iy, texel, samples, where);
                 }
                 rows[row].insert(rows[row].end(), texel.begin(), texel.end());
                 rowCounts[row].push_back(uint32_t(texel.size()));
@@ -334,6 +352,40 @@ void DeepShadowMap::buildTexel(const VolumeSet& volumes, int face, int ix, int i
     texelRay(face, (ix + 0.5f) / mRes, (iy + 0.5f) / mRes, o, d);
     thread_local std::vector<Vertex> raw;
     marchRay(volumes, o, d, mStepFraction, raw);
+    finishTexel(raw, out, samples, where);
+}
+
+void DeepShadowMap::marchTexelsEightAtOnce(const VolumeSet& volumes, int face, int iy, const std::vector<int>& columns,
+                                           std::vector<std::vector<Vertex>>& raw) const
+{
+#if NIMBUS_EIGHT_TEXEL_MARCH
+    const VolumeData& vol = *volumes.volumes()[0];
+    const float dt = mStepFraction * vol.voxelSize;  // marchRay's step
+    for (size_t first = 0; first < columns.size(); first += 8) {
+        const int n = int(std::min<size_t>(8, columns.size() - first));
+        float3 o[8], d;
+        std::vector<Vertex>* out[8];
+        for (int i = 0; i < n; ++i) {
+            const int ix = columns[first + size_t(i)];
+            texelRay(face, (ix + 0.5f) / mRes, (iy + 0.5f) / mRes, o[i], d);
+            out[i] = &raw[size_t(ix)];
+        }
+        if (!marchEightParallelRays(vol, o, n, d, dt, out))
+            for (int i = 0; i < n; ++i)
+                marchRay(volumes, o[i], d, mStepFraction, *out[i]);
+    }
+#else
+    for (int ix : columns) {
+        float3 o, d;
+        texelRay(face, (ix + 0.5f) / mRes, (iy + 0.5f) / mRes, o, d);
+        marchRay(volumes, o, d, mStepFraction, raw[size_t(ix)]);
+    }
+#endif
+}
+
+void DeepShadowMap::finishTexel(const std::vector<Vertex>& raw, std::vector<Vertex>& out, std::vector<float>* samples,
+                                TexelSamples* where) const
+{
     compress(raw, mTolerance, out, mGrey ? 1 : 3);
     if (!samples)
         return;

@@ -4,6 +4,7 @@
 
 #include "render/DeepShadowMap.h"
 #include "render/LightCache.h"
+#include "render/MarchParallelRays.h"
 #include "scene/KernelScene.h"
 
 #include <gtest/gtest.h>
@@ -228,4 +229,72 @@ TEST(ShadowMap, BakeFromMarchSamplesIsTheMarch)
 
     dsm.releaseMarchSamples();
     EXPECT_FALSE(dsm.hasMarchSamples());
+}
+
+// An orthographic map's texel rays, eight at once (MarchParallelRays.h), against
+// DeepShadowMap::marchRay one ray at a time: the same vertices (depths and optical depths) for
+// rays through blobs in scattered bricks, under a rotated placement (so rays cross brick faces
+// at every angle), in rows of eight and in a partial row. A sample within rounding of a face
+// between an occupied and an unallocated brick may count in one and not the other; such rays
+// are counted and bounded.
+TEST(ShadowMap, EightParallelRaysAreMarchRay)
+{
+#if NIMBUS_EIGHT_TEXEL_MARCH
+    std::mt19937 rng(17);
+    std::uniform_real_distribution<float> u01(0.0f, 1.0f);
+    Medium m;
+    m.sigma_s = splat(2.0f);
+    m.sigma_a = splat(0.5f);
+    auto vol = handMadeVolume(48, 0.04f, make_float3(-1, -1, -1), [&](int i, int j, int k) {
+        if ((i / 8 + 2 * (j / 8) + 3 * (k / 8)) % 4 == 1)
+            return 0.0f;  // every fourth brick unallocated: runs of samples with gaps
+        return std::max(0.0f, 2.0f + std::sin(0.3f * i) + std::cos(0.5f * j + 0.2f * k));
+    }, m);
+    vol->worldFromIndex = Transform::rotateDegrees(23.0, 0.2, 1.0, 0.4) * vol->worldFromIndex;
+    vol->indexFromWorld = vol->worldFromIndex.inverse();
+    vol->worldBounds = vol->worldFromIndex.box(vol->density.activeIndexBounds());
+    VolumeSet volumes({vol}, 0.5f);
+    int rays = 0, differing = 0, vertices = 0;
+    double worst = 0.0;
+    for (int trial = 0; trial < 60; ++trial) {
+        const float3 d = normalize(make_float3(u01(rng) - 0.5f, -1.0f, u01(rng) - 0.5f) +
+                                   (trial % 3 == 0 ? make_float3(0, 0, 0) : make_float3(2 * u01(rng) - 1, 0, 0)));
+        float3 right, up;
+        nbBasis(d, &right, &up);
+        const float3 start = make_float3(0, 3, 0) + right * (2.4f * u01(rng) - 1.2f) + up * (2.4f * u01(rng) - 1.2f);
+        const float stepFraction = 0.5f + 2.5f * u01(rng);
+        const int n = trial % 4 == 0 ? 5 : 8;
+        float3 o[8];
+        std::vector<DeepShadowMap::Vertex> eight[8], one;
+        std::vector<DeepShadowMap::Vertex>* out[8];
+        for (int i = 0; i < n; ++i) {
+            // Texel rays of one row: origins on the plane normal to d, one texel apart.
+            o[i] = start - d * (dot(start, d) + 3.0f) + right * (0.013f * float(i));
+            out[i] = &eight[i];
+        }
+        ASSERT_TRUE(marchEightParallelRays(*vol, o, n, d, stepFraction * vol->voxelSize, out));
+        for (int i = 0; i < n; ++i) {
+            DeepShadowMap::marchRay(volumes, o[i], d, stepFraction, one);
+            ++rays;
+            vertices += int(one.size());
+            bool same = one.size() == eight[i].size();
+            for (size_t v = 0; same && v < one.size(); ++v) {
+                same = one[v].z == eight[i][v].z;
+                const double rel = std::fabs(one[v].tau[0] - eight[i][v].tau[0]) / std::max(1e-3f, one[v].tau[0]);
+                same = same && rel < 1e-4 && eight[i][v].tau[1] == eight[i][v].tau[0];
+                if (same)
+                    worst = std::max(worst, rel);
+            }
+            differing += !same;
+        }
+    }
+    std::printf("%d rays, %d vertices: %d differ (a sample on a brick face); worst relative tau difference of the "
+                "others %.2g\n",
+                rays, vertices, differing, worst);
+    EXPECT_GT(vertices, 10 * rays) << "not vacuous: the rays cross the volume";
+    EXPECT_LE(differing, rays / 100);
+    EXPECT_LT(worst, 1e-5);
+#else
+    GTEST_SKIP() << "built without AVX2 and FMA: texel rays march one at a time";
+#endif
 }
