@@ -21,6 +21,31 @@ inline Volume homogeneousBox(float sx, float sy, float sz, float voxel, Rgb sigm
     return v;
 }
 
+// nimbus's procedural cumulus-like cloud (about 2 m across) at the given voxel size (metres).
+inline Volume proceduralCloud(double voxel, Rgb sigma_s, Rgb sigma_a, float g)
+{
+    Volume v;
+    v.name = "cloud";
+    v.source.type = SourceType::Procedural;
+    v.source.generator = "cloud";
+    v.source.params = {{"voxel_size", voxel}};
+    v.medium.sigma_s = sigma_s;
+    v.medium.sigma_a = sigma_a;
+    v.medium.phase = NbPhase{g, 0, 0, 0};
+    return v;
+}
+
+// A distant light (a sun): direction of travel, irradiance in W/m^2.
+inline Light distantLight(const std::string& name, float3 direction, Rgb irradiance)
+{
+    Light l;
+    l.name = name;
+    l.type = LightType::Distant;
+    l.direction = normalize(direction);
+    l.irradiance = irradiance;
+    return l;
+}
+
 inline Scene emptyScene(int w, int h)
 {
     Scene s;

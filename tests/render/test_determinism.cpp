@@ -17,21 +17,8 @@ namespace {
 Scene smallCloudScene()
 {
     Scene s = emptyScene(40, 30);
-    Volume v;
-    v.name = "cloud";
-    v.source.type = SourceType::Procedural;
-    v.source.generator = "cloud";
-    v.source.params = {{"voxel_size", 0.08}};
-    v.medium.sigma_s = splat(4.0f);
-    v.medium.sigma_a = splat(0.2f);
-    v.medium.phase = NbPhase{0.6f, 0, 0, 0};
-    s.volumes.push_back(v);
-    Light key;
-    key.name = "key";
-    key.type = LightType::Distant;
-    key.direction = normalize(make_float3(0.5f, -1.0f, -0.3f));
-    key.irradiance = splat(3.0f);
-    s.lights.push_back(key);
+    s.volumes.push_back(proceduralCloud(0.08, splat(4.0f), splat(0.2f), 0.6f));
+    s.lights.push_back(distantLight("key", make_float3(0.5f, -1.0f, -0.3f), splat(3.0f)));
     Light fill;
     fill.name = "fill";
     fill.type = LightType::Point;

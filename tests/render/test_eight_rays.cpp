@@ -25,21 +25,8 @@ namespace {
 Scene greyCloudKeyLight(float step)
 {
     Scene s = emptyScene(64, 48);
-    Volume v;
-    v.name = "cloud";
-    v.source.type = SourceType::Procedural;
-    v.source.generator = "cloud";
-    v.source.params = {{"voxel_size", 0.05}};
-    v.medium.sigma_s = splat(6.0f);
-    v.medium.sigma_a = splat(0.3f);
-    v.medium.phase = NbPhase{0.5f, 0, 0, 0};
-    s.volumes.push_back(v);
-    Light key;
-    key.name = "key";
-    key.type = LightType::Distant;
-    key.direction = normalize(make_float3(0.4f, -1.0f, -0.6f));
-    key.irradiance = splat(3.0f);
-    s.lights.push_back(key);
+    s.volumes.push_back(proceduralCloud(0.05, splat(6.0f), splat(0.3f), 0.5f));
+    s.lights.push_back(distantLight("key", make_float3(0.4f, -1.0f, -0.6f), splat(3.0f)));
     s.render.step = step;
     s.render.seed = 5;
     return s;
@@ -156,12 +143,7 @@ TEST(EightRays, KeyAndFillLanesAgreeWithTheScalarMarch)
     // Two distant lights (the default scene's key and fill): one accumulator per light in the
     // lanes, the scalar marchOneVolume<grey> with its per-light sums; per-light AOVs compared.
     Scene scene = greyCloudKeyLight(1.5f);
-    Light fill;
-    fill.name = "fill";
-    fill.type = LightType::Distant;
-    fill.direction = normalize(make_float3(-1.0f, -0.3f, -0.5f));
-    fill.irradiance = make_float3(0.11f, 0.15f, 0.22f);
-    scene.lights.push_back(fill);
+    scene.lights.push_back(distantLight("fill", make_float3(-1.0f, -0.3f, -0.5f), make_float3(0.11f, 0.15f, 0.22f)));
     auto ctx = RenderContext::create(scene, true);
     ASSERT_EQ(ctx->lights.size(), 2u);
     double worst = 0.0;
