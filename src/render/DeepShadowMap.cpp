@@ -120,23 +120,23 @@ DeepShadowMap DeepShadowMap::build(const NbLight& light, const VolumeSet& volume
         m.mProjection == Projection::Orthographic ? m.texelsMeetingBricks(volumes) : std::vector<char>();
     std::vector<std::vector<Vertex>> rows(size_t(res) * m.mFaces.size());
     std::vector<std::vector<uint32_t>> rowCounts(rows.size());
-    // An orthographic map over one grey volume marches its texel rays eight at a time
-    // (MarchParallelRays.h): parallel rays on one depth lattice.
-    const bool eightAtOnce = NIMBUS_EIGHT_TEXEL_MARCH && m.mProjection == Projection::Orthographic && m.mGrey &&
-                             vols.size() == 1 && vols[0]->density.channels() == 1;
+    // An orthographic map over one grey volume marches a row's texel rays together, eight at a
+    // time where the build can (MarchParallelRays.h): parallel rays on one depth lattice.
+    const bool byRow = m.mProjection == Projection::Orthographic && m.mGrey && vols.size() == 1 &&
+                       vols[0]->density.channels() == 1;
     tbb::parallel_for(tbb::blocked_range<size_t>(0, rows.size()), [&](const tbb::blocked_range<size_t>& r) {
         std::vector<Vertex> texel;
-        std::vector<std::vector<Vertex>> rowRaw(eightAtOnce ? size_t(res) : 0);
+        std::vector<std::vector<Vertex>> rowRaw(byRow ? size_t(res) : 0);
         std::vector<int> toMarch;
         for (size_t row = r.begin(); row != r.end(); ++row) {
             int face = int(row / res), iy = int(row % res);
             auto meets = [&](int ix) { return texelMeetsBricks.empty() || texelMeetsBricks[row * size_t(res) + size_t(ix)]; };
-            if (eightAtOnce) {
+            if (byRow) {
                 toMarch.clear();
                 for (int ix = 0; ix < res; ++ix)
                     if (meets(ix))
                         toMarch.push_back(ix);
-                m.marchTexelsEightAtOnce(volumes, face, iy, toMarch, rowRaw);
+                m.marchTexelRow(volumes, face, iy, toMarch, rowRaw);
             }
             for (int ix = 0; ix < res; ++ix) {
                 const size_t t = row * size_t(res) + size_t(ix);
@@ -146,7 +146,7 @@ DeepShadowMap DeepShadowMap::build(const NbLight& light, const VolumeSet& volume
                     texel.clear();  // what the march would find: no density, an empty function
                     if (keep)
                         sampleIndex[t] = {0, kEmptyTexel, 0};
-                } else if (eightAtOnce) {
+                } else if (byRow) {
                     m.finishTexel(rowRaw[size_t(ix)], texel, samples, where);
                 } else {
                     m.buildTexel(volumes, face, ix, iy, texel, samples, where);
@@ -355,8 +355,8 @@ void DeepShadowMap::buildTexel(const VolumeSet& volumes, int face, int ix, int i
     finishTexel(raw, out, samples, where);
 }
 
-void DeepShadowMap::marchTexelsEightAtOnce(const VolumeSet& volumes, int face, int iy, const std::vector<int>& columns,
-                                           std::vector<std::vector<Vertex>>& raw) const
+void DeepShadowMap::marchTexelRow(const VolumeSet& volumes, int face, int iy, const std::vector<int>& columns,
+                                  std::vector<std::vector<Vertex>>& raw) const
 {
 #if NIMBUS_EIGHT_TEXEL_MARCH
     const VolumeData& vol = *volumes.volumes()[0];

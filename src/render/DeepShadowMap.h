@@ -251,9 +251,10 @@ private:
     void buildTexel(const VolumeSet& volumes, int face, int ix, int iy, std::vector<Vertex>& out,
                     std::vector<float>* samples, TexelSamples* where) const;
     // marchRay for the texels (columns, iy) of an orthographic map over one grey volume, eight
-    // rays at once where the build can (MarchParallelRays.h): raw[ix] receives texel ix's march.
-    void marchTexelsEightAtOnce(const VolumeSet& volumes, int face, int iy, const std::vector<int>& columns,
-                                std::vector<std::vector<Vertex>>& raw) const;
+    // rays at once where the build can (MarchParallelRays.h), else one by one: raw[ix] receives
+    // texel ix's march.
+    void marchTexelRow(const VolumeSet& volumes, int face, int iy, const std::vector<int>& columns,
+                       std::vector<std::vector<Vertex>>& raw) const;
     // A texel from its march: the compressed function in `out`; the samples kept for the bake,
     // where asked (samples, where not null).
     void finishTexel(const std::vector<Vertex>& raw, std::vector<Vertex>& out, std::vector<float>* samples,

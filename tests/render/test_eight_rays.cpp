@@ -131,7 +131,9 @@ TEST(EightRays, LanesAgreeWithTheScalarMarchRayByRay)
                         "worst relative difference of the others %.2g\n",
                         step, batch, differing, rays.size(), worst);
             EXPECT_LE(differing, int(rays.size() / 1000)) << "step " << step;  // at most 0.1% of rays
-            EXPECT_LT(worst, 1e-4);
+            // The rest differ by float rounding only: ~2^-24 relative per sample, summed over at
+            // most ~150 samples, under 1e-5.
+            EXPECT_LT(worst, 1e-5);
         }
     }
 }
@@ -152,7 +154,7 @@ TEST(EightRays, KeyAndFillLanesAgreeWithTheScalarMarch)
     std::printf("key + fill: %d of %zu rays differ by > 1e-4; worst relative difference of the others %.2g\n", differing,
                 rays.size(), worst);
     EXPECT_LE(differing, int(rays.size() / 1000));
-    EXPECT_LT(worst, 1e-4);
+    EXPECT_LT(worst, 1e-5);  // float rounding, as above
 }
 
 TEST(EightRays, OtherScenesMarchRayByRayUnchanged)

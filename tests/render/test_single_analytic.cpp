@@ -277,7 +277,8 @@ TEST(SingleAnalytic, DepthIsTheOpacityWeightedDistanceEvenWhereNearlyClear)
 {
     for (float sigma : {1e-7f, 1e-5f, 1e-3f, 1.0f, 4.0f}) {
         Scene scene = emptyScene(8, 8);
-        scene.volumes.push_back(homogeneousBox(1, 1, 1, 1.0f / 16, splat(0.9f * sigma), splat(0.1f * sigma)));
+        const double voxel = 1.0 / 16;
+        scene.volumes.push_back(homogeneousBox(1, 1, 1, float(voxel), splat(0.9f * sigma), splat(0.1f * sigma)));
         Light sun;
         sun.type = LightType::Distant;
         sun.direction = make_float3(0, -1, 0);
@@ -293,9 +294,12 @@ TEST(SingleAnalytic, DepthIsTheOpacityWeightedDistanceEvenWhereNearlyClear)
             for (float v : r.film.find("depth")->pixels)
                 sum += v;
             const double depth = sum / double(r.film.find("depth")->pixels.size());
-            const double L = 1.0, s0 = 4.5, e = std::exp(-double(sigma) * L);
-            const double expected = s0 + 1.0 / sigma - L * e / (1.0 - e);
-            EXPECT_NEAR(depth, expected, 2e-3 * expected) << "sigma_t " << sigma << ", " << threads << " threads";
+            // L e^{-sigma L} / (1 - e^{-sigma L}) = L / expm1(sigma L), without 1 - e's cancellation.
+            const double L = 1.0, s0 = 4.5;
+            const double expected = s0 + 1.0 / sigma - L / std::expm1(double(sigma) * L);
+            // The box's faces are voxelised, one-voxel density ramps, which move the mean depth by
+            // a small fraction of a voxel (measured at most 0.007 voxel, at sigma_t 4): bound 1/20.
+            EXPECT_NEAR(depth, expected, voxel / 20) << "sigma_t " << sigma << ", " << threads << " threads";
         }
     }
 }
