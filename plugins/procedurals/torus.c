@@ -15,7 +15,7 @@
  * Example scene source:
  *   { "type": "plugin", "path": "libnimbus_torus.so", "params": { "major_radius": 1.2, "seed": 3 } }
  *
- * Written in C99 against src/api/nimbus_volume_plugin.h only: it shows the whole interface,
+ * Written in C99 against src/abi/nimbus_volume_plugin.h only: it shows the whole interface,
  * including the optional block_empty cull. The state is read-only after init, so sample and
  * block_empty are thread-safe as the interface requires.
  */

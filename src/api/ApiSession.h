@@ -11,7 +11,7 @@
 
 #include "ApiObjects.h"
 
-#include "../render/Renderer.h"
+#include "../engine/Renderer.h"
 
 #include <atomic>
 #include <condition_variable>

@@ -13,7 +13,7 @@
 
 #include "../core/Error.h"
 #include "../io/Outputs.h"
-#include "../render/Renderer.h"
+#include "../engine/Renderer.h"
 #include "../scene/SceneJson.h"
 
 #include <nlohmann/json.hpp>

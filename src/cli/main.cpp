@@ -17,7 +17,7 @@
 #include "io/ExrWriter.h"
 #include "io/Progress.h"
 #include "pathtracer/Pathtracer.h"
-#include "render/Renderer.h"
+#include "engine/Renderer.h"
 #include "scene/DefaultScene.h"
 #include "scene/SceneJson.h"
 #include "scene/SceneValidate.h"
@@ -111,7 +111,7 @@ int runRender(const SceneArgs& args, const std::string& output, const std::strin
     RenderResult result = render(scene, options);
     progress.finish();
     if (explain)
-        std::cout << result.plan.describe();
+        std::cout << result.plan.describe() << result.stats.describe(result.plan);
     selectAovs(scene, result.film);
     writeOutputs(scene, result.film);
     if (!quiet) {
@@ -153,7 +153,7 @@ int main(int argc, char** argv)
     addSceneArgs(render, renderArgs);
     render->add_option("-o,--output", output, "EXR output path (overrides output.file)");
     render->add_option("--preview", preview, "Preview PNG path (overrides output.preview)");
-    render->add_flag("--explain", explain, "Print the render plan with stage times");
+    render->add_flag("--explain", explain, "Print the render plan, then the render statistics (stage times, memory)");
     render->add_flag("-q,--quiet", quiet, "No progress or info lines");
     PathtraceArgs ptArgs;
     render->add_option("--device", ptArgs.device, "pathtrace: OpenCL device index or name substring (see `nimbus devices`)");

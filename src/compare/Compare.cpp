@@ -7,7 +7,7 @@
 #include "../io/AtomicFile.h"
 #include "../io/ExrWriter.h"
 #include "../io/Preview.h"
-#include "../render/Renderer.h"
+#include "../engine/Renderer.h"
 #include "../scene/SceneJson.h"
 
 #include <OpenImageIO/imagebuf.h>

@@ -1,7 +1,7 @@
 #include "Outputs.h"
 
 #include "../core/Error.h"
-#include "../render/Renderer.h"
+#include "../engine/Renderer.h"
 #include "ExrWriter.h"
 #include "Preview.h"
 

@@ -1,6 +1,6 @@
 #include "Pathtracer.h"
 
-#include "../render/Renderer.h"
+#include "../render/FilmLayout.h"
 
 #include "../core/Error.h"
 #include "../core/Log.h"
@@ -86,13 +86,23 @@ std::vector<std::string> listOpenClDevices()
     return out;
 }
 
-void renderPathtrace(const RenderContext& ctx, Film& film, const RenderOptions& options, const PathtraceOptions& pt)
+IntegratorTraits pathtraceTraits()
+{
+    IntegratorTraits t;
+    t.method = Method::Pathtrace;
+    t.terms = {"L0", "L1", "L2plus"};
+    t.dataAovs = {"variance"};
+    t.shadowMaps = false;  // next-event estimation traces shadow rays
+    return t;
+}
+
+void renderPathtrace(const RenderContext& ctx, Film& film, const RenderControl& options, const PathtraceOptions& pt)
 {
     if (!ctx.scene)
         throw Error("path tracer: the render context has no scene");
     const Scene& scene = *ctx.scene;
     if (film.aovs.empty())
-        setupFilm(film, scene, Method::Pathtrace);
+        setupFilm(film, scene, pathtraceTraits());
     const int cropWidth = film.x1 - film.x0, cropHeight = film.y1 - film.y0;
     const long long pixelCount = (long long)std::max(0, cropWidth) * std::max(0, cropHeight);
     if (pixelCount == 0)

@@ -5,22 +5,68 @@
 #pragma once
 
 #include "../render/Film.h"
+#include "../render/Integrator.h"
 #include "../render/RenderContext.h"
-#include "../render/Renderer.h"
-#include "PathtraceOptions.h"
 
+#include <cstddef>
+#include <functional>
+#include <memory>
 #include <string>
 #include <vector>
 
 namespace nimbus {
 
+// What a render did, for logs, benchmarks and tests.
+struct PathtraceStats {
+    long long samplesPerPixel = 0;
+    long long pathSamples = 0;  // camera paths traced (pixels x samples)
+    double renderSeconds = 0;   // kernel launches and read-backs, not the build or the upload
+    double buildSeconds = 0;    // kernel build or cache load
+    bool kernelFromCache = false;
+    int passes = 0;
+    long long badSamples = 0;   // non-finite samples dropped (should be 0)
+    std::string device;
+    std::string defines;
+    double pathsPerSecond() const { return renderSeconds > 0 ? double(pathSamples) / renderSeconds : 0.0; }
+};
+
+struct PathtraceOptions {
+    // OpenCL device: "" (the NIMBUS_DEVICE environment variable, else the first GPU, else the
+    // first device), an index into listOpenClDevices(), or a substring of its name.
+    std::string device;
+    // When both are set, onCheckpoint receives the running estimate at most every
+    // checkpointSeconds (after the launch that crosses the interval). The CLI writes its EXR.
+    double checkpointSeconds = 0;
+    std::function<void(const Film&)> onCheckpoint;
+    size_t localSize = 0;        // OpenCL work-group size; 0 lets the runtime choose
+    int samplesPerPass = 0;      // samples per pixel per launch; 0: adaptive, ~0.5 s launches
+    bool globalMajorant = false; // one majorant per volume instead of per brick (benchmarks)
+    PathtraceStats* stats = nullptr;
+};
+
+
 // Renders ctx's scene into `film`. The film's AOVs are filled by name (beauty, L0, L1, L2plus,
 // alpha, depth, variance, light_<name>); a film with no AOVs gets all of them, sized from the
 // camera and its crop. Stops after scene.render.spp samples per pixel or after the launch that
 // crosses scene.render.time_limit seconds, whichever comes first. Throws Error (no OpenCL
-// device, kernel build failure), Cancelled (options.progress returned false or options.cancel).
-void renderPathtrace(const RenderContext& ctx, Film& film, const RenderOptions& options,
+// device, kernel build failure), Cancelled (control.progress returned false or control.cancel).
+void renderPathtrace(const RenderContext& ctx, Film& film, const RenderControl& control,
                      const PathtraceOptions& pt = {});
+
+// What the path tracer produces: L0, L1, L2plus and a per-pixel variance (engine registry).
+IntegratorTraits pathtraceTraits();
+
+// renderPathtrace behind the engine's interface.
+class PathtraceIntegrator final : public Integrator {
+public:
+    PathtraceIntegrator(const RenderContext& ctx, PathtraceOptions options) : mCtx(&ctx), mOptions(std::move(options)) {}
+    Drive drive() const override { return Drive::WholeImage; }
+    void renderImage(Film& film, const RenderControl& control) override { renderPathtrace(*mCtx, film, control, mOptions); }
+
+private:
+    const RenderContext* mCtx;
+    PathtraceOptions mOptions;
+};
 
 // One line per OpenCL device, "index: name [type, ...] on platform (...)", for `nimbus devices`.
 // Throws Error when there is no OpenCL platform.

@@ -1,11 +1,12 @@
-// RenderContext.h: everything an integrator reads, built once from a Scene: the volumes as one
-// medium, the lights in kernel form, their deep shadow maps and the render plan.
+// RenderContext.h: everything an integrator reads besides the plan, built once from a Scene and
+// its RenderPlan: the volumes as one medium, the lights in kernel form and their deep shadow maps.
 #pragma once
 
 #include "../scene/Scene.h"
 #include "DeepShadowMap.h"
 #include "LightCache.h"
 #include "RenderPlan.h"
+#include "RenderStats.h"
 #include "VolumeSet.h"
 
 #include <memory>
@@ -29,12 +30,19 @@ struct LightEntry {
 struct RenderContext {
     const Scene* scene = nullptr;
     VolumeSet volumes;
-    std::vector<LightEntry> lights;
-    RenderPlan plan;
+    std::vector<LightEntry> lights;  // index-aligned with scene.lights
     Rgb background = splat(0.0f);  // radiance seen where rays leave the volumes
 
-    // Loads the volumes and plans the render. `buildShadowMaps` false: plan only (nimbus info).
+    // The context for `plan` (made by planScene over the same volumes): the lights in kernel
+    // form, used and shadow-mapped as the plan says; no shadow map built yet.
+    static std::unique_ptr<RenderContext> create(const Scene& scene, VolumeSet volumes, const RenderPlan& plan);
+    // Loads the volumes, plans the shared part (planScene) and, if asked, builds the shadow maps:
+    // for tests and tools that march rays themselves. Renders go through the engine.
     static std::unique_ptr<RenderContext> create(const Scene& scene, bool buildShadowMaps);
+
+    // The plan's deep shadow maps (delta lights that reach a volume), each baked on the voxels;
+    // sizes and times go to stats.
+    void buildShadowMaps(const RenderPlan& plan, RenderStats& stats);
 
     // Transmittance-weighted light arriving at p from light i, as L_i / pdf (see light.h), and
     // the direction toward the light. Uses the shadow map where there is one, else a shadow ray.

@@ -1,5 +1,7 @@
 #include "RenderPlan.h"
 
+#include "../core/FormatBytes.h"
+
 #include <algorithm>
 #include <cstdio>
 #include <sstream>
@@ -7,15 +9,7 @@
 namespace nimbus {
 
 namespace {
-std::string bytes(size_t b)
-{
-    char buf[64];
-    if (b >= (size_t(1) << 20))
-        std::snprintf(buf, sizeof buf, "%.1f MiB", double(b) / (1 << 20));
-    else
-        std::snprintf(buf, sizeof buf, "%.1f KiB", double(b) / 1024.0);
-    return buf;
-}
+std::string bytes(size_t b) { return formatBytes(b); }
 }  // namespace
 
 std::string RenderPlan::describe() const
@@ -51,14 +45,9 @@ std::string RenderPlan::describe() const
         s << "    " << l.name << " (" << l.type << "): ";
         if (!l.used)
             s << "skipped: " << l.reason;
-        else if (l.shadowMap) {
-            s << "deep shadow map, " << l.projection << ", " << l.resolution << "^2 texels";
-            if (l.shadowMapBytes)
-                s << ", " << bytes(l.shadowMapBytes) << ", built in " << l.shadowMapSeconds << " s; baked on the voxels, "
-                  << bytes(l.cacheBytes) << ", " << l.cacheSeconds << " s";
-            if (l.marchSampleBytes > 0)
-                s << " (from the map's uncompressed march, " << bytes(l.marchSampleBytes) << ", freed after)";
-        } else if (l.sampled)
+        else if (l.shadowMap)
+            s << "deep shadow map, " << l.projection << ", up to " << l.resolution << "^2 texels, baked on the voxels";
+        else if (l.sampled)
             s << "sampled with shadow rays (" << l.reason << ")";
         s << "\n";
         if (wkb.enabled && !l.l2plus.empty())
@@ -70,7 +59,7 @@ std::string RenderPlan::describe() const
             std::snprintf(buf, sizeof buf, "K %.3g, l step %.3g, orders <= %d, %d channels per light voxel", wkb.blurK,
                           wkb.lStep, wkb.orderCap, wkb.channels);
             s << "  L2+ (wkb): kernel " << wkb.kernel << "; source " << wkb.source << "; " << buf << "\n";
-            std::snprintf(buf, sizeof buf, " (%.2f x, budget %.2f x)",
+            std::snprintf(buf, sizeof buf, " (estimated, %.2f x, budget %.2f x)",
                           double(wkb.pyramidBytes) / double(std::max<size_t>(wkb.densityBytes, 1)), wkb.memoryBudget);
             s << "    light pyramids " << bytes(wkb.pyramidBytes) << " for density grids of " << bytes(wkb.densityBytes)
               << buf << "\n";
@@ -81,15 +70,6 @@ std::string RenderPlan::describe() const
     }
     for (auto& n : notes)
         s << "  " << n << "\n";
-    if (!stageSeconds.empty()) {
-        s << "  stages:";
-        for (auto& st : stageSeconds) {
-            char buf[64];
-            std::snprintf(buf, sizeof buf, " %s %.3f s;", st.first.c_str(), st.second);
-            s << buf;
-        }
-        s << "\n";
-    }
     return s.str();
 }
 

@@ -1,9 +1,13 @@
 // RenderPlan.h: what a scene needs and what it can leave out, decided before any heavy work
-// (DESIGN "leave out what a scene does not need"). Printed by `nimbus info` and --explain.
+// (DESIGN "leave out what a scene does not need"). Made once by the engine's planning pass
+// (src/engine/Planning.cpp: the shared part from RenderPlanner.h, then the integrator's own
+// part), then immutable: integrators read it and never write it. What happens during the render
+// goes to RenderStats. Printed by `nimbus info` and, with the stats, by --explain.
 #pragma once
 
 #include "../scene/Scene.h"
 
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -16,14 +20,8 @@ struct LightPlan {
     bool shadowMap = false; // transmittance from a deep shadow map (delta lights)
     bool sampled = false;   // transmittance by shadow rays (area, sphere, environment, soft sun)
     std::string projection; // orthographic / perspective / cube
-    int resolution = 0;
+    int resolution = 0;     // the most texels per side; the build may use fewer (RenderStats)
     std::string reason;
-    // Filled after the build:
-    size_t shadowMapBytes = 0;
-    double shadowMapSeconds = 0;
-    size_t cacheBytes = 0;  // the shadow map baked on the voxels (LightCache)
-    double cacheSeconds = 0;
-    size_t marchSampleBytes = 0;  // the map's march samples the bake read (freed after), or 0
     // wkb: how this light feeds L2+ (empty for other methods), e.g. "E = weight * T from the
     // deep shadow map" or "SH order 2 (27 channels)" or "skipped: <why>".
     std::string l2plus;
@@ -44,9 +42,9 @@ struct VolumePlan {
     bool l2plus = false;         // light channels built for this volume
     double l2plusBound = 0;      // bound on this volume's share of L2+, in units of E / (4 pi)
     int lightVoxelFactor = 0;    // light-grid voxel = this many density voxels per axis
-    int mipLevels = 0;
+    int mipLevels = 0;           // estimated (the build's count is in RenderStats)
     std::string lightGrid;       // level-0 size, e.g. "20 x 14 x 18 voxels, 24 bricks"
-    size_t pyramidBytes = 0;
+    size_t pyramidBytes = 0;     // estimated
 };
 
 // The multiple-scattering term's choices (method wkb).
@@ -58,17 +56,23 @@ struct WkbPlan {
     float blurK = 0, lStep = 0;
     int orderCap = 0;
     int channels = 0;          // per light-grid voxel: density + 3 per delta source + 3 (J+1)^2 per SH source
-    size_t pyramidBytes = 0, densityBytes = 0;
+    size_t pyramidBytes = 0, densityBytes = 0;  // estimated light pyramids; the density grids
     float memoryBudget = 0;
+};
+
+// An integrator's own decisions in full (wkb: WkbSetup, every source and light grid), made in the
+// planning pass and read by the integrator; the printable summary is in the fields above.
+struct IntegratorPlan {
+    virtual ~IntegratorPlan() = default;
 };
 
 struct RenderPlan {
     Method method = Method::Single;
-    std::vector<LightPlan> lights;
-    std::vector<VolumePlan> volumes;
+    std::vector<LightPlan> lights;   // index-aligned with scene.lights
+    std::vector<VolumePlan> volumes; // index-aligned with the loaded (non-empty) volumes
     WkbPlan wkb;
-    std::vector<std::string> notes;      // other omissions and decisions, one line each
-    std::vector<std::pair<std::string, double>> stageSeconds;
+    std::vector<std::string> notes;  // other omissions and decisions, one line each
+    std::shared_ptr<const IntegratorPlan> integrator;  // null for integrators with no decisions of their own
 
     std::string describe() const;  // multi-line, human readable
 };

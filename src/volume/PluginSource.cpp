@@ -6,7 +6,7 @@
 // letter of the ABI, but better a message than std::terminate in a DCC session).
 #include "PluginSource.h"
 
-#include "../api/nimbus_volume_plugin.h"
+#include "../abi/nimbus_volume_plugin.h"
 #include "../core/Error.h"
 
 #include <openvdb/openvdb.h>
@@ -138,7 +138,7 @@ Fn lookup(const Library& lib, const char* name, bool required, const std::string
     void* p = lib.symbol(name);
     if (!p && required)
         throw InputError(key + ": '" + label + "' is not a nimbus volume plugin: missing symbol " + name +
-                         " (src/api/nimbus_volume_plugin.h)");
+                         " (src/abi/nimbus_volume_plugin.h)");
     return reinterpret_cast<Fn>(p);
 }
 

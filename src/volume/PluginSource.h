@@ -1,5 +1,5 @@
 // PluginSource.h: volume sources of type "plugin": a third-party procedural in a shared library
-// (the C entry points of src/api/nimbus_volume_plugin.h), sampled into an OpenVDB density grid
+// (the C entry points of src/abi/nimbus_volume_plugin.h), sampled into an OpenVDB density grid
 // so that it takes the same path to the renderer as a VDB file or a built-in generator.
 //
 // Why a grid and not a callback at render time: the integrators sample density billions of

@@ -109,7 +109,7 @@ size_t LightVolumes::memoryBytes() const
     return b;
 }
 
-void LightVolumes::build(const RenderContext& ctx, WkbSetup& setup, RenderPlan& plan)
+void LightVolumes::build(const RenderContext& ctx, const WkbSetup& setup, RenderStats& stats)
 {
     mCtx = &ctx;
     mPyramids.assign(setup.volumes.size(), LightPyramid());
@@ -137,31 +137,27 @@ void LightVolumes::build(const RenderContext& ctx, WkbSetup& setup, RenderPlan& 
         }
         mOwnMaps[i] = DeepShadowMap::build(shadowLight, ctx.volumes, dsm);
         mMaps[i] = &*mOwnMaps[i];
-        if (sp.lightIndex >= 0 && size_t(sp.lightIndex) < plan.lights.size())
-            plan.lights[sp.lightIndex].l2plus += ", " + std::to_string(mOwnMaps[i]->memoryBytes() / 1024) + " KiB";
+        if (sp.lightIndex >= 0 && size_t(sp.lightIndex) < stats.lights.size())
+            stats.lights[sp.lightIndex].l2plusShadowMapBytes = mOwnMaps[i]->memoryBytes();
     }
     for (size_t v = 0; v < setup.volumes.size(); ++v) {
         const VolumeSetup& vs = setup.volumes[v];
         mPyramids[v].allocateLevel0(lightGridBricks(ctx.volumes.volumes()[v]->density, vs.factor), vs.channels);
         fillLevel0(ctx, setup, v);
     }
-    plan.stageSeconds.push_back({"light volumes", secondsSince(t0)});
+    stats.addStage("light volumes", secondsSince(t0));
 
     auto t1 = std::chrono::steady_clock::now();
     size_t total = 0;
+    stats.volumes.resize(setup.volumes.size());
     for (size_t v = 0; v < setup.volumes.size(); ++v) {
-        VolumeSetup& vs = setup.volumes[v];
-        mPyramids[v].buildLevels(vs.maxSigma, LightPyramid::kMaxLevels);
-        vs.levels = mPyramids[v].levels();
-        vs.bytes = mPyramids[v].memoryBytes();
-        total += vs.bytes;
-        if (v < plan.volumes.size()) {
-            plan.volumes[v].mipLevels = vs.levels;
-            plan.volumes[v].pyramidBytes = vs.bytes;
-        }
+        mPyramids[v].buildLevels(setup.volumes[v].maxSigma, LightPyramid::kMaxLevels);
+        stats.volumes[v].mipLevels = mPyramids[v].levels();
+        stats.volumes[v].pyramidBytes = mPyramids[v].memoryBytes();
+        total += stats.volumes[v].pyramidBytes;
     }
-    plan.wkb.pyramidBytes = total;
-    plan.stageSeconds.push_back({"light pyramids", secondsSince(t1)});
+    stats.pyramidBytes = total;
+    stats.addStage("light pyramids", secondsSince(t1));
 }
 
 void LightVolumes::fillLevel0(const RenderContext& ctx, const WkbSetup& setup, size_t v)

@@ -29,7 +29,7 @@ public:
     // Builds the pyramids the setup asks for (TBB-parallel), and the deep shadow maps of delta
     // sources that RenderContext has none for. Writes the measured memory and the stage times
     // into `setup` and `plan`.
-    void build(const RenderContext& ctx, WkbSetup& setup, RenderPlan& plan);
+    void build(const RenderContext& ctx, const WkbSetup& setup, RenderStats& stats);
 
     const LightPyramid& pyramid(size_t volume) const { return mPyramids[volume]; }
     size_t memoryBytes() const;

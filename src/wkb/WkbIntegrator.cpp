@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <stdexcept>
 
 // The l-march (Tessendorf sec. 6.3.4, eq. 89; docs/wkb.md "the march").
 //
@@ -76,9 +77,12 @@ struct WkbIntegrator::Scratch {
     double sEntry = -1.0;
 };
 
-WkbIntegrator::WkbIntegrator(const RenderContext& ctx, RenderPlan& plan) : mCtx(&ctx)
+WkbIntegrator::WkbIntegrator(const RenderContext& ctx, const RenderPlan& plan, RenderStats& stats) : mCtx(&ctx)
 {
-    mSetup = planWkb(ctx, plan);
+    const auto* setup = dynamic_cast<const WkbSetup*>(plan.integrator.get());
+    if (!setup)
+        throw std::logic_error("WkbIntegrator: the plan has no wkb part (plan it with planWkb)");
+    mSetup = *setup;
     mModel = mSetup.randomWalk ? PlacementModel::RandomWalk : PlacementModel::Straight;
     for (auto& v : ctx.volumes.volumes()) {
         mSigmaS.push_back(v->sigmaS());
@@ -86,7 +90,7 @@ WkbIntegrator::WkbIntegrator(const RenderContext& ctx, RenderPlan& plan) : mCtx(
         const NbPhase& p = v->medium.phase;
         mPhase.push_back(PhaseMoments{p.g, p.g2, p.blend > 0.0f ? double(p.blend) : 0.0});
     }
-    mLights.build(ctx, mSetup, plan);
+    mLights.build(ctx, mSetup, stats);
     mMinLightVoxel = 1e30f;
     for (const VolumeSetup& vs : mSetup.volumes)
         mMinLightVoxel = std::min(mMinLightVoxel, vs.lightVoxel);
@@ -95,6 +99,17 @@ WkbIntegrator::WkbIntegrator(const RenderContext& ctx, RenderPlan& plan) : mCtx(
     for (const SourcePlan& sp : mSetup.sources)
         if (sp.mode == SourceMode::Sh)
             mMaxShOrder = std::max(mMaxShOrder, sp.order);
+}
+
+void WkbIntegrator::marchRays(int n, const float3* o, const float3* d, NbRng* rng, CameraSample* out,
+                              float* perLight) const
+{
+    const size_t stride = 3 * mCtx->lights.size();
+    for (int i = 0; i < n; ++i) {
+        float* pl = perLight + stride * size_t(i);
+        marchSingle(*mCtx, o[i], d[i], rng[i], out[i], pl);
+        march(o[i], d[i], rng[i], out[i], pl);
+    }
 }
 
 bool WkbIntegrator::nextPiece(Cursor& cur, Scratch& sc, float3 o, float3 d, double maxLen, double sigmaMarch) const

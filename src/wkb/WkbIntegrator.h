@@ -2,11 +2,12 @@
 // multiple scattering"). Built once per render from a RenderContext: the plan (WkbPlanner), the
 // light volumes and their pyramids (LightVolumes); then `march` adds L2+ to one camera ray.
 //
-// The camera ray's L0 and L1 come from marchSingle, unchanged; the renderer calls `march` after
-// it with the same random stream, so wkb's L0 + L1 are exactly single's.
+// The camera ray's L0 and L1 come from marchSingle, unchanged; marchRays calls `march` after it
+// with the same random stream, so wkb's L0 + L1 are exactly single's.
 #pragma once
 
-#include "../render/SingleScatter.h"
+#include "../render/Integrator.h"
+#include "../single/SingleScatter.h"
 #include "LightVolumes.h"
 #include "SourcePlacement.h"
 #include "WkbPlanner.h"
@@ -16,10 +17,28 @@
 
 namespace nimbus::wkb {
 
-class WkbIntegrator {
+// What wkb produces: single's L0 and L1 and the L2+ term, over deep shadow maps (engine registry).
+inline IntegratorTraits wkbTraits()
+{
+    IntegratorTraits t;
+    t.method = Method::Wkb;
+    t.terms = {"L0", "L1", "L2plus"};
+    t.shadowMaps = true;
+    return t;
+}
+
+class WkbIntegrator final : public Integrator {
 public:
-    // Plans and builds; writes the wkb parts of `plan` and the stage times.
-    WkbIntegrator(const RenderContext& ctx, RenderPlan& plan);
+    // Builds the light volumes and their pyramids for the plan's WkbSetup (plan.integrator, made
+    // by planWkb in the planning pass); sizes and stage times go to stats.
+    WkbIntegrator(const RenderContext& ctx, const RenderPlan& plan, RenderStats& stats);
+
+    Drive drive() const override { return Drive::CameraRays; }
+    // L0 + L1 by marchSingle, then L2+ by march, ray by ray on one random stream each.
+    void marchRays(int n, const float3* o, const float3* d, NbRng* rng, CameraSample* out,
+                   float* perLight) const override;
+    // Tiles that see no brick are marched too: L2+ keeps its own per-ray path there.
+    bool skipsEmptyTiles() const override { return false; }
 
     bool active() const { return mSetup.active; }
     const WkbSetup& setup() const { return mSetup; }

@@ -174,7 +174,7 @@ WkbSetup planWkb(const RenderContext& ctx, RenderPlan& plan)
         } else if (e.delta || l.type == LightType::Point || l.type == LightType::Spot) {
             sp.mode = SourceMode::Delta;
             sp.directional = l.type == LightType::Distant;
-            sp.needsOwnShadowMap = !e.shadowMap.has_value();
+            sp.needsOwnShadowMap = !e.delta;  // the context shadow-maps exactly its delta lights
             sp.description = "delta source: E = weight * T from the deep shadow map";
         } else if (l.type == LightType::Distant) {
             sp.mode = SourceMode::Delta;

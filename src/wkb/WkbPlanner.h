@@ -41,13 +41,14 @@ struct VolumeSetup {
     float3 origin = make_float3(0, 0, 0);
     float lightVoxel = 0;  // world size of a level-0 light voxel, metres
     int channels = 1;
-    int levels = 0;
+    int levels = 0;        // estimated, as bytes
     float maxSigma = 0;    // blur (level-0 voxels) at which the pyramid stops
-    size_t bytes = 0;      // estimated (plan) or measured (after the build)
+    size_t bytes = 0;      // estimated (the build's figure is in RenderStats)
     double bound = 0;
 };
 
-struct WkbSetup {
+// The plan's wkb part in full (RenderPlan::integrator), read by WkbIntegrator.
+struct WkbSetup : IntegratorPlan {
     bool active = false;  // false: L2+ is zero for this scene (no volume, no light, or below tolerance)
     KernelType kernel = KernelType::Gaussian;
     bool randomWalk = false;
@@ -59,8 +60,9 @@ struct WkbSetup {
     std::vector<VolumeSetup> volumes;  // index-aligned with RenderContext::volumes.volumes()
 };
 
-// Plans L2+ for the context's scene and writes the decisions into `plan` (plan.wkb, the wkb fields
-// of plan.lights and plan.volumes). Cheap: reads the brick tables, builds nothing.
+// Plans L2+ for the context's scene and writes the decisions' summary into `plan` (plan.wkb, the
+// wkb fields of plan.lights and plan.volumes): wkb's part of the engine's planning pass, before
+// the shadow maps are built. Cheap: reads the brick tables, builds nothing.
 WkbSetup planWkb(const RenderContext& ctx, RenderPlan& plan);
 
 // The level-0 bricks of a light grid whose voxel is `factor` density voxels, with its origin at the

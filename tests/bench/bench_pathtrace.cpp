@@ -151,7 +151,7 @@ int main(int argc, char** argv)
             pt.globalMajorant = mode == 1;
             pt.stats = &stats;
             Film film;
-            renderPathtrace(ctx, film, RenderOptions{}, pt);
+            renderPathtrace(ctx, film, RenderControl{}, pt);
             double mean = 0;
             const Aov* b = film.find("beauty");
             for (size_t i = 0; i < b->pixels.size(); i += 4)

@@ -15,7 +15,7 @@
 // Usage: bench_wkb [docs/benchmarks.md] [--quick]
 #include "BenchReport.h"
 
-#include "render/Renderer.h"
+#include "engine/Renderer.h"
 
 #include <algorithm>
 #include <cstdio>
@@ -33,14 +33,6 @@ struct Timing {
     double total = 1e30, march = 1e30;
     RenderResult last;
 };
-
-double stage(const RenderPlan& p, const char* name)
-{
-    for (auto& s : p.stageSeconds)
-        if (s.first == name)
-            return s.second;
-    return 0.0;
-}
 
 double meanOf(const Film& f, const char* aov)
 {
@@ -68,7 +60,7 @@ Timing time(Scene s, Method m, int repeats)
         const double c0 = cpuSeconds();
         RenderResult res = render(s);
         t.total = std::min(t.total, cpuSeconds() - c0);
-        t.march = std::min(t.march, stage(res.plan, "march"));
+        t.march = std::min(t.march, res.stats.stage("march"));
         t.last = std::move(res);
     }
     return t;
@@ -154,8 +146,8 @@ int main(int argc, char** argv)
         std::snprintf(row, sizeof row, "| %s | %.3g | %.3g | %.2f | %.2f | %.2f | %.2f | %.2f | %.2f | %s | %s | %.2f | %.2f |\n",
                       c.name, c.sigma_s, p.volumes.empty() ? 0.0 : p.volumes[0].opticalDepthAcross, single.total,
                       wkb.total, wkb.total / single.total, single.march, wkb.march, wkb.march / single.march,
-                      mib(p.wkb.pyramidBytes).c_str(), mib(p.wkb.densityBytes).c_str(),
-                      double(p.wkb.pyramidBytes) / double(std::max<size_t>(p.wkb.densityBytes, 1)),
+                      mib(wkb.last.stats.pyramidBytes).c_str(), mib(p.wkb.densityBytes).c_str(),
+                      double(wkb.last.stats.pyramidBytes) / double(std::max<size_t>(p.wkb.densityBytes, 1)),
                       meanOf(wkb.last.film, "L2plus") / std::max(1e-30, meanOf(wkb.last.film, "L1")));
         md << row;
         std::fprintf(stderr, "%s", row);

@@ -6,7 +6,7 @@
 // *measured model error* on these scenes (docs/validation.md, "Tolerances"), with a margin, not
 // noise: the test catches regressions of the model, not its known weakness.
 #include "compare/Compare.h"
-#include "render/Renderer.h"
+#include "engine/Renderer.h"
 
 #include <gtest/gtest.h>
 

@@ -125,7 +125,7 @@ struct World {
     Film render(PathtraceOptions pt = {})
     {
         Film film;
-        renderPathtrace(context(), film, RenderOptions{}, pt);
+        renderPathtrace(context(), film, RenderControl{}, pt);
         return film;
     }
 };

@@ -196,11 +196,11 @@ TEST(PathtraceProgressive, CancelThrowsCancelled)
     World w = featureWorld();
     w.scene.render.spp = 1000000;
     std::atomic<bool> cancel{true};
-    RenderOptions options;
+    RenderControl options;
     options.cancel = &cancel;
     Film film;
     EXPECT_THROW(renderPathtrace(w.context(), film, options, PathtraceOptions{}), Cancelled);
-    RenderOptions stopByProgress;
+    RenderControl stopByProgress;
     int calls = 0;
     stopByProgress.progress = [&](float) { return ++calls < 3; };
     Film film2;

@@ -2,7 +2,7 @@
 // cloud, through the public API (render(): JSON-free Scene -> buildVolumes -> both methods).
 // Two independent estimators of the same integral (eq. 31 of Tessendorf): a ray march with deep
 // shadow maps, and delta tracking with ratio-tracked NEE.
-#include "render/Renderer.h"
+#include "engine/Renderer.h"
 
 #include <gtest/gtest.h>
 

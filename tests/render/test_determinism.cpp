@@ -2,7 +2,7 @@
 // at any thread count; a camera or a light inside a volume renders a finite, non-negative image.
 #include "SceneBuilders.h"
 
-#include "render/Renderer.h"
+#include "engine/Renderer.h"
 
 #include <gtest/gtest.h>
 #include <tbb/global_control.h>

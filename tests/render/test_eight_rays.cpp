@@ -7,9 +7,9 @@
 // would have to land within ~1e-6 voxels of a face); the test counts them and bounds them.
 #include "SceneBuilders.h"
 
-#include "render/MarchEightRays.h"
+#include "single/MarchEightRays.h"
 #include "render/RenderContext.h"
-#include "render/SingleScatter.h"
+#include "single/SingleScatter.h"
 
 #include <gtest/gtest.h>
 

@@ -5,7 +5,7 @@
 
 #include "render/DeepShadowMap.h"
 #include "render/RenderContext.h"
-#include "render/Renderer.h"
+#include "engine/Renderer.h"
 #include "../../kernels/shared/rng.h"
 #include "scene/KernelScene.h"
 

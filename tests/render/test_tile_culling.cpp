@@ -1,7 +1,7 @@
-// Tile culling (src/render/TileCulling.h) must be conservative: no ray through a culled tile may
+// Tile culling (src/engine/TileCulling.h) must be conservative: no ray through a culled tile may
 // meet the box. Random cameras and boxes; every culled tile is probed with jittered rays, the
 // same rays renderMarched would trace, against the same Bbox::intersect marchSingle uses.
-#include "render/TileCulling.h"
+#include "engine/TileCulling.h"
 #include "scene/KernelScene.h"
 
 #include <gtest/gtest.h>

@@ -3,7 +3,7 @@
 // derived below), and energy: a thick conservative sphere gives back no more than it receives.
 #include "../render/HandMadeVolume.h"
 
-#include "render/Renderer.h"
+#include "engine/Renderer.h"
 #include "scene/KernelScene.h"
 #include "wkb/AngularKernel.h"
 #include "wkb/WkbIntegrator.h"
@@ -112,17 +112,28 @@ void expectFiniteNonNegativeBounded(const Film& film, double bound, const std::s
 }
 
 // A RenderContext built by hand around hand-made volumes (no loader), as RenderContext::create
-// would for delta lights.
-std::unique_ptr<RenderContext> handContext(const Scene& scene, std::vector<std::shared_ptr<VolumeData>> vols)
+// would for delta lights, with the plan's wkb part made by planWkb as the engine's planning pass
+// makes it.
+struct HandContext {
+    std::unique_ptr<RenderContext> ctx;
+    RenderPlan plan;
+    RenderStats stats;
+    RenderContext& operator*() { return *ctx; }
+    RenderContext* operator->() { return ctx.get(); }
+};
+
+HandContext handContext(const Scene& scene, std::vector<std::shared_ptr<VolumeData>> vols)
 {
-    auto ctx = std::make_unique<RenderContext>();
+    HandContext hc;
+    hc.ctx = std::make_unique<RenderContext>();
+    RenderContext* ctx = hc.ctx.get();
     ctx->scene = &scene;
     ctx->volumes = VolumeSet(std::move(vols), scene.render.step);
     ctx->background = scene.background;
     for (auto& v : ctx->volumes.volumes()) {
         VolumePlan vp;
         vp.name = v->name;
-        ctx->plan.volumes.push_back(vp);
+        hc.plan.volumes.push_back(vp);
     }
     DeepShadowMap::Settings s;
     s.resolution = scene.render.shadowMapResolution;
@@ -137,9 +148,10 @@ std::unique_ptr<RenderContext> handContext(const Scene& scene, std::vector<std::
         ctx->lights.push_back(std::move(e));
         LightPlan lp;
         lp.name = scene.lights[i].name;
-        ctx->plan.lights.push_back(lp);
+        hc.plan.lights.push_back(lp);
     }
-    return ctx;
+    hc.plan.integrator = std::make_shared<const wkb::WkbSetup>(wkb::planWkb(*ctx, hc.plan));
+    return hc;
 }
 
 // L2+ of every pixel centre of the scene's camera through a hand-built context.
@@ -306,7 +318,7 @@ TEST(WkbStabilityGrid, DensitiesSpanningTwelveDecades)
         return float(std::pow(10.0, -6.0 + 12.0 * double(h >> 8) / 16777216.0));
     };
     auto ctx = handContext(s, {handMadeVolume(16, 1.0f / 16, make_float3(0, 0, 0), rho, m)});
-    wkb::WkbIntegrator w(*ctx, ctx->plan);
+    wkb::WkbIntegrator w(*ctx, ctx.plan, ctx.stats);
     ASSERT_TRUE(w.active());
     const double bound = l2plusBound(0.99e6 * std::sqrt(3.0), 0.99, angularBound(wkb::KernelType::Gaussian, 0.8f, 128), 1.0);
     double total = 0;
@@ -328,7 +340,7 @@ TEST(WkbStabilityGrid, SingleActiveVoxelAndEmptyGrid)
     m.phase = NbPhase{0.5f, 0, 0, 0};
     {
         auto ctx = handContext(s, {handMadeVolume(1, 0.1f, make_float3(0, 0, 0), [](int, int, int) { return 1.0f; }, m)});
-        wkb::WkbIntegrator w(*ctx, ctx->plan);
+        wkb::WkbIntegrator w(*ctx, ctx.plan, ctx.stats);
         const double bound = l2plusBound(50.0 * 0.2 * std::sqrt(3.0), 1.0, angularBound(wkb::KernelType::Gaussian, 0.5f, 128), 1.0);
         for (Rgb v : marchL2plus(*ctx, w)) {
             ASSERT_TRUE(isFinite(v));
@@ -338,7 +350,7 @@ TEST(WkbStabilityGrid, SingleActiveVoxelAndEmptyGrid)
     }
     {
         auto ctx = handContext(s, {handMadeVolume(8, 0.1f, make_float3(0, 0, 0), [](int, int, int) { return 0.0f; }, m)});
-        wkb::WkbIntegrator w(*ctx, ctx->plan);
+        wkb::WkbIntegrator w(*ctx, ctx.plan, ctx.stats);
         EXPECT_FALSE(w.active());
         for (Rgb v : marchL2plus(*ctx, w))
             ASSERT_EQ(nbMaxComponent(v), 0.0f);
@@ -447,7 +459,7 @@ TEST(WkbSources, EnvironmentLightProjectsToSh)
     m.sigma_s = splat(0.1f);
     m.phase = NbPhase{0.6f, 0, 0, 0};  // p_1 != 0, so that order 1 is worth keeping
     auto ctx = handContext(s, {handMadeVolume(32, 1.0f / 32, make_float3(0, 0, 0), [](int, int, int) { return 1.0f; }, m)});
-    wkb::WkbIntegrator w(*ctx, ctx->plan);
+    wkb::WkbIntegrator w(*ctx, ctx.plan, ctx.stats);
     ASSERT_TRUE(w.active());
     const wkb::SourcePlan& sp = w.setup().sources[0];
     ASSERT_EQ(sp.mode, wkb::SourceMode::Sh);
@@ -493,7 +505,7 @@ TEST(WkbSources, EmissionFeedsL2plusDeepInsideAMedium)
     fillGrid(vol->emission, n, 3, [&](int, int, int, int) { return S; });
     vol->emission.updateMajorants();
     auto ctx = handContext(s, {vol});
-    wkb::WkbIntegrator w(*ctx, ctx->plan);
+    wkb::WkbIntegrator w(*ctx, ctx.plan, ctx.stats);
     ASSERT_TRUE(w.active());
     ASSERT_EQ(w.setup().sources.size(), 1u);
     EXPECT_TRUE(w.setup().sources[0].emission);
@@ -519,7 +531,7 @@ TEST(WkbRender, OverlappingVolumesMix)
     RenderResult r = render(s);
     expectFiniteNonNegativeBounded(r.film, 1e30, "overlap");
     EXPECT_GT(mean(aov(r.film, "L2plus")), 0.0);
-    ASSERT_EQ(r.plan.volumes.size(), 2u);
-    EXPECT_GT(r.plan.volumes[0].pyramidBytes, 0u);
-    EXPECT_GT(r.plan.volumes[1].pyramidBytes, 0u);
+    ASSERT_EQ(r.stats.volumes.size(), 2u);
+    EXPECT_GT(r.stats.volumes[0].pyramidBytes, 0u);
+    EXPECT_GT(r.stats.volumes[1].pyramidBytes, 0u);
 }

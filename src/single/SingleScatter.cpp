@@ -1,6 +1,6 @@
 #include "SingleScatter.h"
 
-#include "BrickWalk.h"
+#include "../render/BrickWalk.h"
 #include "MarchEightRays.h"
 
 #include "../core/ExpNeg.h"

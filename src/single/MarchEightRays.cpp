@@ -1,6 +1,6 @@
 #include "MarchEightRays.h"
 
-#include "BrickLanes.h"
+#include "../render/BrickLanes.h"
 
 #include "../core/ExpNeg.h"
 

@@ -1,23 +1,26 @@
-// Renderer.h: the entry point: Scene in, Film out. The CLI, the C ABI and the Python module
-// all call this; nothing here parses files.
+// Renderer.h: the entry point: Scene in, Film out. The CLI, the C ABI and the Python module all
+// call this; nothing here parses files.
+//
+// A render is: check the scene; the planning pass (load the volumes, the shared plan, the
+// integrator's part: an immutable RenderPlan); the context's shadow maps where the integrator
+// needs them; the integrator built and driven (camera-ray integrators by the tile driver, the
+// others on their own), through the registry (IntegratorRegistry.h). Stage times and sizes go to
+// RenderStats.
 #pragma once
 
+#include "../pathtracer/Pathtracer.h"
+#include "../render/Film.h"
+#include "../render/RenderControl.h"
+#include "../render/RenderPlan.h"
+#include "../render/RenderStats.h"
 #include "../scene/Scene.h"
-#include "Film.h"
-#include "RenderPlan.h"
-#include "../pathtracer/PathtraceOptions.h"
 
-#include <atomic>
-#include <functional>
-#include <stdexcept>
+#include <string>
+#include <vector>
 
 namespace nimbus {
 
-struct RenderOptions {
-    // Called from worker threads as tiles finish, with the fraction done; return false to
-    // cancel (the render then throws Cancelled).
-    std::function<bool(float fraction)> progress;
-    const std::atomic<bool>* cancel = nullptr;
+struct RenderOptions : RenderControl {
     // The film holds the beauty and the AOVs scene.output.aovs names, not every AOV of the
     // method (callers that write only those: the CLI). Off, a frame has them all.
     bool outputAovsOnly = false;
@@ -25,14 +28,10 @@ struct RenderOptions {
     PathtraceOptions pathtrace;
 };
 
-class Cancelled : public std::runtime_error {
-public:
-    Cancelled() : std::runtime_error("render cancelled") {}
-};
-
 struct RenderResult {
     Film film;
     RenderPlan plan;
+    RenderStats stats;
     double seconds = 0;
 };
 
@@ -40,7 +39,7 @@ struct RenderResult {
 // render failures, Cancelled when cancelled.
 RenderResult render(const Scene& scene, const RenderOptions& options = {});
 
-// The plan alone (loads the volumes, builds no shadow maps): `nimbus info`.
+// The plan alone (the planning pass: loads the volumes, builds no shadow map): `nimbus info`.
 RenderPlan planRender(const Scene& scene);
 
 // Every AOV name a method can produce for this scene, in output order.

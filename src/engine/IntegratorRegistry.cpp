@@ -1,0 +1,61 @@
+#include "IntegratorRegistry.h"
+
+#include "Renderer.h"
+
+#include "../pathtracer/Pathtracer.h"
+#include "../single/SingleIntegrator.h"
+#include "../wkb/WkbIntegrator.h"
+
+#include <stdexcept>
+
+namespace nimbus {
+
+namespace {
+
+IntegratorEntry singleEntry()
+{
+    IntegratorEntry e;
+    e.traits = singleTraits();
+    e.create = [](const RenderContext& ctx, const RenderPlan&, const RenderOptions&, RenderStats&) -> std::unique_ptr<Integrator> {
+        return std::make_unique<SingleIntegrator>(ctx);
+    };
+    return e;
+}
+
+IntegratorEntry wkbEntry()
+{
+    IntegratorEntry e;
+    e.traits = wkb::wkbTraits();
+    e.plan = [](const RenderContext& ctx, RenderPlan& plan) {
+        plan.integrator = std::make_shared<const wkb::WkbSetup>(wkb::planWkb(ctx, plan));
+    };
+    e.create = [](const RenderContext& ctx, const RenderPlan& plan, const RenderOptions&,
+                  RenderStats& stats) -> std::unique_ptr<Integrator> {
+        return std::make_unique<wkb::WkbIntegrator>(ctx, plan, stats);
+    };
+    return e;
+}
+
+IntegratorEntry pathtraceEntry()
+{
+    IntegratorEntry e;
+    e.traits = pathtraceTraits();
+    e.create = [](const RenderContext& ctx, const RenderPlan&, const RenderOptions& options,
+                  RenderStats&) -> std::unique_ptr<Integrator> {
+        return std::make_unique<PathtraceIntegrator>(ctx, options.pathtrace);
+    };
+    return e;
+}
+
+}  // namespace
+
+const IntegratorEntry& integratorEntry(Method method)
+{
+    static const IntegratorEntry entries[] = {singleEntry(), wkbEntry(), pathtraceEntry()};
+    for (const IntegratorEntry& e : entries)
+        if (e.traits.method == method)
+            return e;
+    throw std::logic_error("no integrator registered for method " + std::string(methodName(method)));
+}
+
+}  // namespace nimbus

@@ -1,0 +1,124 @@
+#include "Renderer.h"
+
+#include "IntegratorRegistry.h"
+#include "TileDriver.h"
+
+#include "../render/FilmLayout.h"
+#include "../render/RenderPlanner.h"
+#include "../scene/SceneValidate.h"
+
+#include <tbb/global_control.h>
+
+#include <chrono>
+#include <memory>
+#include <sstream>
+
+namespace nimbus {
+
+namespace {
+
+double secondsSince(std::chrono::steady_clock::time_point t)
+{
+    return std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count();
+}
+
+std::string settingsSummary(const Scene& s)
+{
+    std::ostringstream o;
+    o << "spp=" << s.render.spp << " step=" << s.render.step << " shadow_map_resolution=" << s.render.shadowMapResolution
+      << " tolerance=" << s.render.tolerance << " shadow_step=" << s.render.shadowStep
+      << " light_samples=" << s.render.lightSamples;
+    return o.str();
+}
+
+// Scenes built in code reach render() without the JSON loader: give unnamed lights their index
+// as a name (as the loader does) and run the same checks.
+Scene checkedScene(const Scene& scene)
+{
+    Scene named = scene;
+    applyDefaultNames(named);
+    validateScene(named);
+    return named;
+}
+
+struct Planned {
+    std::unique_ptr<RenderContext> context;
+    RenderPlan plan;
+};
+
+// The planning pass: the volumes loaded (the one heavy step a plan cannot do without: the
+// optical depths and brick counts it reports are the loaded grids'), the shared plan, the
+// integrator's own part. Nothing is built for rendering yet.
+Planned planPass(const Scene& scene, const IntegratorEntry& entry, RenderStats& stats)
+{
+    auto t = std::chrono::steady_clock::now();
+    VolumeSet volumes(buildVolumes(scene), scene.render.step);
+    stats.addStage("volumes", secondsSince(t));
+    Planned p;
+    p.plan = planScene(scene, volumes);
+    p.context = RenderContext::create(scene, std::move(volumes), p.plan);
+    if (entry.plan)
+        entry.plan(*p.context, p.plan);
+    return p;
+}
+
+}  // namespace
+
+std::vector<std::string> aovNames(const Scene& scene, Method method)
+{
+    return aovNames(scene, integratorEntry(method).traits);
+}
+
+void setupFilm(Film& film, const Scene& scene, Method method, bool outputAovsOnly)
+{
+    setupFilm(film, scene, integratorEntry(method).traits, outputAovsOnly);
+}
+
+RenderPlan planRender(const Scene& input)
+{
+    const Scene scene = checkedScene(input);
+    RenderStats stats;
+    return planPass(scene, integratorEntry(scene.render.method), stats).plan;
+}
+
+RenderResult render(const Scene& input, const RenderOptions& options)
+{
+    const Scene scene = checkedScene(input);
+    auto start = std::chrono::steady_clock::now();
+    std::unique_ptr<tbb::global_control> threads;
+    if (scene.render.threads > 0)
+        threads = std::make_unique<tbb::global_control>(tbb::global_control::max_allowed_parallelism,
+                                                        size_t(scene.render.threads));
+    const IntegratorEntry& entry = integratorEntry(scene.render.method);
+    RenderResult result;
+    setupFilm(result.film, scene, entry.traits, options.outputAovsOnly);
+
+    Planned planned = planPass(scene, entry, result.stats);
+    const RenderPlan& plan = planned.plan;
+    RenderContext& ctx = *planned.context;
+    if (entry.traits.shadowMaps)
+        ctx.buildShadowMaps(plan, result.stats);
+    std::unique_ptr<Integrator> integrator = entry.create(ctx, plan, options, result.stats);
+    auto t = std::chrono::steady_clock::now();
+    if (integrator->drive() == Integrator::Drive::CameraRays) {
+        renderTiles(ctx, *integrator, result.film, options);
+        result.stats.addStage("march", secondsSince(t));
+    } else {
+        integrator->renderImage(result.film, options);
+        result.stats.addStage(methodName(scene.render.method), secondsSince(t));
+    }
+    result.plan = planned.plan;
+
+    result.seconds = secondsSince(start);
+    auto& md = result.film.metadata;
+    md.push_back({"version", NIMBUS_VERSION});
+    md.push_back({"method", methodName(scene.render.method)});
+    md.push_back({"seed", std::to_string(scene.render.seed)});
+    md.push_back({"render_time", std::to_string(result.seconds)});
+    md.push_back({"settings", settingsSummary(scene)});
+    if (!scene.sourcePath.empty())
+        md.push_back({"scene", scene.sourcePath});
+    return result;
+}
+
+}  // namespace nimbus

@@ -1,0 +1,180 @@
+#include "TileDriver.h"
+
+#include "TileCulling.h"
+
+#include "../scene/KernelScene.h"
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
+#include <atomic>
+#include <vector>
+
+namespace nimbus {
+
+namespace {
+
+constexpr int kTile = 16;
+
+}  // namespace
+
+void renderTiles(const RenderContext& ctx, const Integrator& integrator, Film& film, const RenderControl& control)
+{
+    const Scene& scene = *ctx.scene;
+    const NbCamera cam = makeNbCamera(scene.camera);
+    const int spp = std::max(1, scene.render.spp);
+    const size_t nLights = ctx.lights.size();
+    const int tilesX = (film.x1 - film.x0 + kTile - 1) / kTile, tilesY = (film.y1 - film.y0 + kTile - 1) / kTile;
+    const int tileCount = std::max(0, tilesX * tilesY);
+    std::atomic<int> done{0};
+    std::atomic<bool> cancelled{false};
+
+    Aov* beauty = film.find("beauty");
+    Aov* L0 = film.find("L0");
+    Aov* L1 = film.find("L1");
+    Aov* L2 = film.find("L2plus");
+    Aov* alpha = film.find("alpha");
+    Aov* depth = film.find("depth");
+    std::vector<Aov*> perLightAov(nLights, nullptr);
+    for (size_t i = 0; i < nLights; ++i)
+        perLightAov[i] = film.find(ctx.lights[i].aov);
+
+    // One pixel's samples, summed: the radiance terms, the opacity-weighted depth and the
+    // per-light L1.
+    struct PixelSum {
+        CameraSample sum;
+        float depthSum = 0.0f, depthWeight = 0.0f;
+        std::vector<float> perLight;
+        void reset(size_t n)
+        {
+            sum = CameraSample();
+            sum.transmittance = splat(0.0f);
+            depthSum = depthWeight = 0.0f;
+            perLight.assign(n, 0.0f);
+        }
+        void add(const CameraSample& cs, const float* light)
+        {
+            sum.L0 += cs.L0;
+            sum.L1 += cs.L1;
+            sum.L2plus += cs.L2plus;
+            sum.transmittance += cs.transmittance;
+            // Each sample's depth weighs by its opacity, summed step by step (SingleScatter.cpp:
+            // 1 - T of a nearly clear ray is rounding).
+            depthSum += cs.opacity * cs.depth;
+            depthWeight += cs.opacity;
+            for (size_t i = 0; i < perLight.size(); ++i)
+                perLight[i] += light[i];
+        }
+    };
+    const float inv = 1.0f / float(spp);
+    auto store = [&](int x, int y, const PixelSum& px) {
+        Rgb l0 = px.sum.L0 * inv, l1 = px.sum.L1 * inv, l2 = px.sum.L2plus * inv;
+        Rgb b = l0 + l1 + l2;
+        float a = 1.0f - nbAverage(px.sum.transmittance * inv);
+        float* pb = film.pixel(*beauty, x, y);
+        pb[0] = b.x, pb[1] = b.y, pb[2] = b.z, pb[3] = a;
+        auto put3 = [&](Aov* aov, Rgb v) {
+            if (!aov)
+                return;
+            float* p = film.pixel(*aov, x, y);
+            p[0] = v.x, p[1] = v.y, p[2] = v.z;
+        };
+        put3(L0, l0);
+        put3(L1, l1);
+        put3(L2, l2);
+        if (alpha)
+            *film.pixel(*alpha, x, y) = a;
+        if (depth)
+            *film.pixel(*depth, x, y) = px.depthWeight > 0.0f ? px.depthSum / px.depthWeight : 0.0f;
+        for (size_t i = 0; i < nLights; ++i)
+            put3(perLightAov[i], make_float3(px.perLight[3 * i] * inv, px.perLight[3 * i + 1] * inv,
+                                             px.perLight[3 * i + 2] * inv));
+    };
+    // What every sample of a pixel whose rays all miss the volumes gathers: the background
+    // (marchSingle's answer to such a ray, summed the same way, so the pixels are identical).
+    PixelSum background;
+    background.reset(3 * nLights);
+    {
+        CameraSample miss;
+        miss.L0 = ctx.background;
+        const std::vector<float> none(3 * nLights, 0.0f);
+        for (int s = 0; s < spp; ++s)
+            background.add(miss, none.data());
+    }
+
+    // Tiles whose rays can meet an occupied brick of some volume (density or emission); the
+    // others see only the background, where the integrator allows it (not wkb, which keeps its
+    // own per-ray path).
+    const bool skipEmpty = integrator.skipsEmptyTiles();
+    std::vector<char> seesBricks(size_t(tileCount), 1);
+    if (skipEmpty) {
+        std::fill(seesBricks.begin(), seesBricks.end(), 0);
+        bool bounded = true;
+        for (const auto& v : ctx.volumes.volumes()) {
+            bounded = bounded && markTilesSeeingBricks(cam, film.width, film.height, film.x0, film.y0, kTile, tilesX,
+                                                       tilesY, v->density, v->worldFromIndex, seesBricks);
+            if (v->hasEmission())
+                bounded = bounded && markTilesSeeingBricks(cam, film.width, film.height, film.x0, film.y0, kTile,
+                                                           tilesX, tilesY, v->emission, v->worldFromIndex, seesBricks);
+        }
+        if (!bounded)
+            std::fill(seesBricks.begin(), seesBricks.end(), 1);
+    }
+
+    const size_t perLightStride = 3 * nLights;
+    tbb::parallel_for(tbb::blocked_range<int>(0, tileCount, 1), [&](const tbb::blocked_range<int>& r) {
+        // One row of a tile at a time: every sample's ray first, then their marches together
+        // (marchSingleRays takes eight at once where it can), then the pixels' sums.
+        std::vector<float3> origins, directions;
+        std::vector<NbRng> rngs;
+        std::vector<CameraSample> samples;
+        std::vector<float> perLight;
+        PixelSum px;
+        for (int tile = r.begin(); tile != r.end(); ++tile) {
+            if (cancelled.load(std::memory_order_relaxed))
+                return;
+            const int tx0 = film.x0 + (tile % tilesX) * kTile, ty0 = film.y0 + (tile / tilesX) * kTile;
+            const int tx1 = std::min(tx0 + kTile, film.x1), ty1 = std::min(ty0 + kTile, film.y1);
+            const bool empty = skipEmpty && (!seesBricks[size_t(tile)] || tileMissesBox(cam, film.width, film.height, tx0, ty0,
+                                                                                   tx1, ty1, ctx.volumes.worldBounds()));
+            for (int y = ty0; y < ty1; ++y) {
+                if (empty) {
+                    for (int x = tx0; x < tx1; ++x)
+                        store(x, y, background);
+                    continue;
+                }
+                const size_t rays = size_t(tx1 - tx0) * size_t(spp);
+                origins.resize(rays), directions.resize(rays), rngs.resize(rays);
+                samples.assign(rays, CameraSample());
+                perLight.assign(rays * perLightStride, 0.0f);
+                for (int x = tx0, i = 0; x < tx1; ++x) {
+                    nb_uint pixelIndex = nb_uint(y) * nb_uint(film.width) + nb_uint(x);
+                    for (int s = 0; s < spp; ++s, ++i) {
+                        NbRng& rng = rngs[size_t(i)];
+                        rng = nbRngStart(scene.render.seed, pixelIndex, nb_uint(s));
+                        float jx = nbRngNext(&rng), jy = nbRngNext(&rng), time = nbRngNext(&rng);
+                        nbCameraRay(cam, x + jx, y + jy, film.width, film.height, time, &origins[size_t(i)],
+                                    &directions[size_t(i)]);
+                    }
+                }
+                integrator.marchRays(int(rays), origins.data(), directions.data(), rngs.data(), samples.data(),
+                                     perLight.data());
+                for (int x = tx0, i = 0; x < tx1; ++x) {
+                    px.reset(3 * nLights);
+                    for (int s = 0; s < spp; ++s, ++i)
+                        px.add(samples[size_t(i)], perLight.data() + perLightStride * size_t(i));
+                    store(x, y, px);
+                }
+            }
+            int finished = ++done;
+            if (!control.keepGoing(float(finished) / float(tileCount)))
+                cancelled = true;
+        }
+    });
+    if (cancelled)
+        throw Cancelled();
+}
+
+
+}  // namespace nimbus

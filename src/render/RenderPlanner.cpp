@@ -1,0 +1,114 @@
+#include "RenderPlanner.h"
+
+#include "../scene/KernelScene.h"
+
+#include <cmath>
+#include <cstdio>
+
+namespace nimbus {
+
+namespace {
+
+// Why light l cannot contribute to any volume, or empty if it can. Conservative: a light that
+// might reach a volume is kept.
+std::string unreachableReason(const Light& l, const NbLight& k, const Bbox& bounds)
+{
+    Rgb c = l.type == LightType::Distant ? l.irradiance
+            : (l.type == LightType::Point || l.type == LightType::Spot) ? l.intensity
+                                                                          : l.radiance;
+    if (nbMaxComponent(c) <= 0.0f)
+        return "zero power";
+    if (bounds.empty())
+        return "no volume to light";
+    float3 centre = bounds.center();
+    float radius = 0.5f * length(bounds.extent());
+    if (l.type == LightType::Spot) {
+        // Cone against the bounding sphere of the volumes.
+        float3 toC = centre - l.position;
+        float dist = length(toC);
+        if (dist > radius) {
+            float angleToCentre = std::acos(std::min(1.0f, std::max(-1.0f, dot(toC / dist, nbLoad3(k.direction)))));
+            float halfCone = std::acos(std::min(1.0f, std::max(-1.0f, k.p0)));
+            float sphereHalf = std::asin(std::min(1.0f, radius / dist));
+            if (angleToCentre > halfCone + sphereHalf)
+                return "spot cone misses every volume";
+        }
+    }
+    if (l.type == LightType::Rect) {
+        float3 n = nbLoad3(k.direction);
+        if (dot(centre - l.center, n) < -radius)
+            return "every volume is behind the emitting side";
+    }
+    return {};
+}
+
+// A distant light of apparent diameter `angle` blurs shadows by at most
+// (distance through the volumes) * tan(angle / 2); when that stays under the finest voxel the
+// blur is invisible and a shadow map of the disc's centre is exact to the grid's resolution.
+bool sunSharperThanAVoxel(const Light& l, const VolumeSet& volumes)
+{
+    if (l.type != LightType::Distant || volumes.empty())
+        return false;
+    float across = length(volumes.worldBounds().extent());
+    return across * std::tan(0.5 * l.angle * M_PI / 180.0) < volumes.minVoxelSize();
+}
+
+}  // namespace
+
+RenderPlan planScene(const Scene& scene, const VolumeSet& volumes)
+{
+    RenderPlan plan;
+    plan.method = scene.render.method;
+    for (auto& v : volumes.volumes()) {
+        VolumePlan vp;
+        vp.name = v->name;
+        vp.gridsRead = v->gridsRead;
+        vp.emission = v->hasEmission();
+        vp.bricks = v->density.brickCount() + v->emission.brickCount();
+        vp.memoryBytes = v->density.memoryBytes() + v->emission.memoryBytes();
+        vp.voxelSize = v->voxelSize;
+        float maxSigma = nbMaxComponent(v->sigmaT()) * v->density.maxValue();
+        vp.maxOpticalDepthPerVoxel = maxSigma * v->voxelSize;
+        vp.opticalDepthAcross = maxSigma * length(v->worldBounds.extent());
+        vp.clampedVoxels = v->clampedVoxels;
+        char buf[160];
+        std::snprintf(buf, sizeof buf, "[%.3g %.3g %.3g]-[%.3g %.3g %.3g] m", v->worldBounds.lo.x, v->worldBounds.lo.y,
+                      v->worldBounds.lo.z, v->worldBounds.hi.x, v->worldBounds.hi.y, v->worldBounds.hi.z);
+        vp.bounds = buf;
+        plan.volumes.push_back(vp);
+    }
+    if (scene.volumes.size() > volumes.volumes().size())
+        plan.notes.push_back(std::to_string(scene.volumes.size() - volumes.volumes().size()) +
+                             " volume(s) empty after loading: skipped");
+    if (!volumes.hasEmission())
+        plan.notes.push_back("emission: off (no volume has an emission grid)");
+
+    for (size_t i = 0; i < scene.lights.size(); ++i) {
+        const Light& l = scene.lights[i];
+        const NbLight k = makeNbLight(l, int(i));
+        LightPlan lp;
+        lp.name = l.name.empty() ? std::to_string(i) : l.name;
+        lp.type = lightTypeName(l.type);
+        std::string why = unreachableReason(l, k, volumes.worldBounds());
+        if (!why.empty()) {
+            lp.used = false;
+            lp.reason = why;
+        } else if (nbLightIsDelta(k) || sunSharperThanAVoxel(l, volumes)) {
+            lp.shadowMap = true;
+            if (!nbLightIsDelta(k))
+                plan.notes.push_back("light " + lp.name + ": its " + std::to_string(l.angle) +
+                                     " deg disc casts penumbrae under one voxel here: shadow-mapped as a point on the sky");
+            lp.resolution = scene.render.shadowMapResolution;
+            lp.projection = l.type == LightType::Distant ? "orthographic"
+                            : (l.type == LightType::Spot && l.coneAngle <= 120.0f) ? "perspective"
+                                                                                    : "cube";
+        } else {
+            lp.sampled = true;
+            lp.reason = std::to_string(scene.render.lightSamples) + " sample(s) per step";
+        }
+        plan.lights.push_back(lp);
+    }
+    return plan;
+}
+
+}  // namespace nimbus

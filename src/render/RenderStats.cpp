@@ -1,0 +1,56 @@
+#include "RenderStats.h"
+
+#include "../core/FormatBytes.h"
+
+#include <cstdio>
+#include <sstream>
+
+namespace nimbus {
+
+double RenderStats::stage(const std::string& name) const
+{
+    for (const auto& st : stageSeconds)
+        if (st.first == name)
+            return st.second;
+    return 0.0;
+}
+
+std::string RenderStats::describe(const RenderPlan& plan) const
+{
+    std::ostringstream s;
+    s << "render statistics\n";
+    for (size_t i = 0; i < lights.size() && i < plan.lights.size(); ++i) {
+        const LightStats& l = lights[i];
+        if (l.shadowMapBytes == 0 && l.l2plusShadowMapBytes == 0)
+            continue;
+        s << "  light " << plan.lights[i].name << ":";
+        if (l.shadowMapBytes) {
+            s << " deep shadow map " << l.resolution << "^2 texels, " << formatBytes(l.shadowMapBytes) << ", built in "
+              << l.shadowMapSeconds << " s; baked on the voxels, " << formatBytes(l.cacheBytes) << ", " << l.cacheSeconds
+              << " s";
+            if (l.marchSampleBytes > 0)
+                s << " (from the map's uncompressed march, " << formatBytes(l.marchSampleBytes) << ", freed after)";
+        }
+        if (l.l2plusShadowMapBytes)
+            s << (l.shadowMapBytes ? ";" : "") << " L2+ shadow map of its own, " << formatBytes(l.l2plusShadowMapBytes);
+        s << "\n";
+    }
+    for (size_t v = 0; v < volumes.size() && v < plan.volumes.size(); ++v)
+        if (volumes[v].pyramidBytes)
+            s << "  volume " << plan.volumes[v].name << ": L2+ light pyramid " << volumes[v].mipLevels << " mip levels, "
+              << formatBytes(volumes[v].pyramidBytes) << "\n";
+    if (pyramidBytes)
+        s << "  light pyramids in all: " << formatBytes(pyramidBytes) << "\n";
+    if (!stageSeconds.empty()) {
+        s << "  stages:";
+        for (auto& st : stageSeconds) {
+            char buf[64];
+            std::snprintf(buf, sizeof buf, " %s %.3f s;", st.first.c_str(), st.second);
+            s << buf;
+        }
+        s << "\n";
+    }
+    return s.str();
+}
+
+}  // namespace nimbus

@@ -1,0 +1,43 @@
+// RenderStats.h: what happened during a render (stage times, memory, counts), kept apart from
+// the RenderPlan, which says what was decided before any heavy work. Printed by --explain after
+// the plan. Index-aligned with the plan's lights and volumes.
+#pragma once
+
+#include "RenderPlan.h"
+
+#include <cstddef>
+#include <string>
+#include <utility>
+#include <vector>
+
+namespace nimbus {
+
+struct LightStats {
+    int resolution = 0;           // the deep shadow map as built (texels per side)
+    size_t shadowMapBytes = 0;
+    double shadowMapSeconds = 0;
+    size_t cacheBytes = 0;        // the shadow map baked on the voxels (LightCache)
+    double cacheSeconds = 0;
+    size_t marchSampleBytes = 0;  // the map's march samples the bake read (freed after), or 0
+    size_t l2plusShadowMapBytes = 0;  // wkb: a shadow map of its own for the light volumes
+};
+
+struct VolumeStats {
+    int mipLevels = 0;        // wkb light pyramid as built
+    size_t pyramidBytes = 0;
+};
+
+struct RenderStats {
+    std::vector<std::pair<std::string, double>> stageSeconds;  // in the order they ran
+    std::vector<LightStats> lights;
+    std::vector<VolumeStats> volumes;
+    size_t pyramidBytes = 0;  // wkb: all light pyramids as built
+
+    void addStage(const std::string& name, double seconds) { stageSeconds.push_back({name, seconds}); }
+    // The seconds of the named stage, or 0 if it did not run.
+    double stage(const std::string& name) const;
+    // Multi-line, human readable, after plan.describe() (names from the plan).
+    std::string describe(const RenderPlan& plan) const;
+};
+
+}  // namespace nimbus
