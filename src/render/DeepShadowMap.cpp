@@ -1,3 +1,8 @@
+// DeepShadowMap.cpp: building a deep shadow map (DeepShadowMap.h): per texel, march the light
+// ray (one by one, or eight parallel rays at once, MarchParallelRays.h), compress it
+// (ShadowMapCompression.cpp) and, where asked, keep the march samples for the bake; rows in
+// parallel, then laid end to end. Where the texels look is in ShadowMapProjection.cpp, the
+// lookups in ShadowMapLookup.cpp and ShadowMapMarchSamples.h.
 #include "DeepShadowMap.h"
 
 #include "BrickWalk.h"
@@ -17,18 +22,6 @@
 
 namespace nimbus {
 
-namespace {
-
-// Cube faces: forward axes +x, -x, +y, -y, +z, -z with right/up completing a right-handed frame.
-const float3 kCubeForward[6] = {{1, 0, 0}, {-1, 0, 0}, {0, 1, 0}, {0, -1, 0}, {0, 0, 1}, {0, 0, -1}};
-const float3 kCubeUp[6] = {{0, 1, 0}, {0, 1, 0}, {0, 0, -1}, {0, 0, 1}, {0, 1, 0}, {0, 1, 0}};
-
-// Perspective maps wider than this half-angle use a cube instead (texel stretch grows as
-// 1/cos^2 of the off-axis angle).
-constexpr float kMaxPerspectiveHalfAngleDeg = 60.0f;
-
-}  // namespace
-
 DeepShadowMap DeepShadowMap::build(const NbLight& light, const VolumeSet& volumes, const Settings& settings)
 {
     auto start = std::chrono::steady_clock::now();
@@ -42,57 +35,7 @@ DeepShadowMap DeepShadowMap::build(const NbLight& light, const VolumeSet& volume
         m.mGrey = m.mGrey && k.x == k.y && k.y == k.z;
     }
     const Bbox& bounds = volumes.worldBounds();
-
-    if (light.type == NB_LIGHT_DISTANT) {
-        m.mProjection = Projection::Orthographic;
-        Face f;
-        f.forward = normalize(nbLoad3(light.direction));
-        nbBasis(f.forward, &f.right, &f.up);
-        float lo[3] = {1e30f, 1e30f, 1e30f}, hi[3] = {-1e30f, -1e30f, -1e30f};
-        for (int i = 0; i < 8; ++i) {
-            float3 c = make_float3(i & 1 ? bounds.hi.x : bounds.lo.x, i & 2 ? bounds.hi.y : bounds.lo.y,
-                                   i & 4 ? bounds.hi.z : bounds.lo.z);
-            float q[3] = {dot(c, f.right), dot(c, f.up), dot(c, f.forward)};
-            for (int a = 0; a < 3; ++a)
-                lo[a] = std::min(lo[a], q[a]), hi[a] = std::max(hi[a], q[a]);
-        }
-        // Texels finer than the density grid resolve nothing the grid holds: cap the resolution
-        // at 0.75 of the finest voxel across the footprint (the fewest texels that meet the
-        // grid, DESIGN "leave out what a scene does not need"); `resolution` is the maximum.
-        float side = std::max(std::max(hi[0] - lo[0], hi[1] - lo[1]), 1e-6f);
-        m.mRes = std::max(8, std::min(m.mRes, int(std::ceil(side / (0.75f * volumes.minVoxelSize())))));
-        // A square footprint with a margin of one texel on each side (clamp-to-edge lookups).
-        side *= 1.0f + 2.0f / float(m.mRes);
-        float cr = 0.5f * (lo[0] + hi[0]), cu = 0.5f * (lo[1] + hi[1]);
-        float depth0 = lo[2] - 0.01f * (hi[2] - lo[2]) - 1e-6f;
-        f.origin = f.right * (cr - 0.5f * side) + f.up * (cu - 0.5f * side) + f.forward * depth0;
-        f.extent = side;
-        m.mFaces.push_back(f);
-    } else if (light.type == NB_LIGHT_SPOT &&
-               std::acos(std::min(1.0f, std::max(-1.0f, light.p0))) < kMaxPerspectiveHalfAngleDeg * M_PI / 180.0) {
-        m.mProjection = Projection::Perspective;
-        Face f;
-        f.origin = nbLoad3(light.position);
-        f.forward = normalize(nbLoad3(light.direction));
-        nbBasis(f.forward, &f.right, &f.up);
-        float halfAngle = std::acos(std::min(1.0f, std::max(-1.0f, light.p0)));
-        // One extra texel of footprint so bilinear lookups at the cone edge stay inside.
-        f.extent = std::tan(halfAngle) * (1.0f + 2.0f / float(m.mRes));
-        m.mFaces.push_back(f);
-    } else if (light.type == NB_LIGHT_POINT || light.type == NB_LIGHT_SPOT) {
-        m.mProjection = Projection::Cube;
-        for (int i = 0; i < 6; ++i) {
-            Face f;
-            f.origin = nbLoad3(light.position);
-            f.forward = kCubeForward[i];
-            f.up = kCubeUp[i];
-            f.right = cross(f.forward, f.up);
-            f.extent = 1.0f;
-            m.mFaces.push_back(f);
-        }
-    } else {
-        throw Error("deep shadow maps are built for distant, point and spot lights only");
-    }
+    m.placeFaces(light, volumes);
 
     const int res = m.mRes;
     const size_t texels = size_t(res) * res * m.mFaces.size();
@@ -236,18 +179,6 @@ std::vector<char> DeepShadowMap::texelsMeetingBricks(const VolumeSet& volumes) c
     return meets;
 }
 
-void DeepShadowMap::texelRay(int face, float u, float v, float3& o, float3& d) const
-{
-    const Face& f = mFaces[face];
-    if (mProjection == Projection::Orthographic) {
-        o = f.origin + f.right * (u * f.extent) + f.up * (v * f.extent);
-        d = f.forward;
-    } else {
-        o = f.origin;
-        d = normalize(f.forward + f.right * ((2.0f * u - 1.0f) * f.extent) + f.up * ((2.0f * v - 1.0f) * f.extent));
-    }
-}
-
 void DeepShadowMap::marchRay(const VolumeSet& volumes, float3 o, float3 d, float stepFraction, std::vector<Vertex>& raw)
 {
     raw.clear();
@@ -286,63 +217,6 @@ void DeepShadowMap::marchRay(const VolumeSet& volumes, float3 o, float3 d, float
             raw.push_back({s.t0 + (k + 1) * dt, {tau[0], tau[1], tau[2]}});
         }
     }
-}
-
-void DeepShadowMap::compress(const std::vector<Vertex>& raw, float tolerance, std::vector<Vertex>& out, int channels)
-{
-    out.clear();
-    if (raw.empty())
-        return;
-    const Vertex& last = raw.back();
-    if (std::max({last.tau[0], last.tau[1], last.tau[2]}) <= 0.0f)
-        return;  // nothing along this ray: T = 1 everywhere
-
-    // Greedy compression with a window of admissible slopes per channel (Lokovic & Veach sec.
-    // 4.2): from the last kept vertex a, extend while some line through a passes within
-    // tol_i of every raw vertex. tol_i is the optical-depth error delta that keeps the
-    // transmittance error within the bound at that depth:
-    // e^{-tau}(e^delta - 1) = tolerance * max(e^{-tau}, floor), so
-    // delta = log(1 + tolerance * max(1, floor e^tau)). (The error toward lower T is smaller.)
-    // Above the floor (tau < ln(1 / floor)) the bound is relative and delta is one constant.
-    const float flatTol = std::log1p(tolerance), knee = std::log(1.0f / kRelativeFloor);
-    auto tolAt = [&](const Vertex& v, int c) {
-        if (v.tau[c] <= knee)
-            return flatTol;
-        float rel = kRelativeFloor * std::exp(std::min(v.tau[c], 80.0f));
-        return std::log1p(tolerance * rel);
-    };
-    size_t a = 0;
-    out.push_back(raw[0]);
-    float lo[3], hi[3];
-    auto resetWindow = [&]() {
-        for (int c = 0; c < channels; ++c)
-            lo[c] = -INFINITY, hi[c] = INFINITY;
-    };
-    resetWindow();
-    for (size_t i = 1; i < raw.size(); ++i) {
-        float dz = raw[i].z - raw[a].z;
-        bool fits = dz > 0.0f;
-        for (int c = 0; c < channels && fits; ++c) {
-            float slope = (raw[i].tau[c] - raw[a].tau[c]) / dz;
-            fits = slope >= lo[c] && slope <= hi[c];
-        }
-        if (!fits) {
-            // Keep the previous vertex and restart the window from it.
-            a = i - 1;
-            out.push_back(raw[a]);
-            resetWindow();
-            dz = raw[i].z - raw[a].z;
-            if (!(dz > 0.0f))
-                continue;
-        }
-        for (int c = 0; c < channels; ++c) {
-            float t = tolAt(raw[i], c);
-            lo[c] = std::max(lo[c], (raw[i].tau[c] - t - raw[a].tau[c]) / dz);
-            hi[c] = std::min(hi[c], (raw[i].tau[c] + t - raw[a].tau[c]) / dz);
-        }
-    }
-    if (out.back().z != raw.back().z)
-        out.push_back(raw.back());
 }
 
 void DeepShadowMap::buildTexel(const VolumeSet& volumes, int face, int ix, int iy, std::vector<Vertex>& out,
@@ -430,149 +304,6 @@ void DeepShadowMap::releaseMarchSamples()
     BulkVector<int32_t>().swap(mSampleBase);
     BulkVector<int32_t>().swap(mSampleLo);
     BulkVector<int32_t>().swap(mSampleHi);
-}
-
-bool DeepShadowMap::project(float3 p, int& face, float& u, float& v, float& z) const
-{
-    if (mProjection == Projection::Orthographic) {
-        const Face& f = mFaces[0];
-        float3 q = p - f.origin;
-        face = 0;
-        u = dot(q, f.right) / f.extent;
-        v = dot(q, f.up) / f.extent;
-        z = dot(q, f.forward);
-        return true;
-    }
-    float3 q = p - mFaces[0].origin;
-    if (mProjection == Projection::Cube) {
-        float ax = std::fabs(q.x), ay = std::fabs(q.y), az = std::fabs(q.z);
-        face = ax >= ay && ax >= az ? (q.x >= 0 ? 0 : 1) : (ay >= az ? (q.y >= 0 ? 2 : 3) : (q.z >= 0 ? 4 : 5));
-    } else {
-        face = 0;
-    }
-    const Face& f = mFaces[face];
-    float zf = dot(q, f.forward);
-    if (!(zf > 0.0f))
-        return false;
-    u = 0.5f * (dot(q, f.right) / (zf * f.extent) + 1.0f);
-    v = 0.5f * (dot(q, f.up) / (zf * f.extent) + 1.0f);
-    z = length(q);
-    return true;
-}
-
-Rgb DeepShadowMap::lookup(uint32_t texel, uint32_t slot, float z, Cursor* cursor) const
-{
-    const uint32_t first = mOffsets[texel], last = mOffsets[texel + 1];
-    if (first == last)
-        return splat(0.0f);
-    const Vertex* v = mVertices.data();
-    if (z <= v[first].z)
-        return splat(0.0f);
-    if (z >= v[last - 1].z)
-        return make_float3(v[last - 1].tau[0], v[last - 1].tau[1], v[last - 1].tau[2]);
-    // Find i with v[i].z <= z < v[i+1].z: walk from the cursor's vertex for this texel, else
-    // bisect.
-    uint32_t i;
-    uint32_t* slotVertex = nullptr;
-    if (cursor) {
-        slotVertex = &cursor->vertex[slot];
-        if (cursor->texel[slot] != texel) {
-            cursor->texel[slot] = texel;
-            *slotVertex = ~0u;
-        }
-    }
-    if (slotVertex && *slotVertex != ~0u) {
-        i = *slotVertex;
-        while (v[i + 1].z <= z)
-            ++i;
-        while (v[i].z > z)
-            --i;
-    } else {
-        const Vertex* hi = std::upper_bound(v + first, v + last, z, [](float zz, const Vertex& x) { return zz < x.z; });
-        i = uint32_t(hi - v) - 1;
-    }
-    if (slotVertex)
-        *slotVertex = i;
-    const Vertex& a = v[i];
-    const Vertex& b = v[i + 1];
-    float w = (z - a.z) / (b.z - a.z);
-    return make_float3(a.tau[0] + w * (b.tau[0] - a.tau[0]), a.tau[1] + w * (b.tau[1] - a.tau[1]),
-                       a.tau[2] + w * (b.tau[2] - a.tau[2]));
-}
-
-// lookup() for channel 0 with a cursor always present; inlined into the bilinear below.
-inline float DeepShadowMap::greyLookup(uint32_t texel, uint32_t slot, float z, Cursor& cursor) const
-{
-    const uint32_t first = mOffsets[texel], last = mOffsets[texel + 1];
-    const Vertex* v = mVertices.data();
-    if (first == last || z <= v[first].z)
-        return 0.0f;
-    if (z >= v[last - 1].z)
-        return v[last - 1].tau[0];
-    uint32_t i = cursor.vertex[slot];
-    if (cursor.texel[slot] != texel) {
-        cursor.texel[slot] = texel;
-        const Vertex* hi = std::upper_bound(v + first, v + last, z, [](float zz, const Vertex& x) { return zz < x.z; });
-        i = uint32_t(hi - v) - 1;
-    } else {
-        while (v[i + 1].z <= z)
-            ++i;
-        while (v[i].z > z)
-            --i;
-    }
-    cursor.vertex[slot] = i;
-    const Vertex& a = v[i];
-    const Vertex& b = v[i + 1];
-    return a.tau[0] + (z - a.z) * (b.tau[0] - a.tau[0]) / (b.z - a.z);
-}
-
-float DeepShadowMap::greyOpticalDepthTexel(float fx, float fy, float z, Cursor& cursor) const
-{
-    const float last = float(mRes);
-    if (!(fx >= -0.5f && fx <= last - 0.5f && fy >= -0.5f && fy <= last - 0.5f))
-        return 0.0f;  // u or v outside [0, 1], as in opticalDepthAt
-    const int x0 = floorToInt(fx), y0 = floorToInt(fy);
-    const float wx = fx - float(x0), wy = fy - float(y0);
-    const int xa = std::max(x0, 0), xb = std::min(x0 + 1, mRes - 1);
-    const int ya = std::max(y0, 0), yb = std::min(y0 + 1, mRes - 1);
-    const uint32_t ra = uint32_t(ya) * uint32_t(mRes), rb = uint32_t(yb) * uint32_t(mRes);
-    const float a = greyLookup(ra + xa, Cursor::slot(xa, ya), z, cursor);
-    const float b = greyLookup(ra + xb, Cursor::slot(xb, ya), z, cursor);
-    const float c = greyLookup(rb + xa, Cursor::slot(xa, yb), z, cursor);
-    const float d = greyLookup(rb + xb, Cursor::slot(xb, yb), z, cursor);
-    const float lo = a + wx * (b - a), hi = c + wx * (d - c);
-    return lo + wy * (hi - lo);
-}
-
-Rgb DeepShadowMap::texelOpticalDepth(int face, int ix, int iy, float z) const
-{
-    return lookup(uint32_t((size_t(face) * mRes + iy) * mRes + ix), 0, z, nullptr);
-}
-
-Rgb DeepShadowMap::opticalDepth(float3 p, Cursor* cursor) const
-{
-    int face;
-    float u, v, z;
-    if (!project(p, face, u, v, z))
-        return splat(0.0f);
-    return opticalDepthAt(face, u, v, z, cursor);
-}
-
-Rgb DeepShadowMap::opticalDepthAt(int face, float u, float v, float z, Cursor* cursor) const
-{
-    if (mProjection != Projection::Cube && (u < 0.0f || u > 1.0f || v < 0.0f || v > 1.0f))
-        return splat(0.0f);
-    float fx = u * mRes - 0.5f, fy = v * mRes - 0.5f;
-    int x0 = floorToInt(fx), y0 = floorToInt(fy);
-    float wx = fx - x0, wy = fy - y0;
-    auto clampI = [&](int i) { return std::min(std::max(i, 0), mRes - 1); };
-    int xa = clampI(x0), xb = clampI(x0 + 1), ya = clampI(y0), yb = clampI(y0 + 1);
-    const uint32_t base = uint32_t(face) * uint32_t(mRes) * uint32_t(mRes);
-    Rgb tau = lookup(base + ya * mRes + xa, Cursor::slot(xa, ya), z, cursor) * ((1 - wx) * (1 - wy)) +
-              lookup(base + ya * mRes + xb, Cursor::slot(xb, ya), z, cursor) * (wx * (1 - wy)) +
-              lookup(base + yb * mRes + xa, Cursor::slot(xa, yb), z, cursor) * ((1 - wx) * wy) +
-              lookup(base + yb * mRes + xb, Cursor::slot(xb, yb), z, cursor) * (wx * wy);
-    return tau;
 }
 
 size_t DeepShadowMap::memoryBytes() const
