@@ -56,6 +56,7 @@ Planned planPass(const Scene& scene, const IntegratorEntry& entry, RenderStats& 
     stats.addStage("volumes", secondsSince(t));
     Planned p;
     p.plan = planScene(scene, volumes);
+    p.plan.aovs = aovNames(scene, entry.traits);
     p.context = RenderContext::create(scene, std::move(volumes), p.plan);
     if (entry.plan)
         entry.plan(*p.context, p.plan);

@@ -16,6 +16,10 @@ std::string RenderPlan::describe() const
 {
     std::ostringstream s;
     s << "render plan (method " << methodName(method) << ")\n";
+    s << "  AOVs:";
+    for (size_t i = 0; i < aovs.size(); ++i)
+        s << (i ? ", " : " ") << aovs[i];
+    s << "\n";
     s << "  volumes:\n";
     if (volumes.empty())
         s << "    (none: only the background renders)\n";

@@ -68,6 +68,7 @@ struct IntegratorPlan {
 
 struct RenderPlan {
     Method method = Method::Single;
+    std::vector<std::string> aovs;   // what the integrator writes, in output order (FilmLayout.h)
     std::vector<LightPlan> lights;   // index-aligned with scene.lights
     std::vector<VolumePlan> volumes; // index-aligned with the loaded (non-empty) volumes
     WkbPlan wkb;
