@@ -1,5 +1,7 @@
 #include "Preview.h"
 
+#include "../core/DataFiles.h"
+
 #include "AtomicFile.h"
 #include "core/Error.h"
 #include "render/Film.h"
@@ -39,7 +41,7 @@ ConfigChoice chooseConfig(const PreviewOptions& options)
     for (const char* variable : {"OCIO", "NIMBUS_OCIO_CONFIG"})
         if (const char* value = std::getenv(variable); value && *value)
             return {value, std::string("$") + variable};
-    return {NIMBUS_SOURCE_DIR "/src/io/ocio/config.ocio", "the shipped config"};
+    return {dataPath(DataFile::OcioConfig), "the shipped config"};
 }
 
 std::string listOf(const std::vector<std::string>& names)

@@ -1,5 +1,7 @@
 #include "KernelCache.h"
 
+#include "../core/DataFiles.h"
+
 #include "../core/Error.h"
 #include "../core/Log.h"
 
@@ -121,7 +123,7 @@ std::string kernelDirectory()
 {
     if (const char* env = std::getenv("NIMBUS_KERNEL_DIR"); env && *env)
         return env;
-    return std::string(NIMBUS_SOURCE_DIR) + "/kernels";
+    return dataPath(DataFile::Kernels);
 }
 
 std::string kernelCacheDirectory()

@@ -8,6 +8,7 @@
 // in VdbToBricks.h.
 #include "VolumeData.h"
 
+#include "../core/DataFiles.h"
 #include "../core/Error.h"
 #include "../core/Log.h"
 #include "PluginSource.h"
@@ -259,7 +260,7 @@ std::shared_ptr<VolumeData> buildVolume(const Scene& scene, size_t index, const 
     if (!shaderFile.isDefault || hasEmissionInputs) {
         if (shaderFile.path.empty())
             throw InputError(where.key(".shader") + ": the default shader 'default.ax' is not installed in " +
-                             NIMBUS_SOURCE_DIR "/shaders; set NIMBUS_SHADER_PATH");
+                             dataPath(DataFile::Shaders) + "; set NIMBUS_SHADER_PATH");
         auto& shader = shaders[shaderFile.path];
         if (!shader) {
             shader = std::make_unique<VolumeShader>(shaderFile.path, where.key(".shader"));

@@ -7,6 +7,8 @@
 // it is not (its active-tile streaming), so sparse inputs stay sparse.
 #include "VolumeShader.h"
 
+#include "../core/DataFiles.h"
+
 #include "../core/Error.h"
 #include "../core/Log.h"
 
@@ -34,7 +36,7 @@ namespace {
 const char* const kFloatRoles[] = {"density", "temperature", "flame"};
 const char* const kVectorRoles[] = {"Cd", "vel"};
 
-const char* builtinShaderDir() { return NIMBUS_SOURCE_DIR "/shaders"; }
+std::string builtinShaderDir() { return dataPath(DataFile::Shaders); }
 
 bool sameFile(const fs::path& a, const fs::path& b)
 {

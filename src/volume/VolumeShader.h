@@ -26,8 +26,8 @@ class GridBase;
 namespace nimbus {
 
 // Where a volume's "shader" field points. A name (no '/') is searched, with or without ".ax",
-// in each directory of $NIMBUS_SHADER_PATH (':'-separated), then in the project's shaders/
-// (NIMBUS_SOURCE_DIR), then in sceneDir; a path is taken relative to sceneDir (or the working
+// in each directory of $NIMBUS_SHADER_PATH (':'-separated), then in the built-in shaders/
+// (dataPath(DataFile::Shaders): the install's or the source tree's), then in sceneDir; a path is taken relative to sceneDir (or the working
 // directory). "" means "default". isDefault: the file is the project's own shaders/default.ax,
 // whose work nimbus does itself for density-only volumes; path is empty when the default was
 // asked for and is not installed (fine until a volume needs emission).

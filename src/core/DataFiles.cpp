@@ -1,0 +1,50 @@
+#include "DataFiles.h"
+
+#include <dlfcn.h>
+
+#include <filesystem>
+
+namespace nimbus {
+
+namespace fs = std::filesystem;
+
+namespace {
+
+// <prefix>/share/nimbus when the module holding this function sits in <prefix>/bin/, lib/ or a
+// multiarch lib/<triplet>/ and the install laid the kernels there; empty otherwise.
+fs::path installedShare()
+{
+    Dl_info info{};
+    if (!dladdr(reinterpret_cast<void*>(&installedShare), &info) || !info.dli_fname)
+        return {};
+    std::error_code ec;
+    fs::path module = fs::canonical(fs::path(info.dli_fname), ec);
+    if (ec)
+        return {};
+    fs::path dir = module.parent_path();
+    for (int up = 0; up < 2 && dir.has_parent_path(); ++up) {
+        dir = dir.parent_path();
+        fs::path share = dir / "share" / "nimbus";
+        if (fs::is_regular_file(share / "kernels" / "pathtrace.cl", ec))
+            return share;
+    }
+    return {};
+}
+
+}  // namespace
+
+std::string dataPath(DataFile which)
+{
+    static const fs::path share = installedShare();
+    const bool installed = !share.empty();
+    const fs::path root = installed ? share : fs::path(NIMBUS_SOURCE_DIR);
+    switch (which) {
+    case DataFile::Kernels: return (root / "kernels").string();
+    case DataFile::Shaders: return (root / "shaders").string();
+    case DataFile::OcioConfig:
+        return (installed ? root / "ocio" / "config.ocio" : root / "src" / "io" / "ocio" / "config.ocio").string();
+    }
+    return {};
+}
+
+}  // namespace nimbus
