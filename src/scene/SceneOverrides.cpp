@@ -1,5 +1,7 @@
 // SceneOverrides.cpp: the CLI's "--set key.path=value", applied to the scene document before it
 // is parsed, so an overridden value meets exactly the checks a value in the file meets.
+// "key[+]" appends an entry to a list (creating the list where the document has none), e.g.
+// --set 'lights[+]={"type": "point", "position": [0, 2, 0], "intensity": 5}'.
 #include "SceneJson.h"
 
 #include "SceneValidate.h"
@@ -15,11 +17,12 @@ using nlohmann::json;
 
 namespace {
 
-// An object key, or a list index when isIndex is set.
+// An object key, or a list index when isIndex is set (append: a new entry at the list's end).
 struct PathStep {
     std::string key;
     size_t index = 0;
     bool isIndex = false;
+    bool append = false;
 };
 
 std::string describe(const json& node)
@@ -62,11 +65,16 @@ public:
             while (i < path.size() && path[i] == '[') {
                 size_t close = path.find(']', i);
                 std::string digits = path.substr(i + 1, close == std::string::npos ? std::string::npos : close - i - 1);
+                if (close != std::string::npos && digits == "+") {
+                    steps.push_back({"", 0, true, true});
+                    i = close + 1;
+                    continue;
+                }
                 bool ok = close != std::string::npos && !digits.empty() && digits.size() < 10;
                 for (char c : digits)
                     ok = ok && std::isdigit(static_cast<unsigned char>(c));
                 if (!ok)
-                    fail("expected a list index [0], [1], ... in '" + path + "'");
+                    fail("expected a list index [0], [1], ... or [+] (append) in '" + path + "'");
                 steps.push_back({"", size_t(std::stoul(digits)), true});
                 i = close + 1;
             }
@@ -106,6 +114,14 @@ public:
                     fail("'" + walked + "' is " + describe(*node) + ", not an object");
                 node = &(*node)[step.key];
                 walked += (walked.empty() ? "" : ".") + step.key;
+            } else if (step.append) {
+                if (node->is_null())
+                    *node = json::array();
+                if (!node->is_array())
+                    fail("'" + walked + "' is " + describe(*node) + ", not a list");
+                node->push_back(json());
+                walked += "[" + std::to_string(node->size() - 1) + "]";
+                node = &node->back();
             } else {
                 size_t index = step.index;
                 if (!node->is_array())

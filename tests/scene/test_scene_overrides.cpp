@@ -83,3 +83,26 @@ TEST(SceneOverrides, MalformedOverridesNameThemselves)
     EXPECT_NE(overrideError({"render.spp.x=1"}).find("'render.spp' is a number, not an object"), std::string::npos);
     EXPECT_NE(overrideError({"cameras[0].fov=1"}).find("'cameras' is missing, not a list"), std::string::npos);
 }
+
+TEST(SceneOverrides, PlusAppendsToAList)
+{
+    const size_t before = loadSceneFile(kFull).lights.size();
+    Scene s = loadSceneFile(kFull, {R"(lights[+]={"name": "extra", "type": "point", "position": [0, 2, 0], "intensity": 5})",
+                                    "lights[+].type=distant", "lights[+]={\"type\": \"distant\"}"});
+    ASSERT_EQ(s.lights.size(), before + 3);
+    EXPECT_EQ(s.lights[before].name, "extra");
+    EXPECT_EQ(s.lights[before].type, LightType::Point);
+    EXPECT_EQ(s.lights[before].intensity.x, 5.0f);
+    EXPECT_EQ(s.lights[before + 1].type, LightType::Distant);
+    EXPECT_EQ(s.lights[before + 2].type, LightType::Distant);
+    // The appended entry is checked like one in the file, and named by its index.
+    EXPECT_NE(overrideError({"lights[+]={\"type\": \"point\", \"intensity\": -1}"})
+                  .find("lights[" + std::to_string(before) + "].intensity"),
+              std::string::npos);
+    // A missing list is created; something else is not a list.
+    json doc = json::object();
+    applyOverrides(doc, {R"(lights[+]={"type": "distant"})"}, "");
+    ASSERT_TRUE(doc["lights"].is_array());
+    EXPECT_EQ(doc["lights"].size(), 1u);
+    EXPECT_NE(overrideError({"render[+]=1"}).find("'render' is an object, not a list"), std::string::npos);
+}
