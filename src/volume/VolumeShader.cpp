@@ -56,9 +56,13 @@ ShaderFile findShader(const std::string& shader, const std::string& sceneDir, co
 {
     const std::string name = shader.empty() ? "default" : shader;
     const fs::path builtinDefault = fs::path(builtinShaderDir()) / "default.ax";
-    std::vector<fs::path> candidates;
-    if (name.find('/') == std::string::npos) {
-        std::vector<fs::path> dirs;
+    // A relative name or path: beside the scene first (its directory, as for VDB files), then each
+    // directory of $NIMBUS_SHADER_PATH, then the built-in shaders; a scene built in code (no
+    // file) reads the working directory instead of its own. With or without ".ax".
+    const fs::path p(name);
+    std::vector<fs::path> dirs;
+    if (p.is_relative()) {
+        dirs.push_back(sceneDir.empty() ? fs::path(".") : fs::path(sceneDir));
         if (const char* env = std::getenv("NIMBUS_SHADER_PATH")) {
             std::stringstream list(env);
             std::string dir;
@@ -67,19 +71,15 @@ ShaderFile findShader(const std::string& shader, const std::string& sceneDir, co
                     dirs.push_back(dir);
         }
         dirs.push_back(builtinShaderDir());
-        if (!sceneDir.empty())
-            dirs.push_back(sceneDir);
-        bool hasSuffix = fs::path(name).extension() == ".ax";
-        for (const auto& dir : dirs) {
-            candidates.push_back(dir / name);
-            if (!hasSuffix)
-                candidates.push_back(dir / (name + ".ax"));
-        }
     } else {
-        fs::path p(name);
-        if (p.is_relative() && !sceneDir.empty())
-            candidates.push_back(fs::path(sceneDir) / p);
-        candidates.push_back(p);
+        dirs.push_back(fs::path());
+    }
+    const bool hasSuffix = p.extension() == ".ax";
+    std::vector<fs::path> candidates;
+    for (const auto& dir : dirs) {
+        candidates.push_back(dir / p);
+        if (!hasSuffix)
+            candidates.push_back(dir / (name + ".ax"));
     }
     for (const auto& c : candidates)
         if (isRegularFile(c))

@@ -25,12 +25,14 @@ class GridBase;
 
 namespace nimbus {
 
-// Where a volume's "shader" field points. A name (no '/') is searched, with or without ".ax",
+// Where a volume's "shader" field points. A relative name or path (with or without ".ax") is
+// looked for beside the scene (sceneDir; the working directory for a scene with no file), then
 // in each directory of $NIMBUS_SHADER_PATH (':'-separated), then in the built-in shaders/
-// (dataPath(DataFile::Shaders): the install's or the source tree's), then in sceneDir; a path is taken relative to sceneDir (or the working
-// directory). "" means "default". isDefault: the file is the project's own shaders/default.ax,
-// whose work nimbus does itself for density-only volumes; path is empty when the default was
-// asked for and is not installed (fine until a volume needs emission).
+// (dataPath(DataFile::Shaders): the install's or the source tree's); an absolute path is taken
+// as it is. The error lists every place it looked. "" means "default". isDefault: the file is
+// the built-in shaders/default.ax, whose work nimbus does itself for density-only volumes; path
+// is empty when the default was asked for and is not installed (fine until a volume needs
+// emission).
 struct ShaderFile {
     std::string path;
     bool isDefault = false;

@@ -133,3 +133,38 @@ TEST(VolumeShader, OneCompilePerShaderForManyVolumes)
     EXPECT_EQ(densityAt(*volumes[1], make_float3(5, 0, 0)), 6.0f);
     EXPECT_EQ(densityAt(*volumes[1], make_float3(0, 0, 0)), 0.0f);
 }
+
+// A relative shader resolves beside the scene first, then $NIMBUS_SHADER_PATH, then the
+// built-in shaders; the error lists each place in that order.
+TEST(VolumeShader, BesideTheSceneComesFirst)
+{
+    namespace fs = std::filesystem;
+    ScratchDir dir;
+    const fs::path sceneDir = dir / "scene", searchDir = dir / "search";
+    fs::create_directories(sceneDir / "sub");
+    fs::create_directories(searchDir);
+    auto norm = [](const fs::path& p) { return p.lexically_normal().string(); };
+    writeText(sceneDir / "blackbody.ax", "@density = 1.0f;\n");
+    writeText(searchDir / "mine.ax", "@density = 1.0f;\n");
+    writeText(sceneDir / "sub" / "mine.ax", "@density = 2.0f;\n");
+    ::setenv("NIMBUS_SHADER_PATH", searchDir.c_str(), 1);
+    EXPECT_EQ(findShader("blackbody", sceneDir, "x").path, norm(sceneDir / "blackbody.ax"));
+    EXPECT_EQ(findShader("mine", sceneDir, "x").path, norm(searchDir / "mine.ax"));
+    EXPECT_EQ(findShader("sub/mine", sceneDir, "x").path, norm(sceneDir / "sub" / "mine.ax"));
+    EXPECT_NE(findShader("blackbody", "", "x").path.find("shaders/blackbody.ax"), std::string::npos);
+    try {
+        findShader("nowhere", sceneDir, "scene.json: volumes[0].shader");
+        ADD_FAILURE() << "no InputError";
+    } catch (const InputError& e) {
+        const std::string m = e.what();
+        const size_t scene = m.find(norm(sceneDir / "nowhere"));
+        const size_t search = m.find(norm(searchDir / "nowhere"));
+        const size_t builtin = m.find("shaders/nowhere.ax");
+        ASSERT_NE(scene, std::string::npos) << m;
+        ASSERT_NE(search, std::string::npos) << m;
+        ASSERT_NE(builtin, std::string::npos) << m;
+        EXPECT_LT(scene, search) << m;
+        EXPECT_LT(search, builtin) << m;
+    }
+    ::unsetenv("NIMBUS_SHADER_PATH");
+}
