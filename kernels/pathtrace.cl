@@ -324,9 +324,12 @@ __kernel void nbPathtrace(__global const NbPtParams* P, __global const NbLight* 
     for (int s = 0; s < P->samples; ++s) {
         const nb_uint sampleIndex = P->sampleStart + (nb_uint)s;
         NbRng rng = nbRngStart(P->seed, pixelIndex, sampleIndex);
-        float jx = nbRngNext(&rng), jy = nbRngNext(&rng), time = nbRngNext(&rng);
+        /* The pixel filter by importance sampling (filter.h): an offset from the pixel's centre. */
+        float jx = nbFilterSample(P->filterType, P->filterWidth, nbRngNext(&rng));
+        float jy = nbFilterSample(P->filterType, P->filterWidth, nbRngNext(&rng));
+        float time = nbRngNext(&rng);
         float3 o, d;
-        nbCameraRay(cam, (float)px + jx, (float)py + jy, P->width, P->height, time, &o, &d);
+        nbCameraRay(cam, (float)px + 0.5f + jx, (float)py + 0.5f + jy, P->width, P->height, time, &o, &d);
 
         NbPathSample r;
         r.L[0] = r.L[1] = r.L[2] = make_float3(0.0f, 0.0f, 0.0f);

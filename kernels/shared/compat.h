@@ -36,6 +36,7 @@ typedef uint64_t nb_ulong;
 using std::acos;
 using std::atan2;
 using std::cos;
+using std::erf;
 using std::exp;
 using std::expm1;
 using std::fabs;

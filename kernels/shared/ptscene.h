@@ -11,6 +11,7 @@
 
 #include "brickgrid.h"
 #include "camera.h"
+#include "filter.h"
 #include "phase.h"
 
 /* 224 bytes. Coefficients in 1/m with the density scale folded in: sigma at a point is
@@ -43,7 +44,9 @@ typedef struct {
     int rrDepth;          /* Russian roulette from this many scattering events on */
     int lightCount;
     int volumeCount;
-    int pad[3];
+    int filterType;       /* NB_FILTER_* (filter.h) */
+    float filterWidth;    /* pixels */
+    int pad;
 } NbPtParams;
 
 /* Per-pixel accumulator layout (floats), running means over the samples so far (Skanberg

@@ -13,12 +13,18 @@
 
 namespace nimbus {
 
+// The culling margin, pixels, for a pixel filter of full width `filterWidth`: rays leave their
+// pixel by up to filterWidth / 2 - 1/2, and one more pixel covers rounding.
+inline double filterMargin(float filterWidth) { return 1.0 + std::max(0.0, 0.5 * double(filterWidth) - 0.5); }
+
 // True where no primary ray through pixels [x0, x1) x [y0, y1) can meet `box`: the box lies
 // wholly outside one of the four planes through the eye that bound the tile's rays, or behind
-// the eye (every ray's direction has a positive forward part). Pixel jitter keeps rays inside
-// their pixels; a pixel of margin on each side covers rounding. A moving camera sweeps its
-// frustum over the shutter, so it is never culled.
-inline bool tileMissesBox(const NbCamera& cam, int width, int height, int x0, int y0, int x1, int y1, const Bbox& box)
+// the eye (every ray's direction has a positive forward part). The pixel filter spreads a pixel's
+// rays up to its radius r from the pixel's centre; `margin` pixels on each side (filterMargin:
+// r - 1/2 past the pixel, plus one for rounding) cover them. A moving camera sweeps its frustum
+// over the shutter, so it is never culled.
+inline bool tileMissesBox(const NbCamera& cam, int width, int height, int x0, int y0, int x1, int y1, const Bbox& box,
+                          double margin)
 {
     if (cam.hasMotion > 0.5f)
         return false;
@@ -26,10 +32,10 @@ inline bool tileMissesBox(const NbCamera& cam, int width, int height, int x0, in
         return true;  // no volume: every ray misses
     const float3 o = nbLoad3(cam.originOpen), f = nbLoad3(cam.forwardOpen), r = nbLoad3(cam.rightOpen);
     const float3 u = cross(r, f);
-    const double sx0 = (2.0 * (x0 - 1) / width - 1.0) * cam.tanHalfFov * cam.aspect;
-    const double sx1 = (2.0 * (x1 + 1) / width - 1.0) * cam.tanHalfFov * cam.aspect;
-    const double sy0 = (1.0 - 2.0 * (y1 + 1) / height) * cam.tanHalfFov;  // y runs down the image
-    const double sy1 = (1.0 - 2.0 * (y0 - 1) / height) * cam.tanHalfFov;
+    const double sx0 = (2.0 * (x0 - margin) / width - 1.0) * cam.tanHalfFov * cam.aspect;
+    const double sx1 = (2.0 * (x1 + margin) / width - 1.0) * cam.tanHalfFov * cam.aspect;
+    const double sy0 = (1.0 - 2.0 * (y1 + margin) / height) * cam.tanHalfFov;  // y runs down the image
+    const double sy1 = (1.0 - 2.0 * (y0 - margin) / height) * cam.tanHalfFov;
     bool left = true, right = true, below = true, above = true, behind = true;
     for (int i = 0; i < 8; ++i) {
         const float3 c = make_float3(i & 1 ? box.hi.x : box.lo.x, i & 2 ? box.hi.y : box.lo.y, i & 4 ? box.hi.z : box.lo.z);
@@ -52,10 +58,10 @@ inline bool tileMissesBox(const NbCamera& cam, int width, int height, int x0, in
 // wider on each side (jitter, rounding), marks the tiles it overlaps. Returns false, marking
 // nothing more, where some brick reaches to or behind the eye's plane (the caller then keeps
 // every tile) or the camera moves. A cloud in its bounding box leaves the box's corners empty:
-// those rays no longer walk bricks to find nothing.
+// those rays no longer walk bricks to find nothing. `margin` as for tileMissesBox.
 inline bool markTilesSeeingBricks(const NbCamera& cam, int width, int height, int fx0, int fy0, int tile, int tilesX,
                                   int tilesY, const BrickGrid& grid, const Transform& worldFromIndex,
-                                  std::vector<char>& seen)
+                                  std::vector<char>& seen, double margin)
 {
     if (cam.hasMotion > 0.5f)
         return false;
@@ -74,9 +80,9 @@ inline bool markTilesSeeingBricks(const NbCamera& cam, int width, int height, in
             pxLo = std::min(pxLo, px), pxHi = std::max(pxHi, px);
             pyLo = std::min(pyLo, py), pyHi = std::max(pyHi, py);
         }
-        // Pixels [floor(lo) - 1, hi + 1] hold every ray that can pass the rectangle.
-        const double x0 = std::floor(pxLo) - 1.0 - fx0, x1 = pxHi + 1.0 - fx0;
-        const double y0 = std::floor(pyLo) - 1.0 - fy0, y1 = pyHi + 1.0 - fy0;
+        // Pixels [floor(lo - margin), hi + margin] hold every ray that can pass the rectangle.
+        const double x0 = std::floor(pxLo - margin) - fx0, x1 = pxHi + margin - fx0;
+        const double y0 = std::floor(pyLo - margin) - fy0, y1 = pyHi + margin - fy0;
         const int tx0 = int(std::max(0.0, std::floor(x0 / tile))), tx1 = int(std::min(double(tilesX - 1), std::floor(x1 / tile)));
         const int ty0 = int(std::max(0.0, std::floor(y0 / tile))), ty1 = int(std::min(double(tilesY - 1), std::floor(y1 / tile)));
         for (int ty = ty0; ty <= ty1; ++ty)

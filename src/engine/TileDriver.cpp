@@ -24,6 +24,9 @@ void renderTiles(const RenderContext& ctx, const Integrator& integrator, Film& f
     const Scene& scene = *ctx.scene;
     const NbCamera cam = makeNbCamera(scene.camera);
     const int spp = std::max(1, scene.render.spp);
+    const int filterType = nbFilterType(scene.render.pixelFilter);
+    const float filterWidth = scene.render.filterWidth;
+    const double margin = filterMargin(filterWidth);
     const size_t nLights = ctx.lights.size();
     const int tilesX = (film.x1 - film.x0 + kTile - 1) / kTile, tilesY = (film.y1 - film.y0 + kTile - 1) / kTile;
     const int tileCount = std::max(0, tilesX * tilesY);
@@ -113,10 +116,10 @@ void renderTiles(const RenderContext& ctx, const Integrator& integrator, Film& f
         bool bounded = true;
         for (const auto& v : ctx.volumes.volumes()) {
             bounded = bounded && markTilesSeeingBricks(cam, film.width, film.height, film.x0, film.y0, kTile, tilesX,
-                                                       tilesY, v->density, v->worldFromIndex, seesBricks);
+                                                       tilesY, v->density, v->worldFromIndex, seesBricks, margin);
             if (v->hasEmission())
                 bounded = bounded && markTilesSeeingBricks(cam, film.width, film.height, film.x0, film.y0, kTile,
-                                                           tilesX, tilesY, v->emission, v->worldFromIndex, seesBricks);
+                                                           tilesX, tilesY, v->emission, v->worldFromIndex, seesBricks, margin);
         }
         if (!bounded)
             std::fill(seesBricks.begin(), seesBricks.end(), 1);
@@ -137,7 +140,8 @@ void renderTiles(const RenderContext& ctx, const Integrator& integrator, Film& f
             const int tx0 = film.x0 + (tile % tilesX) * kTile, ty0 = film.y0 + (tile / tilesX) * kTile;
             const int tx1 = std::min(tx0 + kTile, film.x1), ty1 = std::min(ty0 + kTile, film.y1);
             const bool empty = skipEmpty && (!seesBricks[size_t(tile)] || tileMissesBox(cam, film.width, film.height, tx0, ty0,
-                                                                                   tx1, ty1, ctx.volumes.worldBounds()));
+                                                                                   tx1, ty1, ctx.volumes.worldBounds(),
+                                                                                   margin));
             for (int y = ty0; y < ty1; ++y) {
                 if (empty) {
                     for (int x = tx0; x < tx1; ++x)
@@ -153,8 +157,12 @@ void renderTiles(const RenderContext& ctx, const Integrator& integrator, Film& f
                     for (int s = 0; s < spp; ++s, ++i) {
                         NbRng& rng = rngs[size_t(i)];
                         rng = nbRngStart(scene.render.seed, pixelIndex, nb_uint(s));
-                        float jx = nbRngNext(&rng), jy = nbRngNext(&rng), time = nbRngNext(&rng);
-                        nbCameraRay(cam, x + jx, y + jy, film.width, film.height, time, &origins[size_t(i)],
+                        // The pixel filter by importance sampling (filter.h): an offset from the centre.
+                        float jx = nbFilterSample(filterType, filterWidth, nbRngNext(&rng));
+                        float jy = nbFilterSample(filterType, filterWidth, nbRngNext(&rng));
+                        float time = nbRngNext(&rng);
+                        nbCameraRay(cam, float(x) + 0.5f + jx, float(y) + 0.5f + jy, film.width, film.height, time,
+                                    &origins[size_t(i)],
                                     &directions[size_t(i)]);
                     }
                 }

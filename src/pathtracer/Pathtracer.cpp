@@ -134,6 +134,8 @@ void renderPathtrace(const RenderContext& ctx, Film& film, const RenderControl& 
     params.seed = scene.render.seed;
     params.maxDepth = std::max(0, scene.render.maxDepth);
     params.rrDepth = kRussianRouletteDepth;
+    params.filterType = nbFilterType(scene.render.pixelFilter);
+    params.filterWidth = scene.render.filterWidth;
     params.lightCount = int(ps.lights.size());
     params.volumeCount = int(ps.volumes.size());
 

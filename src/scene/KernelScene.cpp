@@ -27,6 +27,16 @@ void frame(float3 from, float3 to, float3 up, float* origin, float* forward, flo
 static_assert(sizeof(NbCamera) == 112, "NbCamera layout is shared with OpenCL");
 static_assert(sizeof(NbLight) == 96, "NbLight layout is shared with OpenCL");
 
+int nbFilterType(PixelFilter filter)
+{
+    switch (filter) {
+    case PixelFilter::Box: return NB_FILTER_BOX;
+    case PixelFilter::Gaussian: return NB_FILTER_GAUSSIAN;
+    case PixelFilter::BlackmanHarris: return NB_FILTER_BLACKMAN_HARRIS;
+    }
+    return NB_FILTER_GAUSSIAN;
+}
+
 NbCamera makeNbCamera(const Camera& c)
 {
     NbCamera k{};

@@ -3,6 +3,7 @@
 #pragma once
 
 #include "../../kernels/shared/camera.h"
+#include "../../kernels/shared/filter.h"
 #include "../../kernels/shared/light.h"
 #include "Scene.h"
 
@@ -11,6 +12,8 @@
 namespace nimbus {
 
 NbCamera makeNbCamera(const Camera& camera);
+// NB_FILTER_* of the scene's pixel filter (kernels/shared/filter.h).
+int nbFilterType(PixelFilter filter);
 NbLight makeNbLight(const Light& light, int index);
 std::vector<NbLight> makeNbLights(const Scene& scene);
 

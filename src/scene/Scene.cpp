@@ -25,6 +25,16 @@ const char* methodName(Method m)
     return "?";
 }
 
+const char* pixelFilterName(PixelFilter f)
+{
+    switch (f) {
+    case PixelFilter::Box: return "box";
+    case PixelFilter::Gaussian: return "gaussian";
+    case PixelFilter::BlackmanHarris: return "blackman_harris";
+    }
+    return "gaussian";
+}
+
 const char* wkbKernelName(WkbKernel k) { return k == WkbKernel::Exact ? "exact" : "gaussian"; }
 
 const char* wkbSourceName(WkbSource s) { return s == WkbSource::RandomWalk ? "random_walk" : "straight"; }

@@ -98,7 +98,11 @@ enum class WkbKernel { Gaussian, Exact };
 // straight line (sec. 6.3.6) or the mean displacement of an angular random walk.
 enum class WkbSource { Straight, RandomWalk };
 
+// The pixel reconstruction filter (kernels/shared/filter.h), by filter importance sampling.
+enum class PixelFilter { Box, Gaussian, BlackmanHarris };
+
 const char* methodName(Method m);
+const char* pixelFilterName(PixelFilter f);  // "box", "gaussian", "blackman_harris"
 const char* wkbKernelName(WkbKernel k);  // "gaussian", "exact"
 const char* wkbSourceName(WkbSource s);  // "straight", "random_walk"
 
@@ -107,6 +111,8 @@ struct RenderSettings {
     uint32_t seed = 1;
     int threads = 0;   // 0: all cores
     int spp = 4;       // camera samples per pixel (single, wkb); path samples (pathtrace)
+    PixelFilter pixelFilter = PixelFilter::Gaussian;
+    float filterWidth = 2.0f;  // the filter's full support, pixels (radius width / 2)
     float step = 0.5f; // primary march step as a fraction of the smallest voxel
     int shadowMapResolution = 256;
     float tolerance = 0.002f;  // deep-shadow-map transmittance error, and term cut-offs

@@ -56,6 +56,7 @@ public:
     void field(const std::string& key, Method m) { mJson[key] = methodName(m); }
     void field(const std::string& key, WkbKernel k) { mJson[key] = wkbKernelName(k); }
     void field(const std::string& key, WkbSource k) { mJson[key] = wkbSourceName(k); }
+    void field(const std::string& key, PixelFilter f) { mJson[key] = pixelFilterName(f); }
     void rgb(const std::string& key, Rgb v) { mJson[key] = array(v); }
     template <int N>
     void field(const std::string& key, const float (&v)[N])
@@ -95,6 +96,11 @@ public:
     void field(const std::string& key, WkbKernel& out)
     {
         named(key, out, {WkbKernel::Gaussian, WkbKernel::Exact}, wkbKernelName, "angular kernel");
+    }
+    void field(const std::string& key, PixelFilter& out)
+    {
+        named(key, out, {PixelFilter::Box, PixelFilter::Gaussian, PixelFilter::BlackmanHarris}, pixelFilterName,
+              "pixel filter");
     }
     void field(const std::string& key, WkbSource& out)
     {
@@ -139,6 +145,8 @@ void visitRender(V& v, R& r)
     v.field("seed", r.seed);
     v.field("threads", r.threads);
     v.field("spp", r.spp);
+    v.field("pixel_filter", r.pixelFilter);
+    v.field("filter_width", r.filterWidth);
     v.field("step", r.step);
     v.field("shadow_map_resolution", r.shadowMapResolution);
     v.field("tolerance", r.tolerance);

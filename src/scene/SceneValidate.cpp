@@ -284,6 +284,7 @@ void checkRender(const Checker& c, const RenderSettings& r)
     // spp 0 means "no sample budget": only the path tracer's time limit can then end the render.
     const bool timeBound = r.method == Method::Pathtrace && r.timeLimit > 0;
     c.atLeast("render.spp", r.spp, timeBound ? 0 : 1);
+    c.range("render.filter_width", r.filterWidth, Range{0, 16, true, false, "pixels"});
     c.range("render.step", r.step, Range{0, 100, true, false, "voxels"});
     c.range("render.shadow_map_resolution", r.shadowMapResolution, Range{8, 16384, false, false, "texels"});
     c.range("render.tolerance", r.tolerance, Range{0, 0.5, true, false, ""});

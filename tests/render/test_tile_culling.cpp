@@ -1,6 +1,8 @@
 // Tile culling (src/engine/TileCulling.h) must be conservative: no ray through a culled tile may
-// meet the box. Random cameras and boxes; every culled tile is probed with jittered rays, the
-// same rays renderMarched would trace, against the same Bbox::intersect marchSingle uses.
+// meet the box. Random cameras and boxes; every culled tile is probed with rays spread over its
+// pixels' filter footprints (the widest default filter, Blackman-Harris of width 3: up to 1.5
+// pixels from each pixel's centre, as the tile driver traces them), against the same
+// Bbox::intersect marchSingle uses.
 #include "engine/TileCulling.h"
 #include "scene/KernelScene.h"
 
@@ -12,6 +14,9 @@
 using namespace nimbus;
 
 namespace {
+
+constexpr float kFilterWidth = 3.0f;
+constexpr float kReach = 0.5f * kFilterWidth - 0.5f;  // how far past its pixel a ray may go
 
 struct Counts {
     int culled = 0, kept = 0, keptHit = 0;
@@ -26,19 +31,20 @@ Counts probe(const Camera& c, const Bbox& box, std::mt19937& rng)
     for (int y0 = 0; y0 < c.height; y0 += kTile)
         for (int x0 = 0; x0 < c.width; x0 += kTile) {
             const int x1 = std::min(x0 + kTile, c.width), y1 = std::min(y0 + kTile, c.height);
-            const bool culled = tileMissesBox(cam, c.width, c.height, x0, y0, x1, y1, box);
+            const bool culled = tileMissesBox(cam, c.width, c.height, x0, y0, x1, y1, box, filterMargin(kFilterWidth));
             bool hit = false;
+            const float xa = x0 - kReach, xb = x1 + kReach, ya = y0 - kReach, yb = y1 + kReach;
             for (int k = 0; k < 128; ++k) {
-                const float x = x0 + (x1 - x0) * u01(rng), y = y0 + (y1 - y0) * u01(rng);
+                const float x = xa + (xb - xa) * u01(rng), y = ya + (yb - ya) * u01(rng);
                 float3 o, d;
                 nbCameraRay(cam, x, y, c.width, c.height, u01(rng), &o, &d);
                 float t0, t1;
                 hit = hit || box.intersect(o, safeInverse(d), 0.0f, 1e30f, t0, t1);
             }
-            // The tile's corners, where a ray grazes the frustum's side planes.
+            // The footprint's corners, where a ray grazes the frustum's side planes.
             for (int k = 0; k < 4; ++k) {
                 float3 o, d;
-                nbCameraRay(cam, float(k & 1 ? x1 : x0), float(k & 2 ? y1 : y0), c.width, c.height, 0.0f, &o, &d);
+                nbCameraRay(cam, k & 1 ? xb : xa, k & 2 ? yb : ya, c.width, c.height, 0.0f, &o, &d);
                 float t0, t1;
                 hit = hit || box.intersect(o, safeInverse(d), 0.0f, 1e30f, t0, t1);
             }
@@ -129,7 +135,8 @@ TEST(TileCulling, TilesLeftUnmarkedHaveNoRayThroughAnOccupiedBrick)
         constexpr int kTile = 8;
         const int tilesX = (c.width + kTile - 1) / kTile, tilesY = (c.height + kTile - 1) / kTile;
         std::vector<char> seen(size_t(tilesX * tilesY), 0);
-        if (!markTilesSeeingBricks(cam, c.width, c.height, 0, 0, kTile, tilesX, tilesY, g, place, seen)) {
+        if (!markTilesSeeingBricks(cam, c.width, c.height, 0, 0, kTile, tilesX, tilesY, g, place, seen,
+                                   filterMargin(kFilterWidth))) {
             ++unbounded;
             continue;
         }
@@ -153,18 +160,20 @@ TEST(TileCulling, TilesLeftUnmarkedHaveNoRayThroughAnOccupiedBrick)
             for (int tx = 0; tx < tilesX; ++tx) {
                 const int x0 = tx * kTile, y0 = ty * kTile;
                 const int x1 = std::min(x0 + kTile, c.width), y1 = std::min(y0 + kTile, c.height);
+                const float xa = x0 - kReach, xb = x1 + kReach, ya = y0 - kReach, yb = y1 + kReach;
                 bool hit = false;
                 for (int k = 0; k < 24 && !hit; ++k)
-                    hit = rayMeetsBrick(x0 + (x1 - x0) * u01(rng), y0 + (y1 - y0) * u01(rng), 0.0f);
+                    hit = rayMeetsBrick(xa + (xb - xa) * u01(rng), ya + (yb - ya) * u01(rng), 0.0f);
                 for (int k = 0; k < 4 && !hit; ++k)
-                    hit = rayMeetsBrick(float(k & 1 ? x1 : x0), float(k & 2 ? y1 : y0), 0.0f);
+                    hit = rayMeetsBrick(k & 1 ? xb : xa, k & 2 ? yb : ya, 0.0f);
                 if (seen[size_t(ty) * tilesX + tx]) {
                     ++marked;
                     markedHit += hit;
                 } else {
                     EXPECT_FALSE(hit) << "trial " << trial << ": unmarked tile " << tx << "," << ty
                                       << " has a ray through an occupied brick";
-                    unmarkedInBox += !tileMissesBox(cam, c.width, c.height, x0, y0, x1, y1, place.box(g.activeIndexBounds()));
+                    unmarkedInBox += !tileMissesBox(cam, c.width, c.height, x0, y0, x1, y1, place.box(g.activeIndexBounds()),
+                                                    filterMargin(kFilterWidth));
                 }
             }
     }
