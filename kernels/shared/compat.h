@@ -13,7 +13,10 @@
 
 #ifdef __OPENCL_VERSION__
 
-#define NB_FN inline
+/* OpenCL C follows C99 inline rules: a plain `inline` function has no external definition, so
+ * a call the compiler chooses not to inline is left unresolved, which some drivers reject at
+ * link. `static inline` gives every program its own definition. */
+#define NB_FN static inline
 #define NB_GLOBAL __global
 #define NB_CONSTANT __constant
 #define NB_PRIVATE __private
@@ -26,6 +29,7 @@ typedef ulong nb_ulong;
 #include <cmath>
 #include <cstdint>
 
+/* C++ `inline`: one definition across translation units (ODR), as a header function needs. */
 #define NB_FN inline
 #define NB_GLOBAL
 #define NB_CONSTANT
