@@ -86,6 +86,10 @@ NB_FN float clamp(float v, float lo, float hi) { return v < lo ? lo : (v > hi ? 
 
 #define NB_PI 3.14159265358979323846f
 #define NB_INV_4PI 0.07957747154594767f
+/* 1/(4 pi) for the host's double arithmetic (the WKB order sums and spherical harmonics, which
+ * accumulate thousands of terms); shared code itself stays float and uses NB_INV_4PI. A macro,
+ * not a constexpr, so that this header stays valid OpenCL C (where nothing uses it). */
+#define NB_INV_4PI_D 0.079577471545947667884
 
 /* Plain comparisons rather than fmax/fmin: C++ compilers call libm for those (NaN rules). */
 NB_FN float nbMaxComponent(float3 v)

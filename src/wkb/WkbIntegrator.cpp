@@ -34,7 +34,6 @@ namespace nimbus::wkb {
 
 namespace {
 
-constexpr double kInv4Pi = 0.079577471545947667884;
 constexpr int kMaxNodes = 100000;
 constexpr double kNodeSpatial = 0.5;  // node length, in blur widths (or light voxels)
 // The march reads the density from the pyramid once the blur exceeds this many light voxels.
@@ -240,7 +239,7 @@ void WkbIntegrator::evaluateNode(Scratch& sc, float3 o, float3 d, const TableEnt
     const Truncation tr = truncateOrders(mSetup.kernel, lmin, mu, gmax, mSetup.tolerance, mSetup.orderCap);
     // The bound decreases with tau_a: the least absorbed channel bounds all three.
     const double tauAMin = std::min(e1.tauA[0], std::min(e1.tauA[1], e1.tauA[2]));
-    remaining = remainingWeightBound(e1.lhat, tauAMin, mSetup.omegaMax) * tr.total / kInv4Pi;
+    remaining = remainingWeightBound(e1.lhat, tauAMin, mSetup.omegaMax) * tr.total / NB_INV_4PI_D;
     if (!(std::max(W[0], std::max(W[1], W[2])) > 0.0))
         return;
 
@@ -317,7 +316,7 @@ void WkbIntegrator::evaluateNode(Scratch& sc, float3 o, float3 d, const TableEnt
             const double x0 = std::max(-1.0, std::min(1.0, double(dot(n, LightVolumes::deltaDirection(sp, x)))));
             double Pm = 0.0, P = 1.0;
             for (int j = 0; j <= J; ++j) {
-                const double f = double(2 * j + 1) * kInv4Pi * P;
+                const double f = double(2 * j + 1) * NB_INV_4PI_D * P;
                 for (int c = 0; c < 3; ++c)
                     S[c] += f * sc.coef[size_t(c) * (J + 1) + j];
                 const double next = (double(2 * j + 1) * x0 * P - double(j) * Pm) / double(j + 1);
