@@ -8,19 +8,6 @@
 
 namespace nimbus::wkb {
 
-double PhaseMoments::moment(int j) const
-{
-    if (j == 0)
-        return 1.0;
-    double a = std::pow(g, j);
-    return blend > 0.0 ? (1.0 - blend) * a + blend * std::pow(g2, j) : a;
-}
-
-double PhaseMoments::gmax() const
-{
-    return blend > 0.0 ? std::max(std::fabs(g), std::fabs(g2)) : std::fabs(g);
-}
-
 double gaussianMu(double p1)
 {
     if (!(p1 > std::exp(-kMuMax)))

@@ -82,8 +82,7 @@ WkbIntegrator::WkbIntegrator(const RenderContext& ctx, RenderPlan& plan) : mCtx(
     for (auto& v : ctx.volumes.volumes()) {
         mSigmaS.push_back(v->sigmaS());
         mSigmaA.push_back(fmax(v->sigmaT() - v->sigmaS(), splat(0.0f)));
-        const NbPhase& p = v->medium.phase;
-        mPhase.push_back(PhaseMoments{p.g, p.g2, p.blend > 0.0f ? double(p.blend) : 0.0});
+        mPhase.push_back(v->medium.phase);
     }
     mLights.build(ctx, mSetup, plan);
     mMinLightVoxel = 1e30f;
@@ -208,14 +207,14 @@ void WkbIntegrator::evaluateNode(Scratch& sc, float3 o, float3 d, const TableEnt
     for (size_t v = 0; v < sc.nodeW.size(); ++v) {
         wsum += sc.nodeW[v];
         if (sc.nodeW[v] > 0.0)
-            gmax = std::max(gmax, mPhase[v].gmax());
+            gmax = std::max(gmax, nbPhaseMomentBound(mPhase[v]));
     }
     if (!(wsum > 0.0))
         return;
     double p1 = 0.0;
     for (size_t v = 0; v < sc.nodeW.size(); ++v)
         if (sc.nodeW[v] > 0.0)
-            p1 += sc.nodeW[v] * mPhase[v].meanCosine();
+            p1 += sc.nodeW[v] * nbPhaseMeanCos(mPhase[v]);
     p1 /= wsum;
     const double mu = gaussianMu(p1);
     sc.muLast = mu;
@@ -250,11 +249,7 @@ void WkbIntegrator::evaluateNode(Scratch& sc, float3 o, float3 d, const TableEnt
     for (size_t v = 0; v < sc.nodeW.size(); ++v) {
         if (!(sc.nodeW[v] > 0.0))
             continue;
-        const PhaseMoments& ph = mPhase[v];
-        const double w = sc.nodeW[v] / wsum;
-        double a = w * (1.0 - ph.blend), b = w * ph.blend;
-        for (int j = 0; j <= J; ++j, a *= ph.g, b *= ph.g2)
-            sc.pj[j] += a + b;
+        nbPhaseAddMoments(mPhase[v], sc.nodeW[v] / wsum, J, sc.pj.data());
     }
     sc.coef.resize(3 * (size_t(J) + 1));
     const bool grey = m.l[0] == m.l[1] && m.l[1] == m.l[2];
