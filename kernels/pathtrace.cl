@@ -51,8 +51,6 @@
 #ifndef NB_NUM_LIGHTS
 #define NB_NUM_LIGHTS 0
 #endif
-/* Helpers are `static inline`: under C99 inline rules a plain `inline` function that a compiler
- * chooses not to inline has no external definition, which some OpenCL drivers reject at link. */
 #ifndef NB_TWO_LOBE
 #define NB_TWO_LOBE 1
 #endif
@@ -61,22 +59,22 @@
 #endif
 
 /* Uniform in (0, 1]: safe for -log. */
-static inline float nbRngOpen(__private NbRng* rng) { return 1.0f - nbRngNext(rng); }
+NB_FN float nbRngOpen(__private NbRng* rng) { return 1.0f - nbRngNext(rng); }
 
 /* t + dt, but at least one ulp past t: a majorant so large that dt falls below t's precision
  * must not stall the walk (the shift is far below a voxel for any sane scene). */
-static inline float nbAdvance(float t, float dt)
+NB_FN float nbAdvance(float t, float dt)
 {
     float tn = t + dt;
     return tn > t ? tn : nextafter(t, NB_INF);
 }
 
-static inline float3 nbSigmaS(__global const NbVolumeDesc* vd) { return make_float3(vd->sigma_s[0], vd->sigma_s[1], vd->sigma_s[2]); }
-static inline float3 nbSigmaT(__global const NbVolumeDesc* vd) { return make_float3(vd->sigma_t[0], vd->sigma_t[1], vd->sigma_t[2]); }
+NB_FN float3 nbSigmaS(__global const NbVolumeDesc* vd) { return make_float3(vd->sigma_s[0], vd->sigma_s[1], vd->sigma_s[2]); }
+NB_FN float3 nbSigmaT(__global const NbVolumeDesc* vd) { return make_float3(vd->sigma_t[0], vd->sigma_t[1], vd->sigma_t[2]); }
 
 /* Channel average of w * v: the "history-aware" weights of spectral tracking. Grey media need
  * one channel only. */
-static inline float nbWeighted(float3 w, float3 v)
+NB_FN float nbWeighted(float3 w, float3 v)
 {
 #if NB_CHROMATIC
     return nbAverage(w * v);
@@ -87,7 +85,7 @@ static inline float nbWeighted(float3 w, float3 v)
 
 /* One light sample. With the types a scene has known at compile time, each case calls
  * nbLightSample with a constant type, so the compiler drops the branches for the others. */
-static inline NbLightSample nbSampleLight(NbLight l, float3 p, float u0, float u1)
+NB_FN NbLightSample nbSampleLight(NbLight l, float3 p, float u0, float u1)
 {
     NbLightSample s;
     s.wi = make_float3(0.0f, 1.0f, 0.0f);
@@ -119,9 +117,9 @@ static inline NbLightSample nbSampleLight(NbLight l, float3 p, float u0, float u
 
 /* Ratio-tracking transmittance along o + t d, t in [0, tMax] (Novak et al. 2014, eq. 6): an
  * unbiased estimate of exp(-int sigma_t) per channel. */
-static inline float3 nbRatioTransmittance(float3 o, float3 d, float tMax, __global const NbVolumeDesc* vols, int volumeCount,
-                                   __global const int* tables, __global const float* pools,
-                                   __global const float* majorants, __private NbRng* rng)
+NB_FN float3 nbRatioTransmittance(float3 o, float3 d, float tMax, __global const NbVolumeDesc* vols, int volumeCount,
+                                  __global const int* tables, __global const float* pools,
+                                  __global const float* majorants, __private NbRng* rng)
 {
     float3 T = make_float3(1.0f, 1.0f, 1.0f);
     NbMajorantIter it;
@@ -165,9 +163,9 @@ typedef struct {
 #endif
 } NbPathSample;
 
-static inline void nbTracePath(float3 o, float3 d, __global const NbPtParams* P, __global const NbLight* lights,
-                        __global const NbVolumeDesc* vols, __global const int* tables, __global const float* pools,
-                        __global const float* majorants, __private NbRng* rng, __private NbPathSample* out)
+NB_FN void nbTracePath(float3 o, float3 d, __global const NbPtParams* P, __global const NbLight* lights,
+                       __global const NbVolumeDesc* vols, __global const int* tables, __global const float* pools,
+                       __global const float* majorants, __private NbRng* rng, __private NbPathSample* out)
 {
     const int volumeCount = P->volumeCount;
     float3 w = make_float3(1.0f, 1.0f, 1.0f);

@@ -13,7 +13,10 @@
 
 #ifdef __OPENCL_VERSION__
 
-#define NB_FN inline
+/* OpenCL C follows C99 inline rules: a plain `inline` function has no external definition, so
+ * a call the compiler chooses not to inline is left unresolved, which some drivers reject at
+ * link. `static inline` gives every program its own definition. */
+#define NB_FN static inline
 #define NB_GLOBAL __global
 #define NB_CONSTANT __constant
 #define NB_PRIVATE __private
@@ -26,6 +29,7 @@ typedef ulong nb_ulong;
 #include <cmath>
 #include <cstdint>
 
+/* C++ `inline`: one definition across translation units (ODR), as a header function needs. */
 #define NB_FN inline
 #define NB_GLOBAL
 #define NB_CONSTANT
@@ -83,6 +87,10 @@ NB_FN float clamp(float v, float lo, float hi) { return v < lo ? lo : (v > hi ? 
 
 #define NB_PI 3.14159265358979323846f
 #define NB_INV_4PI 0.07957747154594767f
+/* 1/(4 pi) for the host's double arithmetic (the WKB order sums and spherical harmonics, which
+ * accumulate thousands of terms); shared code itself stays float and uses NB_INV_4PI. A macro,
+ * not a constexpr, so that this header stays valid OpenCL C (where nothing uses it). */
+#define NB_INV_4PI_D 0.079577471545947667884
 
 /* Plain comparisons rather than fmax/fmin: C++ compilers call libm for those (NaN rules). */
 NB_FN float nbMaxComponent(float3 v)

@@ -10,14 +10,15 @@
  * majorant grid instead of one global maximum; Novak et al. 2018, "Monte Carlo methods for
  * volumetric light transport simulation", sec. 5.1 on local majorants).
  *
- * Amanatides & Woo (1987) stepping, per volume, in that volume's index space: the index-space
- * ray o_i + t d_i keeps the world parameter t (d_i is not normalised), so crossings of all
- * volumes are ordered on one axis. NB_GLOBAL_MAJORANT=1 replaces the grid by one majorant per
+ * Amanatides & Woo (1987) stepping, per volume, in that volume's index space (brickdda.h, the
+ * same DDA as the host's brick walks): the index-space ray o_i + t d_i keeps the world
+ * parameter t (d_i is not normalised), so crossings of all volumes are ordered on one axis. NB_GLOBAL_MAJORANT=1 replaces the grid by one majorant per
  * volume (its largest slot), for benchmarks.
  */
 #ifndef NIMBUS_KERNELS_SHARED_MAJORANT_H
 #define NIMBUS_KERNELS_SHARED_MAJORANT_H
 
+#include "brickdda.h"
 #include "ptscene.h"
 
 #ifndef NB_NUM_VOLUMES
@@ -37,10 +38,7 @@ NB_FN float nbComponent(float3 v, int axis) { return axis == 0 ? v.x : (axis == 
 typedef struct {
     float3 o[NB_NUM_VOLUMES];       /* index-space ray origin, per volume */
     float3 d[NB_NUM_VOLUMES];       /* index-space direction (world t is kept) */
-    float tNext[3 * NB_NUM_VOLUMES];  /* next slot boundary per axis */
-    float tDelta[3 * NB_NUM_VOLUMES]; /* t across one slot per axis */
-    int cell[3 * NB_NUM_VOLUMES];     /* current slot (brick coordinates) */
-    int stepDir[3 * NB_NUM_VOLUMES];
+    NbBrickDda dda[NB_NUM_VOLUMES]; /* the slot walk per volume */
     float tEvent[NB_NUM_VOLUMES];   /* next change of this volume's majorant; NB_INF when done */
     float tEnd[NB_NUM_VOLUMES];     /* where the ray leaves this volume's box */
     float maj[NB_NUM_VOLUMES];      /* current majorant, 1/m; 0 outside */
@@ -117,7 +115,7 @@ NB_FN void nbMajorantStep(NB_PRIVATE NbMajorantIter* it, int v, NB_GLOBAL const 
                           NB_GLOBAL const float* majorants)
 {
     NB_GLOBAL const NbVolumeDesc* vd = vols + v;
-    const int b = 3 * v;
+    NB_PRIVATE NbBrickDda* dda = &it->dda[v];
     if (it->state[v] == 0) {
         it->state[v] = 1;
 #if NB_GLOBAL_MAJORANT
@@ -126,40 +124,24 @@ NB_FN void nbMajorantStep(NB_PRIVATE NbMajorantIter* it, int v, NB_GLOBAL const 
 #else
         float3 p = it->o[v] + it->d[v] * it->tEvent[v];
         for (int a = 0; a < 3; ++a) {
-            float oa = nbComponent(it->o[v], a), da = nbComponent(it->d[v], a);
             /* The entry point lies on the box; clamping only undoes rounding. */
             int lo = (int)floor(vd->boundsLo[a] * (1.0f / NB_BRICK));
             int hi = (int)ceil(vd->boundsHi[a] * (1.0f / NB_BRICK)) - 1;
             int c = (int)floor(nbComponent(p, a) * (1.0f / NB_BRICK));
             c = c < lo ? lo : (c > hi ? hi : c);
-            it->cell[b + a] = c;
-            if (da > 0.0f) {
-                it->stepDir[b + a] = 1;
-                it->tNext[b + a] = ((float)((c + 1) * NB_BRICK) - oa) / da;
-                it->tDelta[b + a] = (float)NB_BRICK / da;
-            } else if (da < 0.0f) {
-                it->stepDir[b + a] = -1;
-                it->tNext[b + a] = ((float)(c * NB_BRICK) - oa) / da;
-                it->tDelta[b + a] = -(float)NB_BRICK / da;
-            } else {
-                it->stepDir[b + a] = 0;
-                it->tNext[b + a] = NB_INF;
-                it->tDelta[b + a] = NB_INF;
-            }
+            nbBrickDdaAxis(dda, a, c, nbComponent(it->o[v], a), nbComponent(it->d[v], a));
         }
-        it->maj[v] = nbSlotMajorant(vd, majorants, it->cell[b], it->cell[b + 1], it->cell[b + 2]);
-        it->tEvent[v] = fmin(fmin(it->tNext[b], fmin(it->tNext[b + 1], it->tNext[b + 2])), it->tEnd[v]);
+        it->maj[v] = nbSlotMajorant(vd, majorants, dda->cell[0], dda->cell[1], dda->cell[2]);
+        it->tEvent[v] = fmin(fmin(dda->tNext[0], fmin(dda->tNext[1], dda->tNext[2])), it->tEnd[v]);
 #endif
         return;
     }
 #if !NB_GLOBAL_MAJORANT
-    int axis = it->tNext[b] < it->tNext[b + 1] ? (it->tNext[b] < it->tNext[b + 2] ? 0 : 2)
-                                               : (it->tNext[b + 1] < it->tNext[b + 2] ? 1 : 2);
-    if (it->tNext[b + axis] < it->tEnd[v]) {
-        it->cell[b + axis] += it->stepDir[b + axis];
-        it->tNext[b + axis] += it->tDelta[b + axis];
-        it->maj[v] = nbSlotMajorant(vd, majorants, it->cell[b], it->cell[b + 1], it->cell[b + 2]);
-        it->tEvent[v] = fmin(fmin(it->tNext[b], fmin(it->tNext[b + 1], it->tNext[b + 2])), it->tEnd[v]);
+    int axis = nbBrickDdaExitAxis(dda);
+    if (dda->tNext[axis] < it->tEnd[v]) {
+        nbBrickDdaAdvance(dda, axis);
+        it->maj[v] = nbSlotMajorant(vd, majorants, dda->cell[0], dda->cell[1], dda->cell[2]);
+        it->tEvent[v] = fmin(fmin(dda->tNext[0], fmin(dda->tNext[1], dda->tNext[2])), it->tEnd[v]);
         return;
     }
 #endif

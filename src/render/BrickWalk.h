@@ -13,6 +13,7 @@
 // the index-space image of a unit world direction), so dt is the caller's step.
 #pragma once
 
+#include "../../kernels/shared/brickdda.h"
 #include "../volume/BrickGrid.h"
 #include "../volume/VolumeData.h"
 
@@ -22,48 +23,27 @@
 
 namespace nimbus {
 
-// A 3D DDA over the 8^3 brick cells crossed by an index-space ray o + t d (Amanatides & Woo
-// 1987): `cell` is the current brick (index / 8), `exit()` the t where the ray leaves it.
-struct BrickDda {
-    int cell[3];
-    int stepDir[3];
-    float tNext[3], tDelta[3];
-
+// The 3D DDA over the 8^3 brick cells crossed by an index-space ray o + t d: kernels/shared/
+// brickdda.h, the path tracer's majorant walk's too. `cell` is the current brick (index / 8),
+// `exit()` the t where the ray leaves it.
+struct BrickDda : NbBrickDda {
     // Starts at o + d tIn; false where that point is not finite (nothing to walk).
     bool start(float3 o, float3 d, float tIn)
     {
+        static_assert(BrickGrid::kBrick == NB_BRICK, "brickdda.h walks BrickGrid's bricks");
         constexpr float B = float(BrickGrid::kBrick);
         const float3 p = o + d * tIn;
         if (!(std::fabs(p.x) < 1e9f && std::fabs(p.y) < 1e9f && std::fabs(p.z) < 1e9f))
             return false;
-        cell[0] = floorToInt(p.x / B), cell[1] = floorToInt(p.y / B), cell[2] = floorToInt(p.z / B);
-        const float dir[3] = {d.x, d.y, d.z}, org[3] = {o.x, o.y, o.z};
-        for (int a = 0; a < 3; ++a) {
-            if (dir[a] > 0) {
-                stepDir[a] = 1;
-                tNext[a] = ((cell[a] + 1) * B - org[a]) / dir[a];
-                tDelta[a] = B / dir[a];
-            } else if (dir[a] < 0) {
-                stepDir[a] = -1;
-                tNext[a] = (cell[a] * B - org[a]) / dir[a];
-                tDelta[a] = -B / dir[a];
-            } else {
-                stepDir[a] = 0;
-                tNext[a] = std::numeric_limits<float>::infinity();
-                tDelta[a] = std::numeric_limits<float>::infinity();
-            }
-        }
+        nbBrickDdaAxis(this, 0, floorToInt(p.x / B), o.x, d.x);
+        nbBrickDdaAxis(this, 1, floorToInt(p.y / B), o.y, d.y);
+        nbBrickDdaAxis(this, 2, floorToInt(p.z / B), o.z, d.z);
         return true;
     }
-    int exitAxis() const { return tNext[0] < tNext[1] ? (tNext[0] < tNext[2] ? 0 : 2) : (tNext[1] < tNext[2] ? 1 : 2); }
+    int exitAxis() const { return nbBrickDdaExitAxis(this); }
     float exit() const { return tNext[exitAxis()]; }
     // Moves into the next brick along the ray.
-    void advance()
-    {
-        const int a = exitAxis();
-        cell[a] += stepDir[a];
-        tNext[a] += tDelta[a];
-    }
+    void advance() { nbBrickDdaAdvance(this, exitAxis()); }
 };
 
 // visit(int k, float t, const BrickGrid::Stencil& s) returns false to stop the walk.
@@ -114,8 +94,7 @@ void walkOccupiedBricks(const BrickGrid& grid, float3 o, float3 d, float tIn, fl
             kNext = k;
         }
         t = tExit;
-        dda.cell[axis] += dda.stepDir[axis];  // dda.advance(), its exit axis known
-        dda.tNext[axis] += dda.tDelta[axis];
+        nbBrickDdaAdvance(&dda, axis);  // dda.advance(), its exit axis known
     }
 }
 

@@ -7,6 +7,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <vector>
 
 namespace nimbus {
@@ -228,8 +229,11 @@ bool marchSingleFast(const RenderContext& ctx, float3 o, float3 d, float jitter,
 
 // Any scene: several volumes, emission, sampled area and environment lights, chromatic media.
 // Out of line, so that its frame does not weigh on the common cases above.
+// `latticeStart`, where given, puts the samples on one lattice along the whole ray,
+// t_k = *latticeStart + (k + jitter) step (one volume: the specialised loops' lattice, for
+// marchSingleGeneralReference) instead of one per span.
 [[gnu::noinline]] void marchSingleGeneral(const RenderContext& ctx, float3 o, float3 d, float jitter, NbRng& rng,
-                                          CameraSample& out, float* perLight)
+                                          CameraSample& out, float* perLight, const float* latticeStart = nullptr)
 {
     const Scene& scene = *ctx.scene;
     const VolumeSet& vs = ctx.volumes;
@@ -270,12 +274,21 @@ bool marchSingleFast(const RenderContext& ctx, float3 o, float3 d, float jitter,
     float depthSum = 0.0f, opacitySum = 0.0f;
     bool done = false;
 
+    int kNext = 0;  // latticeStart: the first lattice sample not yet taken
     for (const Span& span : spanList) {
         float len = span.t1 - span.t0;
         int n = std::max(1, int(std::ceil(len / span.step)));
-        float dt = len / float(n);
-        for (int k = 0; k < n && !done; ++k) {
-            float t = span.t0 + (k + jitter) * dt;
+        float dt = len / float(n), t0 = span.t0;
+        int k = 0;
+        if (latticeStart) {  // as walkOccupiedBricks (BrickWalk.h) places them
+            dt = span.step, t0 = *latticeStart, n = std::numeric_limits<int>::max();
+            k = std::max(kNext, int(std::ceil((span.t0 - t0) * (1.0f / dt) - jitter)));
+        }
+        for (; k < n && !done; ++k) {
+            float t = t0 + (float(k) + jitter) * dt;
+            if (latticeStart && !(t < span.t1))
+                break;
+            kNext = k + 1;
             float3 p = o + d * t;
             MediumSample m = vs.sample(p, phaseWeights.data(), stencils.data());
             if (nbMaxComponent(m.sigma_t) <= 0.0f && nbMaxComponent(m.emission) <= 0.0f)
@@ -354,22 +367,94 @@ bool marchSingleFast(const RenderContext& ctx, float3 o, float3 d, float jitter,
     out.opacity = opacitySum;
 }
 
+// Most camera rays of a typical frame miss every volume: the background, nothing else (and no
+// further random numbers, as in the general march, which finds no span).
+bool missesEveryVolume(const RenderContext& ctx, float3 o, float3 d, CameraSample& out)
+{
+    float tIn, tOut;
+    if (ctx.volumes.worldBounds().intersect(o, safeInverse(d), 0.0f, 1e30f, tIn, tOut))
+        return false;
+    out.L0 += ctx.background;
+    out.transmittance = splat(1.0f);
+    out.depth = 0.0f;
+    return true;
+}
+
 }  // namespace
 
 void marchSingle(const RenderContext& ctx, float3 o, float3 d, NbRng& rng, CameraSample& out, float* perLight)
 {
     const float jitter = nbRngNext(&rng);
-    float tIn, tOut;
-    if (!ctx.volumes.worldBounds().intersect(o, safeInverse(d), 0.0f, 1e30f, tIn, tOut)) {
-        // Most camera rays of a typical frame miss every volume: the background, nothing else
-        // (and no further random numbers, as in the general march, which finds no span).
-        out.L0 += ctx.background;
-        out.transmittance = splat(1.0f);
-        out.depth = 0.0f;
+    if (missesEveryVolume(ctx, o, d, out))
         return;
-    }
     if (!marchSingleFast(ctx, o, d, jitter, out, perLight))
         marchSingleGeneral(ctx, o, d, jitter, rng, out, perLight);
+}
+
+namespace {
+
+#if NIMBUS_EIGHT_RAY_MARCH
+// A grey medium lit only by distant lights, at most kMaxEightRayLights: the lanes' case
+// (MarchEightRays.h). Returns how many lights, written to `lights`; 0 where it is not the case.
+int eightRayLightsOf(const RenderContext& ctx, const LightEntry** lights)
+{
+    const LightEntry* key = nullptr;
+    bool allDistant = false;
+    const FastMarch fast = fastMarchOf(ctx, &key, &allDistant);
+    if (!allDistant || (fast != FastMarch::GreyKeyLight && fast != FastMarch::Grey))
+        return 0;
+    int lightCount = 0;
+    for (const LightEntry& e : ctx.lights) {
+        if (!e.used)
+            continue;
+        if (lightCount == kMaxEightRayLights)  // too many for the lanes' accumulators
+            return 0;
+        lights[lightCount++] = &e;
+    }
+    return lightCount;
+}
+#endif
+
+}  // namespace
+
+SingleRoute singleRouteOf(const RenderContext& ctx, bool batch)
+{
+#if NIMBUS_EIGHT_RAY_MARCH
+    const LightEntry* lights[kMaxEightRayLights];
+    if (batch && eightRayLightsOf(ctx, lights) > 0)
+        return SingleRoute::GreyDistantEight;
+#else
+    (void)batch;
+#endif
+    const LightEntry* key = nullptr;
+    switch (fastMarchOf(ctx, &key)) {
+    case FastMarch::GreyKeyLight: return SingleRoute::GreyKeyLight;
+    case FastMarch::Grey: return SingleRoute::Grey;
+    case FastMarch::OneDistant: return SingleRoute::OneDistant;
+    case FastMarch::Chromatic: return SingleRoute::Chromatic;
+    case FastMarch::None: break;
+    }
+    return SingleRoute::General;
+}
+
+void marchSingleGeneralReference(const RenderContext& ctx, float3 o, float3 d, NbRng& rng, CameraSample& out,
+                                 float* perLight)
+{
+    const float jitter = nbRngNext(&rng);  // as marchSingle draws it
+    if (missesEveryVolume(ctx, o, d, out))
+        return;
+    // walkVolume's lattice start (BrickWalk.h): the entry into the occupied bricks' bounds.
+    float start = 0.0f;
+    const float* lattice = nullptr;
+    if (ctx.volumes.volumes().size() == 1) {
+        const VolumeData& vol = *ctx.volumes.volumes()[0];
+        const float3 oi = vol.indexFromWorld.point(o), di = vol.indexFromWorld.vector(d);
+        float t0, t1, s1;
+        if (vol.worldBounds.intersect(o, safeInverse(d), 0.0f, 1e30f, t0, t1) &&
+            vol.density.activeIndexBounds().intersect(oi, safeInverse(di), t0, t1, start, s1))
+            lattice = &start;
+    }
+    marchSingleGeneral(ctx, o, d, jitter, rng, out, perLight, lattice);
 }
 
 void marchSingleRays(const RenderContext& ctx, int n, const float3* o, const float3* d, NbRng* rng, CameraSample* out,
@@ -378,21 +463,9 @@ void marchSingleRays(const RenderContext& ctx, int n, const float3* o, const flo
     const size_t stride = 3 * ctx.lights.size();
 #if NIMBUS_EIGHT_RAY_MARCH
     // A grey medium lit only by distant lights: eight rays at once (MarchEightRays.h).
-    const LightEntry* key = nullptr;
-    bool allDistant = false;
-    const FastMarch fast = fastMarchOf(ctx, &key, &allDistant);
     const LightEntry* lights[kMaxEightRayLights];
-    int lightCount = 0;
-    for (const LightEntry& e : ctx.lights) {
-        if (!e.used)
-            continue;
-        if (lightCount == kMaxEightRayLights) {  // too many for the lanes' accumulators
-            lightCount = 0;
-            break;
-        }
-        lights[lightCount++] = &e;
-    }
-    if (n > 1 && allDistant && lightCount > 0 && (fast == FastMarch::GreyKeyLight || fast == FastMarch::Grey)) {
+    const int lightCount = n > 1 ? eightRayLightsOf(ctx, lights) : 0;
+    if (lightCount > 0) {
         const VolumeData& vol = *ctx.volumes.volumes()[0];
         for (int first = 0; first < n; first += 8) {
             const int m = std::min(8, n - first);

@@ -19,4 +19,18 @@ void marchSingle(const RenderContext& ctx, float3 o, float3 d, NbRng& rng, Camer
 void marchSingleRays(const RenderContext& ctx, int n, const float3* o, const float3* d, NbRng* rng, CameraSample* out,
                      float* perLight);
 
+// Test hooks, for tests/render/test_marcher_reference.cpp, which checks every specialised loop
+// against the general one ray by ray.
+// The loop a ray that meets the volumes takes: through marchSingle (batch false) or through
+// marchSingleRays with more than one ray (batch true). The lanes may still hand a batch back to
+// the scalar loops (MarchEightRays.h: marches too long for float indices, pools too large).
+enum class SingleRoute { General, GreyKeyLight, Grey, OneDistant, Chromatic, GreyDistantEight };
+SingleRoute singleRouteOf(const RenderContext& ctx, bool batch);
+// marchSingle through the general loop, whatever the scene. With one volume, its samples lie on
+// the specialised loops' lattice, t_k = t_in + (k + jitter) dt from the ray's entry into the
+// occupied bricks' bounds (walkVolume, BrickWalk.h), rather than on the general loop's own
+// lattice per span: then the two marches take the same samples and agree to float rounding.
+void marchSingleGeneralReference(const RenderContext& ctx, float3 o, float3 d, NbRng& rng, CameraSample& out,
+                                 float* perLight);
+
 }  // namespace nimbus

@@ -1,27 +1,12 @@
 #include "AngularKernel.h"
 
+#include "../../kernels/shared/compat.h"
+
 #include <algorithm>
 #include <cmath>
 #include <limits>
 
 namespace nimbus::wkb {
-
-namespace {
-constexpr double kInv4Pi = 0.079577471545947667884;
-}
-
-double PhaseMoments::moment(int j) const
-{
-    if (j == 0)
-        return 1.0;
-    double a = std::pow(g, j);
-    return blend > 0.0 ? (1.0 - blend) * a + blend * std::pow(g2, j) : a;
-}
-
-double PhaseMoments::gmax() const
-{
-    return blend > 0.0 ? std::max(std::fabs(g), std::fabs(g2)) : std::fabs(g);
-}
 
 double gaussianMu(double p1)
 {
@@ -116,7 +101,7 @@ double remainingWeightBound(double la, double tauA, double omegaMax)
 Truncation truncateOrders(KernelType k, double l, double mu, double gmax, double tolerance, int orderCap)
 {
     Truncation t;
-    const double tolAbs = std::max(tolerance, 0.0) * kInv4Pi;
+    const double tolAbs = std::max(tolerance, 0.0) * NB_INV_4PI_D;
     gmax = std::min(std::fabs(gmax), 1.0);
     const double q = std::exp(-muL(mu, l));  // A_{j+1} / A_j = q^{j+1}
     // term(j) bounds (2j+1)/(4pi) |p_j R_j(l)|; ratio(j) bounds term(i+1)/term(i) for all i >= j.
@@ -125,7 +110,7 @@ Truncation truncateOrders(KernelType k, double l, double mu, double gmax, double
         double odd = double(2 * j + 3) / double(2 * j + 1);
         return k == KernelType::Gaussian ? odd * gmax * qpow * q : odd * gmax * gmax;
     };
-    double sum = kInv4Pi;  // j = 0: p_0 R_0 = 1
+    double sum = NB_INV_4PI_D;  // j = 0: p_0 R_0 = 1
     orderCap = std::max(orderCap, 0);
     for (int j = 0;; ++j) {
         // term j+1
@@ -138,7 +123,7 @@ Truncation truncateOrders(KernelType k, double l, double mu, double gmax, double
         } else {
             Rnext = exactRatio(gnext, l);
         }
-        double next = double(2 * j + 3) * kInv4Pi * gnext * Rnext;
+        double next = double(2 * j + 3) * NB_INV_4PI_D * gnext * Rnext;
         double r = ratioFrom(j + 1);
         double tail = next <= 0.0 ? 0.0 : (r < 1.0 ? next / (1.0 - r) : std::numeric_limits<double>::infinity());
         if (tail <= tolAbs || j >= orderCap) {

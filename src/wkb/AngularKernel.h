@@ -25,15 +25,8 @@ namespace nimbus::wkb {
 
 enum class KernelType { Gaussian, Exact };
 
-// Legendre moments of NbPhase's two-lobe Henyey-Greenstein mixture: p_j = (1-w) g^j + w g2^j.
-struct PhaseMoments {
-    double g = 0.0, g2 = 0.0, blend = 0.0;
-
-    double moment(int j) const;
-    double meanCosine() const { return blend > 0.0 ? (1.0 - blend) * g + blend * g2 : g; }
-    // |p_j| <= gmax^j for every j: bounds the tail of the order sum.
-    double gmax() const;
-};
+// The phase function's Legendre moments p_j are kernels/shared/phase.h's (nbPhaseAddMoments,
+// nbPhaseMeanCos, nbPhaseMomentBound), in double on the host.
 
 // Bounds on mu: below p_1 = e^{-kMuMax} the phase function has no forward peak for the Gaussian
 // model to describe (isotropic or backward); the clamp keeps the blur width finite. kMuMin keeps

@@ -22,7 +22,6 @@ inline int shIndex(int j, int m) { return j * j + j + m; }
 // Writes y_jm(dir) for j = 0..order into out[shCount(order)]; dir unit length. order <= 16.
 inline void shEvaluate(int order, float3 dir, double* out)
 {
-    constexpr double kInv4Pi = 0.079577471545947667884;
     const double z = std::fmax(-1.0, std::fmin(1.0, double(dir.z)));
     const double rxy = std::sqrt(std::fmax(0.0, 1.0 - z * z));
     // cos(m phi), sin(m phi) by the angle-addition recurrence (phi undefined at the poles: 0).
@@ -56,7 +55,7 @@ inline void shEvaluate(int order, float3 dir, double* out)
             double ratio = 1.0;
             for (int k = j - m + 1; k <= j + m; ++k)
                 ratio /= double(k);
-            double K = std::sqrt(double(2 * j + 1) * kInv4Pi * ratio);
+            double K = std::sqrt(double(2 * j + 1) * NB_INV_4PI_D * ratio);
             if (m == 0) {
                 out[shIndex(j, 0)] = K * p;
             } else {

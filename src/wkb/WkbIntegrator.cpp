@@ -35,7 +35,6 @@ namespace nimbus::wkb {
 
 namespace {
 
-constexpr double kInv4Pi = 0.079577471545947667884;
 constexpr int kMaxNodes = 100000;
 constexpr double kNodeSpatial = 0.5;  // node length, in blur widths (or light voxels)
 // The march reads the density from the pyramid once the blur exceeds this many light voxels.
@@ -87,8 +86,7 @@ WkbIntegrator::WkbIntegrator(const RenderContext& ctx, const RenderPlan& plan, R
     for (auto& v : ctx.volumes.volumes()) {
         mSigmaS.push_back(v->sigmaS());
         mSigmaA.push_back(fmax(v->sigmaT() - v->sigmaS(), splat(0.0f)));
-        const NbPhase& p = v->medium.phase;
-        mPhase.push_back(PhaseMoments{p.g, p.g2, p.blend > 0.0f ? double(p.blend) : 0.0});
+        mPhase.push_back(v->medium.phase);
     }
     mLights.build(ctx, mSetup, stats);
     mMinLightVoxel = 1e30f;
@@ -224,14 +222,14 @@ void WkbIntegrator::evaluateNode(Scratch& sc, float3 o, float3 d, const TableEnt
     for (size_t v = 0; v < sc.nodeW.size(); ++v) {
         wsum += sc.nodeW[v];
         if (sc.nodeW[v] > 0.0)
-            gmax = std::max(gmax, mPhase[v].gmax());
+            gmax = std::max(gmax, nbPhaseMomentBound(mPhase[v]));
     }
     if (!(wsum > 0.0))
         return;
     double p1 = 0.0;
     for (size_t v = 0; v < sc.nodeW.size(); ++v)
         if (sc.nodeW[v] > 0.0)
-            p1 += sc.nodeW[v] * mPhase[v].meanCosine();
+            p1 += sc.nodeW[v] * nbPhaseMeanCos(mPhase[v]);
     p1 /= wsum;
     const double mu = gaussianMu(p1);
     sc.muLast = mu;
@@ -255,7 +253,7 @@ void WkbIntegrator::evaluateNode(Scratch& sc, float3 o, float3 d, const TableEnt
     const Truncation tr = truncateOrders(mSetup.kernel, lmin, mu, gmax, mSetup.tolerance, mSetup.orderCap);
     // The bound decreases with tau_a: the least absorbed channel bounds all three.
     const double tauAMin = std::min(e1.tauA[0], std::min(e1.tauA[1], e1.tauA[2]));
-    remaining = remainingWeightBound(e1.lhat, tauAMin, mSetup.omegaMax) * tr.total / kInv4Pi;
+    remaining = remainingWeightBound(e1.lhat, tauAMin, mSetup.omegaMax) * tr.total / NB_INV_4PI_D;
     if (!(std::max(W[0], std::max(W[1], W[2])) > 0.0))
         return;
 
@@ -266,11 +264,7 @@ void WkbIntegrator::evaluateNode(Scratch& sc, float3 o, float3 d, const TableEnt
     for (size_t v = 0; v < sc.nodeW.size(); ++v) {
         if (!(sc.nodeW[v] > 0.0))
             continue;
-        const PhaseMoments& ph = mPhase[v];
-        const double w = sc.nodeW[v] / wsum;
-        double a = w * (1.0 - ph.blend), b = w * ph.blend;
-        for (int j = 0; j <= J; ++j, a *= ph.g, b *= ph.g2)
-            sc.pj[j] += a + b;
+        nbPhaseAddMoments(mPhase[v], sc.nodeW[v] / wsum, J, sc.pj.data());
     }
     sc.coef.resize(3 * (size_t(J) + 1));
     const bool grey = m.l[0] == m.l[1] && m.l[1] == m.l[2];
@@ -332,7 +326,7 @@ void WkbIntegrator::evaluateNode(Scratch& sc, float3 o, float3 d, const TableEnt
             const double x0 = std::max(-1.0, std::min(1.0, double(dot(n, LightVolumes::deltaDirection(sp, x)))));
             double Pm = 0.0, P = 1.0;
             for (int j = 0; j <= J; ++j) {
-                const double f = double(2 * j + 1) * kInv4Pi * P;
+                const double f = double(2 * j + 1) * NB_INV_4PI_D * P;
                 for (int c = 0; c < 3; ++c)
                     S[c] += f * sc.coef[size_t(c) * (J + 1) + j];
                 const double next = (double(2 * j + 1) * x0 * P - double(j) * Pm) / double(j + 1);

@@ -37,8 +37,6 @@ double phasePeak4Pi(const NbPhase& p)
     return p.blend > 0.0f ? std::max(a, peak(p.g2)) : a;
 }
 
-PhaseMoments momentsOf(const NbPhase& p) { return PhaseMoments{p.g, p.g2, p.blend > 0.0f ? double(p.blend) : 0.0}; }
-
 float largestExtentVoxels(const BrickGrid& density)
 {
     const Bbox& b = density.activeIndexBounds();
@@ -123,9 +121,8 @@ WkbSetup planWkb(const RenderContext& ctx, RenderPlan& plan)
         for (float a : {s.x / std::max(t.x, 1e-30f), s.y / std::max(t.y, 1e-30f), s.z / std::max(t.z, 1e-30f)})
             setup.omegaMax = std::max(setup.omegaMax, double(std::min(a, 1.0f)));
         peak = std::max(peak, phasePeak4Pi(d.medium.phase));
-        PhaseMoments pm = momentsOf(d.medium.phase);
-        gmax = std::max(gmax, pm.gmax());
-        p1max = std::max(p1max, pm.meanCosine());
+        gmax = std::max(gmax, nbPhaseMomentBound(d.medium.phase));
+        p1max = std::max(p1max, nbPhaseMeanCos(d.medium.phase));
     }
     const double bound = 0.5 * lTotal * lTotal * peak;
     wp.l2plusBound = bound;

@@ -5,6 +5,7 @@
 // position falls in. Where one side of that face is an unallocated brick (density there reads
 // as zero), the sample counts in one march and not in the other. Such rays are rare (a sample
 // would have to land within ~1e-6 voxels of a face); the test counts them and bounds them.
+#include "ProbeRays.h"
 #include "SceneBuilders.h"
 
 #include "single/MarchEightRays.h"
@@ -14,7 +15,6 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
-#include <random>
 #include <vector>
 
 using namespace nimbus;
@@ -32,45 +32,6 @@ Scene greyCloudKeyLight(float step)
     return s;
 }
 
-struct Ray {
-    float3 o, d;
-};
-
-// Rays from all around the cloud toward points near it, a few from inside it, a few that miss,
-// and some along the index axes (direction components exactly zero: the lanes' brick exits
-// must never divide by them).
-std::vector<Ray> probeRays(int count, unsigned seed)
-{
-    std::mt19937 rng(seed);
-    std::uniform_real_distribution<float> s(-1.0f, 1.0f);
-    std::vector<Ray> rays;
-    for (int i = 0; i < count; ++i) {
-        float3 o, to;
-        switch (i % 8) {
-        case 0:  // from inside the cloud's bounds
-            o = make_float3(0.3f * s(rng), 0.3f * s(rng), 0.3f * s(rng));
-            to = make_float3(3 * s(rng), 3 * s(rng), 3 * s(rng));
-            break;
-        case 1: {  // along an index axis (the procedural grid is axis-aligned with the world)
-            const int axis = i / 8 % 3;
-            o = make_float3(0.8f * s(rng), 0.8f * s(rng), 0.8f * s(rng));
-            to = o;
-            (axis == 0 ? o.x : axis == 1 ? o.y : o.z) = -4.0f;
-            break;
-        }
-        case 2:  // misses
-            o = make_float3(6, 6, 6);
-            to = make_float3(12 + s(rng), 6 + s(rng), 6 + s(rng));
-            break;
-        default:
-            o = normalize(make_float3(s(rng), s(rng), s(rng))) * 5.0f;
-            to = make_float3(0.7f * s(rng), 0.7f * s(rng), 0.7f * s(rng));
-        }
-        rays.push_back({o, normalize(to - o)});
-    }
-    return rays;
-}
-
 // Marches every ray once alone (marchSingle) and once in batches (marchSingleRays); returns
 // how many rays differ by more than `tolerance` relative in L1, transmittance or depth.
 int raysThatDiffer(const RenderContext& ctx, const std::vector<Ray>& rays, int batch, float tolerance, double* worstAgreeing)
@@ -80,21 +41,14 @@ int raysThatDiffer(const RenderContext& ctx, const std::vector<Ray>& rays, int b
     *worstAgreeing = 0.0;
     for (size_t first = 0; first < rays.size(); first += size_t(batch)) {
         const int n = int(std::min(rays.size() - first, size_t(batch)));
-        const size_t count = size_t(n);
-        std::vector<float3> o(count), d(count);
-        std::vector<NbRng> rngBatch(count);
-        std::vector<CameraSample> batchOut(count);
-        std::vector<float> batchLight(count * stride, 0.0f);
-        for (int i = 0; i < n; ++i) {
-            o[size_t(i)] = rays[first + size_t(i)].o, d[size_t(i)] = rays[first + size_t(i)].d;
-            rngBatch[size_t(i)] = nbRngStart(7, nb_uint(first) + nb_uint(i), 0);
-        }
-        marchSingleRays(ctx, n, o.data(), d.data(), rngBatch.data(), batchOut.data(), batchLight.data());
+        std::vector<CameraSample> batchOut;
+        std::vector<float> batchLight;
+        marchBatch(ctx, rays, first, n, 7, batchOut, batchLight);
         for (int i = 0; i < n; ++i) {
             NbRng rng = nbRngStart(7, nb_uint(first) + nb_uint(i), 0);
             CameraSample alone;
             std::vector<float> light(stride, 0.0f);
-            marchSingle(ctx, o[size_t(i)], d[size_t(i)], rng, alone, light.data());
+            marchSingle(ctx, rays[first + size_t(i)].o, rays[first + size_t(i)].d, rng, alone, light.data());
             const CameraSample& b = batchOut[size_t(i)];
             auto rel = [](float a, float b) { return std::fabs(a - b) / std::max(std::fabs(a), 1e-3f); };
             float diff = std::max({rel(alone.L1.x, b.L1.x), rel(alone.L1.z, b.L1.z),
