@@ -56,6 +56,11 @@ Scene sphereScene(const Case& c, double voxel = 0.08)
     sun.irradiance = splat(3.0f);
     s.lights.push_back(sun);
     s.render.maxDepth = 1000;
+    // A one-pixel box: these tests compare the terms, and the z-tests below count only the path
+    // tracer's noise; a wider filter adds WKB's own sampling noise across each pixel's footprint
+    // (the filter itself is tested in tests/engine/test_pixel_filter.cpp).
+    s.render.pixelFilter = PixelFilter::Box;
+    s.render.filterWidth = 1.0f;
     s.output.file = "unused.exr";
     return s;
 }

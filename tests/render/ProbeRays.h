@@ -2,7 +2,7 @@
 // march in batches.
 #pragma once
 
-#include "render/SingleScatter.h"
+#include "single/SingleScatter.h"
 
 #include <random>
 #include <vector>

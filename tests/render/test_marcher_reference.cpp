@@ -24,7 +24,7 @@
 #include "SceneBuilders.h"
 
 #include "render/RenderContext.h"
-#include "render/SingleScatter.h"
+#include "single/SingleScatter.h"
 
 #include <gtest/gtest.h>
 
