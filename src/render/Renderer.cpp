@@ -46,7 +46,7 @@ void renderMarched(const RenderContext& ctx, Film& film, const RenderOptions& op
 {
     const Scene& scene = *ctx.scene;
     const NbCamera cam = makeNbCamera(scene.camera);
-    const int spp = std::max(1, scene.render.spp);
+    const int spp = scene.render.spp > 0 ? scene.render.spp : kDefaultMarchSpp;
     const size_t nLights = ctx.lights.size();
     const int tilesX = (film.x1 - film.x0 + kTile - 1) / kTile, tilesY = (film.y1 - film.y0 + kTile - 1) / kTile;
     const int tileCount = std::max(0, tilesX * tilesY);
