@@ -19,6 +19,9 @@ struct PathtraceStats {
     bool kernelFromCache = false;
     int passes = 0;
     long long badSamples = 0;   // non-finite samples dropped (should be 0)
+    long long depthCapped = 0;  // paths ended by the safety cap of an unbounded render (should be 0)
+    double noiseRelMse = 0;     // with a noise target: the beauty's relMSE from its variance at the end
+                                // (infinite below 64 spp, where it is not measured)
     std::string device;
     std::string defines;
     double pathsPerSecond() const { return renderSeconds > 0 ? double(pathSamples) / renderSeconds : 0.0; }

@@ -27,6 +27,15 @@ constexpr int kRussianRouletteDepth = 3;
 // watchdogs, long enough that launch overhead is noise.
 constexpr double kTargetPassSeconds = 0.5;
 constexpr int kMaxSamplesPerPass = 64;
+// max_depth 0 (unbounded, the default): Russian roulette ends the paths, and this cap only keeps
+// a path from running forever. At albedo 0.9999 a path that never escapes has a mean depth of
+// 10^4 scattering events, so 10^6 is passed with probability ~e^-100; an albedo-1 medium would
+// need an optical radius of ~1000 for a diffusing path to need it. Paths that reach it are
+// counted and reported (PathtraceStats::depthCapped, a warning).
+constexpr int kSafetyMaxDepth = 1000000;
+// The noise target is not trusted before this many samples per pixel: the variance of a
+// heavy-tailed estimator is underestimated from few samples.
+constexpr long long kMinNoiseTargetSpp = 64;
 
 // Copies the running estimate into the film's AOVs.
 void resolve(const std::vector<float>& acc, int stride, long long n, const PathtraceScene& ps, const RenderContext& ctx,
@@ -76,6 +85,28 @@ void resolve(const std::vector<float>& acc, int stride, long long n, const Patht
         }
 }
 
+// The beauty's relMSE from its own noise: the mean over pixels of var / (y^2 + eps), y the
+// channel average of the running mean and var the variance of that mean (M2 / (n (n - 1))),
+// eps = (0.1 mean(y))^2 so that black pixels do not dominate (nimbus compare's measure of its
+// reference's floor, there with luminance).
+double noiseRelMse(const std::vector<float>& acc, int stride, long long n)
+{
+    const size_t pixels = acc.size() / size_t(stride);
+    if (pixels == 0 || n < 2)
+        return INFINITY;
+    double mean = 0;
+    for (size_t i = 0; i < pixels; ++i)
+        mean += acc[i * stride + NB_ACC_MEAN_Y];
+    mean /= double(pixels);
+    const double eps = 0.01 * mean * mean + 1e-20, varianceScale = 1.0 / (double(n) * double(n - 1));
+    double sum = 0;
+    for (size_t i = 0; i < pixels; ++i) {
+        const double y = acc[i * stride + NB_ACC_MEAN_Y];
+        sum += double(acc[i * stride + NB_ACC_M2_Y]) * varianceScale / (y * y + eps);
+    }
+    return sum / double(pixels);
+}
+
 }  // namespace
 
 std::vector<std::string> listOpenClDevices()
@@ -122,7 +153,9 @@ void renderPathtrace(const RenderContext& ctx, Film& film, const RenderOptions& 
     params.cropWidth = cropWidth;
     params.pixelCount = int(pixelCount);
     params.seed = scene.render.seed;
-    params.maxDepth = std::max(0, scene.render.maxDepth);
+    const bool unbounded = scene.render.maxDepth <= 0;
+    params.maxDepth = unbounded ? kSafetyMaxDepth : scene.render.maxDepth;
+    params.countDepthCap = unbounded ? 1 : 0;
     params.rrDepth = kRussianRouletteDepth;
     params.lightCount = int(ps.lights.size());
     params.volumeCount = int(ps.volumes.size());
@@ -134,9 +167,9 @@ void renderPathtrace(const RenderContext& ctx, Film& film, const RenderOptions& 
     ocl::Mem poolBuf = cl.upload(ps.pools);
     ocl::Mem majorantBuf = cl.upload(ps.majorants);
     ocl::Mem accBuf = cl.allocate(size_t(pixelCount) * stride * sizeof(float));
-    ocl::Mem badBuf = cl.allocate(sizeof(cl_int));
+    ocl::Mem counterBuf = cl.allocate(NB_COUNTER_COUNT * sizeof(cl_int));
     const cl_mem args[] = {paramBuf.get(), lightBuf.get(), volumeBuf.get(), tableBuf.get(),
-                           poolBuf.get(),  majorantBuf.get(), accBuf.get(), badBuf.get()};
+                           poolBuf.get(),  majorantBuf.get(), accBuf.get(), counterBuf.get()};
     for (cl_uint i = 0; i < sizeof args / sizeof args[0]; ++i)
         ocl::check(clSetKernelArg(kernel.get(), i, sizeof(cl_mem), &args[i]), "clSetKernelArg");
 
@@ -151,14 +184,21 @@ void renderPathtrace(const RenderContext& ctx, Film& film, const RenderOptions& 
     }
     const size_t global = local > 0 ? (size_t(pixelCount) + local - 1) / local * local : size_t(pixelCount);
 
-    const long long sppTarget = scene.render.spp > 0 ? scene.render.spp : (scene.render.timeLimit > 0 ? 0 : 1);
+    // Stopping rules: spp samples if set; else the noise target; and the time limit either way.
+    // An unvalidated scene with none of them renders one sample.
     const double timeLimit = scene.render.timeLimit;
+    const double noiseTarget = scene.render.spp > 0 ? 0.0 : scene.render.noiseTarget;
+    const long long sppTarget = scene.render.spp > 0 ? scene.render.spp : (timeLimit > 0 || noiseTarget > 0 ? 0 : 1);
     std::vector<float> acc;
-    auto readBack = [&](long long n) {
+    auto readAccumulator = [&] {
         acc.resize(size_t(pixelCount) * stride);
         cl.read(accBuf, acc.data(), acc.size() * sizeof(float));
+    };
+    auto readBack = [&](long long n) {
+        readAccumulator();
         resolve(acc, stride, n, ps, ctx, film);
     };
+    double noise = INFINITY;
 
     const auto start = Clock::now();
     auto lastCheckpoint = start;
@@ -190,8 +230,16 @@ void renderPathtrace(const RenderContext& ctx, Film& film, const RenderOptions& 
             const double ideal = n * kTargetPassSeconds / passSeconds;
             perPass = int(std::clamp(ideal, 1.0, double(std::min(kMaxSamplesPerPass, 2 * n))));
         }
+        bool converged = false;
+        if (noiseTarget > 0 && done >= kMinNoiseTargetSpp) {
+            readAccumulator();
+            noise = noiseRelMse(acc, stride, done);
+            converged = noise <= noiseTarget;
+        }
         if (options.progress) {
             float fraction = sppTarget > 0 ? float(double(done) / double(sppTarget)) : 0.0f;
+            if (noiseTarget > 0 && std::isfinite(noise))  // relMSE falls as 1 / samples
+                fraction = std::max(fraction, float(std::min(1.0, noiseTarget / noise)));
             if (timeLimit > 0)
                 fraction = std::max(fraction, float(std::min(1.0, elapsed / timeLimit)));
             if (!options.progress(std::min(fraction, 1.0f)))
@@ -199,7 +247,7 @@ void renderPathtrace(const RenderContext& ctx, Film& film, const RenderOptions& 
         }
         if (options.cancel && options.cancel->load())
             throw Cancelled();
-        if (timeLimit > 0 && elapsed >= timeLimit)
+        if (converged || (timeLimit > 0 && elapsed >= timeLimit))
             break;
         if (pt.checkpointSeconds > 0 && pt.onCheckpoint && secondsBetween(lastCheckpoint, now) >= pt.checkpointSeconds &&
             !(sppTarget > 0 && done >= sppTarget)) {
@@ -211,10 +259,14 @@ void renderPathtrace(const RenderContext& ctx, Film& film, const RenderOptions& 
     readBack(done);
     const double renderSeconds = secondsBetween(start, Clock::now());
 
-    cl_int bad = 0;
-    cl.read(badBuf, &bad, sizeof bad);
+    cl_int counters[NB_COUNTER_COUNT] = {};
+    cl.read(counterBuf, counters, sizeof counters);
+    const cl_int bad = counters[NB_COUNTER_BAD_SAMPLES], capped = counters[NB_COUNTER_DEPTH_CAP];
     if (bad > 0)
         logWarning("path tracer: " + std::to_string(bad) + " non-finite path samples dropped");
+    if (capped > 0)
+        logWarning("path tracer: " + std::to_string(capped) + " paths reached the safety cap of " +
+                   std::to_string(kSafetyMaxDepth) + " scattering events and were ended (energy lost)");
 
     film.metadata.push_back({"pathtrace_spp", std::to_string(done)});
     film.metadata.push_back({"pathtrace_device", device.name});
@@ -227,6 +279,8 @@ void renderPathtrace(const RenderContext& ctx, Film& film, const RenderOptions& 
         s.kernelFromCache = build.fromCache;
         s.passes = passes;
         s.badSamples = bad;
+        s.depthCapped = capped;
+        s.noiseRelMse = noiseTarget > 0 ? noise : 0;
         s.device = device.describe();
         s.defines = defines;
     }

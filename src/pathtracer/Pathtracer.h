@@ -16,8 +16,10 @@ namespace nimbus {
 
 // Renders ctx's scene into `film`. The film's AOVs are filled by name (beauty, L0, L1, L2plus,
 // alpha, depth, variance, light_<name>); a film with no AOVs gets all of them, sized from the
-// camera and its crop. Stops after scene.render.spp samples per pixel or after the launch that
-// crosses scene.render.time_limit seconds, whichever comes first. Throws Error (no OpenCL
+// camera and its crop. Stops after scene.render.spp samples per pixel (spp 0: after the launch
+// that brings the beauty's relMSE, estimated from its variance, to scene.render.noise_target) or
+// after the launch that crosses scene.render.time_limit seconds, whichever comes first. Paths have
+// at most scene.render.max_depth scattering events (0: unbounded). Throws Error (no OpenCL
 // device, kernel build failure), Cancelled (options.progress returned false or options.cancel).
 void renderPathtrace(const RenderContext& ctx, Film& film, const RenderOptions& options,
                      const PathtraceOptions& pt = {});
