@@ -20,6 +20,8 @@ struct PathtraceStats {
     int passes = 0;
     long long badSamples = 0;   // non-finite samples dropped (should be 0)
     long long depthCapped = 0;  // paths ended by the safety cap of an unbounded render (should be 0)
+    size_t localSize = 0;       // the launch's work-group size (0: the runtime chose)
+    size_t workGroups = 0;      // work-groups per launch (0: the runtime chose)
     double noiseRelMse = 0;     // with a noise target: the beauty's relMSE from its variance at the end
                                 // (infinite below 64 spp, where it is not measured)
     std::string device;
@@ -35,7 +37,8 @@ struct PathtraceOptions {
     // checkpointSeconds (after the launch that crosses the interval). The CLI writes its EXR.
     double checkpointSeconds = 0;
     std::function<void(const Film&)> onCheckpoint;
-    size_t localSize = 0;        // OpenCL work-group size; 0 lets the runtime choose
+    size_t localSize = 0;        // OpenCL work-group size; 0: chosen from the device (LaunchSize.h)
+    bool runtimeWorkGroupSize = false;  // benchmarks: a null local size, the runtime's choice
     int samplesPerPass = 0;      // samples per pixel per launch; 0: adaptive, ~0.5 s launches
     bool globalMajorant = false; // one majorant per volume instead of per brick (benchmarks)
     PathtraceStats* stats = nullptr;

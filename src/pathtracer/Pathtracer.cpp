@@ -6,6 +6,7 @@
 #include "../core/Log.h"
 #include "../scene/KernelScene.h"
 #include "KernelCache.h"
+#include "LaunchSize.h"
 #include "OpenCl.h"
 #include "PathtraceScene.h"
 
@@ -107,6 +108,33 @@ double noiseRelMse(const std::vector<float>& acc, int stride, long long n)
     return sum / double(pixels);
 }
 
+// The launch configuration for this kernel on this device (LaunchSize.h); a requested local
+// size (PathtraceOptions::localSize) is checked against the kernel's limit instead.
+LaunchSize launchSize(cl_kernel kernel, const ocl::DeviceInfo& device, size_t items, size_t requestedLocal)
+{
+    LaunchLimits d;
+    d.computeUnits = size_t(std::max(1, device.computeUnits));
+    clGetKernelWorkGroupInfo(kernel, device.device, CL_KERNEL_WORK_GROUP_SIZE, sizeof d.kernelWorkGroupSize,
+                             &d.kernelWorkGroupSize, nullptr);
+    clGetKernelWorkGroupInfo(kernel, device.device, CL_KERNEL_PREFERRED_WORK_GROUP_SIZE_MULTIPLE,
+                             sizeof d.preferredMultiple, &d.preferredMultiple, nullptr);
+    clGetDeviceInfo(device.device, CL_DEVICE_MAX_WORK_GROUP_SIZE, sizeof d.deviceMaxWorkGroupSize,
+                    &d.deviceMaxWorkGroupSize, nullptr);
+    size_t itemSizes[3] = {0, 0, 0};
+    if (clGetDeviceInfo(device.device, CL_DEVICE_MAX_WORK_ITEM_SIZES, sizeof itemSizes, itemSizes, nullptr) == CL_SUCCESS)
+        d.deviceMaxWorkItemSize = itemSizes[0];
+    if (requestedLocal == 0)
+        return chooseLaunchSize(items, d);
+    const size_t limit = maxWorkGroupSize(d);
+    if (requestedLocal > limit)
+        throw Error("path tracer: work-group size " + std::to_string(requestedLocal) + " exceeds the kernel's limit " +
+                    std::to_string(limit) + " on " + device.name);
+    LaunchSize s;
+    s.local = requestedLocal;
+    s.global = (items + requestedLocal - 1) / requestedLocal * requestedLocal;
+    return s;
+}
+
 }  // namespace
 
 std::vector<std::string> listOpenClDevices()
@@ -173,16 +201,10 @@ void renderPathtrace(const RenderContext& ctx, Film& film, const RenderOptions& 
     for (cl_uint i = 0; i < sizeof args / sizeof args[0]; ++i)
         ocl::check(clSetKernelArg(kernel.get(), i, sizeof(cl_mem), &args[i]), "clSetKernelArg");
 
-    size_t local = pt.localSize;
-    if (local > 0) {
-        size_t maxLocal = 0;
-        clGetKernelWorkGroupInfo(kernel.get(), device.device, CL_KERNEL_WORK_GROUP_SIZE, sizeof maxLocal, &maxLocal,
-                                 nullptr);
-        if (maxLocal > 0 && local > maxLocal)
-            throw Error("path tracer: work-group size " + std::to_string(local) + " exceeds the kernel's limit " +
-                        std::to_string(maxLocal) + " on " + device.name);
-    }
-    const size_t global = local > 0 ? (size_t(pixelCount) + local - 1) / local * local : size_t(pixelCount);
+    LaunchSize launch = launchSize(kernel.get(), device, size_t(pixelCount), pt.localSize);
+    if (pt.runtimeWorkGroupSize)
+        launch = LaunchSize{0, size_t(pixelCount)};
+    const size_t global = launch.global, local = launch.local;
 
     // Stopping rules: spp samples if set; else the noise target; and the time limit either way.
     // An unvalidated scene with none of them renders one sample.
@@ -280,6 +302,8 @@ void renderPathtrace(const RenderContext& ctx, Film& film, const RenderOptions& 
         s.passes = passes;
         s.badSamples = bad;
         s.depthCapped = capped;
+        s.localSize = local;
+        s.workGroups = local > 0 ? global / local : 0;
         s.noiseRelMse = noiseTarget > 0 ? noise : 0;
         s.device = device.describe();
         s.defines = defines;
