@@ -31,9 +31,16 @@
  *    rays that escape see the background (L0); scattered rays that escape add nothing, since
  *    NEE already accounts for every light: nothing is counted twice.
  *  - Directions from the phase function (nbPhaseSample, pdf = phase, weight 1).
- *  - Russian roulette from rrDepth scattering events on, survival probability min(1, max_c w_c).
+ *  - Russian roulette from rrDepth scattering events on, survival probability min(1, max_c w_c),
+ *    weight w / q for survivors: E[w'] = q (w / q) = w, unbiased. It is what ends paths in an
+ *    unbounded render: in a grey medium every tentative collision multiplies w by
+ *    1 - sigma_a / mu, so with w reset to 1 by each roulette a path survives a scattering event
+ *    with probability about the albedo (mean depth ~ 1 / (1 - albedo) for a path that never
+ *    escapes: 10^4 at albedo 0.9999).
  *  - maxDepth bounds the number of scattering events; emission met after the last allowed
- *    event still counts (those paths have maxDepth events).
+ *    event still counts (those paths have maxDepth events). An unbounded render passes a safety
+ *    cap far beyond any plausible depth with countDepthCap set, and paths reaching it are counted
+ *    (the host warns: each one is energy lost).
  *
  * Specialisation (the host's defines): NB_NUM_VOLUMES, NB_NUM_LIGHTS, NB_HAS_LIGHT_<TYPE>,
  * NB_HAS_EMISSION, NB_TWO_LOBE, NB_CHROMATIC, NB_GLOBAL_MAJORANT. Code for what a scene lacks is
@@ -165,7 +172,8 @@ typedef struct {
 
 NB_FN void nbTracePath(float3 o, float3 d, __global const NbPtParams* P, __global const NbLight* lights,
                        __global const NbVolumeDesc* vols, __global const int* tables, __global const float* pools,
-                       __global const float* majorants, __private NbRng* rng, __private NbPathSample* out)
+                       __global const float* majorants, __global int* counters, __private NbRng* rng,
+                       __private NbPathSample* out)
 {
     const int volumeCount = P->volumeCount;
     float3 w = make_float3(1.0f, 1.0f, 1.0f);
@@ -290,10 +298,13 @@ NB_FN void nbTracePath(float3 o, float3 d, __global const NbPtParams* P, __globa
         }
 #endif
 
+        if (order >= P->maxDepth) {
+            if (P->countDepthCap)
+                atomic_inc(counters + NB_COUNTER_DEPTH_CAP);
 #if !NB_HAS_EMISSION
-        if (order >= P->maxDepth)
             return; /* nothing more to gather: a further flight could only meet emission */
 #endif
+        }
         if (order >= P->rrDepth) {
             float q = fmin(1.0f, nbMaxComponent(w));
             if (nbRngNext(rng) >= q)
@@ -309,7 +320,7 @@ NB_FN void nbTracePath(float3 o, float3 d, __global const NbPtParams* P, __globa
 __kernel void nbPathtrace(__global const NbPtParams* P, __global const NbLight* lights,
                           __global const NbVolumeDesc* vols, __global const int* tables,
                           __global const float* pools, __global const float* majorants, __global float* acc,
-                          __global int* badSamples)
+                          __global int* counters)
 {
     const int gid = (int)get_global_id(0);
     if (gid >= P->pixelCount)
@@ -338,14 +349,14 @@ __kernel void nbPathtrace(__global const NbPtParams* P, __global const NbLight* 
         for (int i = 0; i < NB_NUM_LIGHTS; ++i)
             r.perLight[i] = make_float3(0.0f, 0.0f, 0.0f);
 #endif
-        nbTracePath(o, d, P, lights, vols, tables, pools, majorants, &rng, &r);
+        nbTracePath(o, d, P, lights, vols, tables, pools, majorants, counters, &rng, &r);
 
         /* A non-finite sample (a bug or a float overflow) would poison the pixel for good:
          * count it and drop it. */
         float3 beauty = r.L[0] + r.L[1] + r.L[2];
         float y = nbAverage(beauty);
         if (!isfinite(y)) {
-            atomic_inc(badSamples);
+            atomic_inc(counters + NB_COUNTER_BAD_SAMPLES);
             r.L[0] = r.L[1] = r.L[2] = make_float3(0.0f, 0.0f, 0.0f);
 #if NB_NUM_LIGHTS > 0
             for (int i = 0; i < NB_NUM_LIGHTS; ++i)

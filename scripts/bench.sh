@@ -37,5 +37,12 @@ echo "== path tracer: samples per second with and without the majorant grid"
   build/tests/pathtracer/bench_pathtrace 16 128 "" wispy
   echo '```'
 } | section pathtrace
+echo "== path tracer: the launch configuration (runtime's work-group size against the chosen one)"
+{
+  echo "PoCL on this machine's CPU cores unless a GPU is present; 128x128 pixels, 64 spp, the dense 128^3 cloud, max_depth unbounded; rounds interleaved."
+  echo '```'
+  build/tests/pathtracer/bench_pathtrace 64 128 "" launch 5
+  echo '```'
+} | section pathtrace-launch
 echo "== path tracer against Cycles: noise at equal time (skipped without blender; ~30 min with fresh references)"
 "$bench/bench_pathtrace_vs_cycles" build/bin/nimbus "$report"

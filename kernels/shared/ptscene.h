@@ -44,10 +44,16 @@ typedef struct {
     int rrDepth;          /* Russian roulette from this many scattering events on */
     int lightCount;
     int volumeCount;
+    int countDepthCap;    /* 1: maxDepth is the safety cap of an unbounded render; paths reaching
+                           * it are counted in counters[NB_COUNTER_DEPTH_CAP] */
     int filterType;       /* NB_FILTER_* (filter.h) */
     float filterWidth;    /* pixels */
-    int pad;
 } NbPtParams;
+
+/* The kernel's event counters (one int each). */
+#define NB_COUNTER_BAD_SAMPLES 0 /* non-finite path samples dropped */
+#define NB_COUNTER_DEPTH_CAP 1   /* paths ended by the safety cap on the depth (countDepthCap) */
+#define NB_COUNTER_COUNT 2
 
 /* Per-pixel accumulator layout (floats), running means over the samples so far (Skanberg
  * eq. 39) and Welford's M2 of the per-sample channel average of beauty. */

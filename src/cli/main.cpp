@@ -132,8 +132,14 @@ int runInfo(const SceneArgs& args)
     std::cout << "  camera: " << c.width << "x" << c.height << ", fov " << c.fov << " deg"
               << (c.hasMotion ? ", motion blur" : "") << "\n";
     std::cout << "  " << scene.lights.size() << " light(s), " << scene.volumes.size() << " volume(s), method "
-              << methodName(scene.render.method) << ", spp " << scene.render.spp << ", seed " << scene.render.seed
-              << "\n";
+              << methodName(scene.render.method) << ", spp ";
+    if (scene.render.spp > 0)
+        std::cout << scene.render.spp;
+    else if (scene.render.method != Method::Pathtrace)
+        std::cout << kDefaultMarchSpp;
+    else
+        std::cout << "until relMSE " << scene.render.noiseTarget;
+    std::cout << ", seed " << scene.render.seed << "\n";
     std::cout << planRender(scene).describe();
     return kOk;
 }

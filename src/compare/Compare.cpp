@@ -35,7 +35,7 @@ CompareRow makeRow(const std::string& method, const std::string& label, const Sc
     }
     row.seed = s.render.seed;
     row.seconds = r.seconds;
-    row.spp = method == "pathtrace" ? sppOf(r.film) : s.render.spp;
+    row.spp = method == "pathtrace" ? sppOf(r.film) : (s.render.spp > 0 ? s.render.spp : kDefaultMarchSpp);
     row.beauty = measureError(r.film, ref, "beauty");
     row.L1 = measureError(r.film, ref, "L1");
     row.L2plus = r.film.find("L2plus") ? measureError(r.film, ref, "L2plus") : ErrorMetrics{1, 1, -1};
@@ -57,6 +57,7 @@ CompareResult runCompare(const Scene& input, const CompareOptions& opt)
     Scene refScene = input;
     refScene.render.method = Method::Pathtrace;
     refScene.render.spp = 1 << 24;
+    refScene.render.maxDepth = 0;  // unbounded whatever the scene says: a depth cap biases the reference
     refScene.render.timeLimit = 45.0 * opt.minutes;
     refScene.render.seed = 0x5eed0001u;
     refScene.output.preview.clear();
@@ -85,6 +86,7 @@ CompareResult runCompare(const Scene& input, const CompareOptions& opt)
     Scene pt = base;
     pt.render.method = Method::Pathtrace;
     pt.render.spp = 1 << 24;
+    pt.render.maxDepth = 0;  // the same estimator as the reference, so its error is noise alone
     for (double t : {0.5, 1.0, 2.0, 4.0, 8.0}) {
         const double limit = t * opt.minutes;
         for (int k = 0; k < opt.seeds; ++k) {

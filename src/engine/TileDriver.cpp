@@ -23,7 +23,7 @@ void renderTiles(const RenderContext& ctx, const Integrator& integrator, Film& f
 {
     const Scene& scene = *ctx.scene;
     const NbCamera cam = makeNbCamera(scene.camera);
-    const int spp = std::max(1, scene.render.spp);
+    const int spp = scene.render.spp > 0 ? scene.render.spp : kDefaultMarchSpp;
     const int filterType = nbFilterType(scene.render.pixelFilter);
     const float filterWidth = scene.render.filterWidth;
     const double margin = filterMargin(filterWidth);

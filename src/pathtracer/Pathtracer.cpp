@@ -6,6 +6,7 @@
 #include "../core/Log.h"
 #include "../scene/KernelScene.h"
 #include "KernelCache.h"
+#include "LaunchSize.h"
 #include "OpenCl.h"
 #include "PathtraceScene.h"
 
@@ -27,6 +28,15 @@ constexpr int kRussianRouletteDepth = 3;
 // watchdogs, long enough that launch overhead is noise.
 constexpr double kTargetPassSeconds = 0.5;
 constexpr int kMaxSamplesPerPass = 64;
+// max_depth 0 (unbounded, the default): Russian roulette ends the paths, and this cap only keeps
+// a path from running forever. At albedo 0.9999 a path that never escapes has a mean depth of
+// 10^4 scattering events, so 10^6 is passed with probability ~e^-100; an albedo-1 medium would
+// need an optical radius of ~1000 for a diffusing path to need it. Paths that reach it are
+// counted and reported (PathtraceStats::depthCapped, a warning).
+constexpr int kSafetyMaxDepth = 1000000;
+// The noise target is not trusted before this many samples per pixel: the variance of a
+// heavy-tailed estimator is underestimated from few samples.
+constexpr long long kMinNoiseTargetSpp = 64;
 
 // Copies the running estimate into the film's AOVs.
 void resolve(const std::vector<float>& acc, int stride, long long n, const PathtraceScene& ps, const RenderContext& ctx,
@@ -74,6 +84,55 @@ void resolve(const std::vector<float>& acc, int stride, long long n, const Patht
                     p[0] = q[0], p[1] = q[1], p[2] = q[2];
                 }
         }
+}
+
+// The beauty's relMSE from its own noise: the mean over pixels of var / (y^2 + eps), y the
+// channel average of the running mean and var the variance of that mean (M2 / (n (n - 1))),
+// eps = (0.1 mean(y))^2 so that black pixels do not dominate (nimbus compare's measure of its
+// reference's floor, there with luminance).
+double noiseRelMse(const std::vector<float>& acc, int stride, long long n)
+{
+    const size_t pixels = acc.size() / size_t(stride);
+    if (pixels == 0 || n < 2)
+        return INFINITY;
+    double mean = 0;
+    for (size_t i = 0; i < pixels; ++i)
+        mean += acc[i * stride + NB_ACC_MEAN_Y];
+    mean /= double(pixels);
+    const double eps = 0.01 * mean * mean + 1e-20, varianceScale = 1.0 / (double(n) * double(n - 1));
+    double sum = 0;
+    for (size_t i = 0; i < pixels; ++i) {
+        const double y = acc[i * stride + NB_ACC_MEAN_Y];
+        sum += double(acc[i * stride + NB_ACC_M2_Y]) * varianceScale / (y * y + eps);
+    }
+    return sum / double(pixels);
+}
+
+// The launch configuration for this kernel on this device (LaunchSize.h); a requested local
+// size (PathtraceOptions::localSize) is checked against the kernel's limit instead.
+LaunchSize launchSize(cl_kernel kernel, const ocl::DeviceInfo& device, size_t items, size_t requestedLocal)
+{
+    LaunchLimits d;
+    d.computeUnits = size_t(std::max(1, device.computeUnits));
+    clGetKernelWorkGroupInfo(kernel, device.device, CL_KERNEL_WORK_GROUP_SIZE, sizeof d.kernelWorkGroupSize,
+                             &d.kernelWorkGroupSize, nullptr);
+    clGetKernelWorkGroupInfo(kernel, device.device, CL_KERNEL_PREFERRED_WORK_GROUP_SIZE_MULTIPLE,
+                             sizeof d.preferredMultiple, &d.preferredMultiple, nullptr);
+    clGetDeviceInfo(device.device, CL_DEVICE_MAX_WORK_GROUP_SIZE, sizeof d.deviceMaxWorkGroupSize,
+                    &d.deviceMaxWorkGroupSize, nullptr);
+    size_t itemSizes[3] = {0, 0, 0};
+    if (clGetDeviceInfo(device.device, CL_DEVICE_MAX_WORK_ITEM_SIZES, sizeof itemSizes, itemSizes, nullptr) == CL_SUCCESS)
+        d.deviceMaxWorkItemSize = itemSizes[0];
+    if (requestedLocal == 0)
+        return chooseLaunchSize(items, d);
+    const size_t limit = maxWorkGroupSize(d);
+    if (requestedLocal > limit)
+        throw Error("path tracer: work-group size " + std::to_string(requestedLocal) + " exceeds the kernel's limit " +
+                    std::to_string(limit) + " on " + device.name);
+    LaunchSize s;
+    s.local = requestedLocal;
+    s.global = (items + requestedLocal - 1) / requestedLocal * requestedLocal;
+    return s;
 }
 
 }  // namespace
@@ -132,7 +191,9 @@ void renderPathtrace(const RenderContext& ctx, Film& film, const RenderControl& 
     params.cropWidth = cropWidth;
     params.pixelCount = int(pixelCount);
     params.seed = scene.render.seed;
-    params.maxDepth = std::max(0, scene.render.maxDepth);
+    const bool unbounded = scene.render.maxDepth <= 0;
+    params.maxDepth = unbounded ? kSafetyMaxDepth : scene.render.maxDepth;
+    params.countDepthCap = unbounded ? 1 : 0;
     params.rrDepth = kRussianRouletteDepth;
     params.filterType = nbFilterType(scene.render.pixelFilter);
     params.filterWidth = scene.render.filterWidth;
@@ -146,31 +207,32 @@ void renderPathtrace(const RenderContext& ctx, Film& film, const RenderControl& 
     ocl::Mem poolBuf = cl.upload(ps.pools);
     ocl::Mem majorantBuf = cl.upload(ps.majorants);
     ocl::Mem accBuf = cl.allocate(size_t(pixelCount) * stride * sizeof(float));
-    ocl::Mem badBuf = cl.allocate(sizeof(cl_int));
+    ocl::Mem counterBuf = cl.allocate(NB_COUNTER_COUNT * sizeof(cl_int));
     const cl_mem args[] = {paramBuf.get(), lightBuf.get(), volumeBuf.get(), tableBuf.get(),
-                           poolBuf.get(),  majorantBuf.get(), accBuf.get(), badBuf.get()};
+                           poolBuf.get(),  majorantBuf.get(), accBuf.get(), counterBuf.get()};
     for (cl_uint i = 0; i < sizeof args / sizeof args[0]; ++i)
         ocl::check(clSetKernelArg(kernel.get(), i, sizeof(cl_mem), &args[i]), "clSetKernelArg");
 
-    size_t local = pt.localSize;
-    if (local > 0) {
-        size_t maxLocal = 0;
-        clGetKernelWorkGroupInfo(kernel.get(), device.device, CL_KERNEL_WORK_GROUP_SIZE, sizeof maxLocal, &maxLocal,
-                                 nullptr);
-        if (maxLocal > 0 && local > maxLocal)
-            throw Error("path tracer: work-group size " + std::to_string(local) + " exceeds the kernel's limit " +
-                        std::to_string(maxLocal) + " on " + device.name);
-    }
-    const size_t global = local > 0 ? (size_t(pixelCount) + local - 1) / local * local : size_t(pixelCount);
+    LaunchSize launch = launchSize(kernel.get(), device, size_t(pixelCount), pt.localSize);
+    if (pt.runtimeWorkGroupSize)
+        launch = LaunchSize{0, size_t(pixelCount)};
+    const size_t global = launch.global, local = launch.local;
 
-    const long long sppTarget = scene.render.spp > 0 ? scene.render.spp : (scene.render.timeLimit > 0 ? 0 : 1);
+    // Stopping rules: spp samples if set; else the noise target; and the time limit either way.
+    // An unvalidated scene with none of them renders one sample.
     const double timeLimit = scene.render.timeLimit;
+    const double noiseTarget = scene.render.spp > 0 ? 0.0 : scene.render.noiseTarget;
+    const long long sppTarget = scene.render.spp > 0 ? scene.render.spp : (timeLimit > 0 || noiseTarget > 0 ? 0 : 1);
     std::vector<float> acc;
-    auto readBack = [&](long long n) {
+    auto readAccumulator = [&] {
         acc.resize(size_t(pixelCount) * stride);
         cl.read(accBuf, acc.data(), acc.size() * sizeof(float));
+    };
+    auto readBack = [&](long long n) {
+        readAccumulator();
         resolve(acc, stride, n, ps, ctx, film);
     };
+    double noise = INFINITY;
 
     const auto start = Clock::now();
     auto lastCheckpoint = start;
@@ -202,8 +264,16 @@ void renderPathtrace(const RenderContext& ctx, Film& film, const RenderControl& 
             const double ideal = n * kTargetPassSeconds / passSeconds;
             perPass = int(std::clamp(ideal, 1.0, double(std::min(kMaxSamplesPerPass, 2 * n))));
         }
+        bool converged = false;
+        if (noiseTarget > 0 && done >= kMinNoiseTargetSpp) {
+            readAccumulator();
+            noise = noiseRelMse(acc, stride, done);
+            converged = noise <= noiseTarget;
+        }
         if (options.progress) {
             float fraction = sppTarget > 0 ? float(double(done) / double(sppTarget)) : 0.0f;
+            if (noiseTarget > 0 && std::isfinite(noise))  // relMSE falls as 1 / samples
+                fraction = std::max(fraction, float(std::min(1.0, noiseTarget / noise)));
             if (timeLimit > 0)
                 fraction = std::max(fraction, float(std::min(1.0, elapsed / timeLimit)));
             if (!options.progress(std::min(fraction, 1.0f)))
@@ -211,7 +281,7 @@ void renderPathtrace(const RenderContext& ctx, Film& film, const RenderControl& 
         }
         if (options.cancel && options.cancel->load())
             throw Cancelled();
-        if (timeLimit > 0 && elapsed >= timeLimit)
+        if (converged || (timeLimit > 0 && elapsed >= timeLimit))
             break;
         if (pt.checkpointSeconds > 0 && pt.onCheckpoint && secondsBetween(lastCheckpoint, now) >= pt.checkpointSeconds &&
             !(sppTarget > 0 && done >= sppTarget)) {
@@ -223,10 +293,14 @@ void renderPathtrace(const RenderContext& ctx, Film& film, const RenderControl& 
     readBack(done);
     const double renderSeconds = secondsBetween(start, Clock::now());
 
-    cl_int bad = 0;
-    cl.read(badBuf, &bad, sizeof bad);
+    cl_int counters[NB_COUNTER_COUNT] = {};
+    cl.read(counterBuf, counters, sizeof counters);
+    const cl_int bad = counters[NB_COUNTER_BAD_SAMPLES], capped = counters[NB_COUNTER_DEPTH_CAP];
     if (bad > 0)
         logWarning("path tracer: " + std::to_string(bad) + " non-finite path samples dropped");
+    if (capped > 0)
+        logWarning("path tracer: " + std::to_string(capped) + " paths reached the safety cap of " +
+                   std::to_string(kSafetyMaxDepth) + " scattering events and were ended (energy lost)");
 
     film.metadata.push_back({"pathtrace_spp", std::to_string(done)});
     film.metadata.push_back({"pathtrace_device", device.name});
@@ -239,6 +313,10 @@ void renderPathtrace(const RenderContext& ctx, Film& film, const RenderControl& 
         s.kernelFromCache = build.fromCache;
         s.passes = passes;
         s.badSamples = bad;
+        s.depthCapped = capped;
+        s.localSize = local;
+        s.workGroups = local > 0 ? global / local : 0;
+        s.noiseRelMse = noiseTarget > 0 ? noise : 0;
         s.device = device.describe();
         s.defines = defines;
     }

@@ -25,6 +25,11 @@ struct PathtraceStats {
     bool kernelFromCache = false;
     int passes = 0;
     long long badSamples = 0;   // non-finite samples dropped (should be 0)
+    long long depthCapped = 0;  // paths ended by the safety cap of an unbounded render (should be 0)
+    size_t localSize = 0;       // the launch's work-group size (0: the runtime chose)
+    size_t workGroups = 0;      // work-groups per launch (0: the runtime chose)
+    double noiseRelMse = 0;     // with a noise target: the beauty's relMSE from its variance at the end
+                                // (infinite below 64 spp, where it is not measured)
     std::string device;
     std::string defines;
     double pathsPerSecond() const { return renderSeconds > 0 ? double(pathSamples) / renderSeconds : 0.0; }
@@ -38,7 +43,8 @@ struct PathtraceOptions {
     // checkpointSeconds (after the launch that crosses the interval). The CLI writes its EXR.
     double checkpointSeconds = 0;
     std::function<void(const Film&)> onCheckpoint;
-    size_t localSize = 0;        // OpenCL work-group size; 0 lets the runtime choose
+    size_t localSize = 0;        // OpenCL work-group size; 0: chosen from the device (LaunchSize.h)
+    bool runtimeWorkGroupSize = false;  // benchmarks: a null local size, the runtime's choice
     int samplesPerPass = 0;      // samples per pixel per launch; 0: adaptive, ~0.5 s launches
     bool globalMajorant = false; // one majorant per volume instead of per brick (benchmarks)
     PathtraceStats* stats = nullptr;
@@ -47,8 +53,10 @@ struct PathtraceOptions {
 
 // Renders ctx's scene into `film`. The film's AOVs are filled by name (beauty, L0, L1, L2plus,
 // alpha, depth, variance, light_<name>); a film with no AOVs gets all of them, sized from the
-// camera and its crop. Stops after scene.render.spp samples per pixel or after the launch that
-// crosses scene.render.time_limit seconds, whichever comes first. Throws Error (no OpenCL
+// camera and its crop. Stops after scene.render.spp samples per pixel (spp 0: after the launch
+// that brings the beauty's relMSE, estimated from its variance, to scene.render.noise_target) or
+// after the launch that crosses scene.render.time_limit seconds, whichever comes first. Paths have
+// at most scene.render.max_depth scattering events (0: unbounded). Throws Error (no OpenCL
 // device, kernel build failure), Cancelled (control.progress returned false or control.cancel).
 void renderPathtrace(const RenderContext& ctx, Film& film, const RenderControl& control,
                      const PathtraceOptions& pt = {});

@@ -106,11 +106,17 @@ const char* pixelFilterName(PixelFilter f);  // "box", "gaussian", "blackman_har
 const char* wkbKernelName(WkbKernel k);  // "gaussian", "exact"
 const char* wkbSourceName(WkbSource s);  // "straight", "random_walk"
 
+// Samples per pixel of single and wkb when `spp` is 0 (the default).
+constexpr int kDefaultMarchSpp = 4;
+
 struct RenderSettings {
     Method method = Method::Single;
     uint32_t seed = 1;
     int threads = 0;   // 0: all cores
-    int spp = 4;       // camera samples per pixel (single, wkb); path samples (pathtrace)
+    // Camera samples per pixel (single, wkb); path samples per pixel (pathtrace). 0: the method's
+    // default, kDefaultMarchSpp for single and wkb, and for pathtrace no sample count (it renders
+    // until noiseTarget or timeLimit).
+    int spp = 0;
     PixelFilter pixelFilter = PixelFilter::Gaussian;
     float filterWidth = 2.0f;  // the filter's full support, pixels (radius width / 2)
     float step = 0.5f; // primary march step as a fraction of the smallest voxel
@@ -118,8 +124,9 @@ struct RenderSettings {
     float tolerance = 0.002f;  // deep-shadow-map transmittance error, and term cut-offs
     float shadowStep = 1.0f;   // light-ray march step for shadow maps and light sampling, voxels
     int lightSamples = 1;      // area, sphere and environment light samples per march step
-    int maxDepth = 64;         // pathtrace: 1 = single scattering
+    int maxDepth = 0;          // pathtrace: the most scattering events; 0 = unbounded, 1 = single scattering
     double timeLimit = 0.0;    // pathtrace: seconds, 0 = none
+    double noiseTarget = 1e-4; // pathtrace with spp 0: stop at this beauty relMSE (from the variance AOV); 0 = none
     // wkb (docs/wkb.md has the derivation of each):
     WkbKernel wkbKernel = WkbKernel::Gaussian;
     WkbSource wkbSource = WkbSource::Straight;

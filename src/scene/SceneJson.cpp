@@ -154,6 +154,7 @@ void visitRender(V& v, R& r)
     v.field("light_samples", r.lightSamples);
     v.field("max_depth", r.maxDepth);
     v.field("time_limit", r.timeLimit);
+    v.field("noise_target", r.noiseTarget);
     v.field("wkb_kernel", r.wkbKernel);
     v.field("wkb_source", r.wkbSource);
     v.field("wkb_blur_k", r.wkbBlurK);

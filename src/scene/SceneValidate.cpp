@@ -281,17 +281,20 @@ void checkVolumes(const Checker& c, const std::vector<Volume>& volumes)
 void checkRender(const Checker& c, const RenderSettings& r)
 {
     c.atLeast("render.threads", r.threads, 0);
-    // spp 0 means "no sample budget": only the path tracer's time limit can then end the render.
-    const bool timeBound = r.method == Method::Pathtrace && r.timeLimit > 0;
-    c.atLeast("render.spp", r.spp, timeBound ? 0 : 1);
+    // spp 0 is the method's default: 4 samples for single and wkb; for the path tracer no sample
+    // count, so the noise target or the time limit must end the render.
+    c.atLeast("render.spp", r.spp, 0);
     c.range("render.filter_width", r.filterWidth, Range{0, 16, true, false, "pixels"});
     c.range("render.step", r.step, Range{0, 100, true, false, "voxels"});
     c.range("render.shadow_map_resolution", r.shadowMapResolution, Range{8, 16384, false, false, "texels"});
     c.range("render.tolerance", r.tolerance, Range{0, 0.5, true, false, ""});
     c.range("render.shadow_step", r.shadowStep, Range{0, 100, true, false, "voxels"});
     c.atLeast("render.light_samples", r.lightSamples, 1);
-    c.atLeast("render.max_depth", r.maxDepth, 1);
+    c.atLeast("render.max_depth", r.maxDepth, 0);
     c.range("render.time_limit", r.timeLimit, Range{0, kInf, false, true, "seconds"});
+    c.range("render.noise_target", r.noiseTarget, Range{0, 1, false, false, "relMSE"});
+    if (r.method == Method::Pathtrace && r.spp == 0 && r.noiseTarget == 0 && r.timeLimit == 0)
+        c.fail("render.noise_target", "pathtrace with spp 0 needs a noise_target or a time_limit to end the render");
     c.range("render.wkb_blur_k", r.wkbBlurK, Range{0, 1000, true, false, "(Tessendorf eq. 79: 24)"});
     c.range("render.wkb_l_step", r.wkbLStep, Range{0, 10, true, false, "scattering lengths"});
     c.range("render.wkb_order_max", r.wkbOrderMax, Range{0, 4096, false, false, ""});

@@ -120,7 +120,7 @@ static void testParameters(void)
     /* Values out of range, and the object is unchanged after a refused value. */
     CHECK_STATUS(nimbus_set_float(camera, "fov", 200), NIMBUS_ERROR_BAD_INPUT);
     CHECK_MESSAGE("camera.fov: must be in (0, 180)");
-    CHECK_STATUS(nimbus_set_float(scene, "render.spp", 0), NIMBUS_ERROR_BAD_INPUT);
+    CHECK_STATUS(nimbus_set_float(scene, "render.spp", -1), NIMBUS_ERROR_BAD_INPUT); /* 0 is the default */
     CHECK_STATUS(nimbus_set_float(volume, "medium.phase.g", 1.5), NIMBUS_ERROR_BAD_INPUT);
     CHECK_MESSAGE("volume.medium.phase.g");
     CHECK_STATUS(nimbus_set_float(sun, "irradiance", -1), NIMBUS_ERROR_BAD_INPUT);

@@ -3,7 +3,13 @@
 // volume, the same seed and samples for both. Built with the tests, never run by ctest.
 //
 //   bench_pathtrace [spp=16] [size=128] [device=""] [cloud=dense|wispy]
+//   bench_pathtrace [spp=16] [size=128] [device=""] launch [rounds=3]
 //
+// "launch" compares, on the dense cloud at the default max_depth (unbounded), the OpenCL
+// runtime's work-group size (a null local size) with the one chosen from the device's properties
+// (src/pathtracer/LaunchSize.h): path samples per second and the process's CPU time over wall
+// time (getrusage, so every driver thread counts), interleaved rounds and their medians; then the
+// mean beauty at max_depth 64 against unbounded.
 // "dense": a cumulus-like blob whose core is saturated (density 1), wispy at the edges;
 // "wispy": the same blob modulated by high-contrast noise (smoke-like: the maximum far above
 // the mean), where one global majorant wastes most collisions.
@@ -15,11 +21,18 @@
 #include "scene/KernelScene.h"
 #include "volume/VolumeData.h"
 
+#include <sys/resource.h>
+
+#include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <memory>
 #include <string>
+#include <tuple>
+#include <utility>
+#include <vector>
 
 using namespace nimbus;
 
@@ -102,6 +115,79 @@ std::shared_ptr<VolumeData> makeCloud(int n)
     return v;
 }
 
+double cpuSeconds()
+{
+    rusage u{};
+    getrusage(RUSAGE_SELF, &u);
+    return double(u.ru_utime.tv_sec + u.ru_stime.tv_sec) + 1e-6 * double(u.ru_utime.tv_usec + u.ru_stime.tv_usec);
+}
+
+double median(std::vector<double> v)
+{
+    std::sort(v.begin(), v.end());
+    return v.empty() ? 0.0 : (v[(v.size() - 1) / 2] + v[v.size() / 2]) / 2;
+}
+
+// Mean of the channel-averaged beauty and its standard error (from the variance AOV).
+std::pair<double, double> meanBeauty(const Film& film)
+{
+    const Aov* b = film.find("beauty");
+    const Aov* v = film.find("variance");
+    double mean = 0, var = 0;
+    const size_t n = b->pixels.size() / 4;
+    for (size_t i = 0; i < n; ++i) {
+        mean += (b->pixels[4 * i] + b->pixels[4 * i + 1] + b->pixels[4 * i + 2]) / 3.0 / double(n);
+        var += v->pixels[i] / (double(n) * double(n));
+    }
+    return {mean, std::sqrt(var)};
+}
+
+PathtraceOptions benchOptions(const std::string& device, PathtraceStats* stats)
+{
+    PathtraceOptions pt;
+    pt.device = device;
+    pt.stats = stats;
+    return pt;
+}
+
+// The runtime's launch against the chosen one, then the depth cap's bias.
+void launchComparison(const RenderContext& ctx, Scene& scene, const std::string& device, int rounds)
+{
+    std::vector<double> rate[2], busy[2];
+    for (int round = 0; round < rounds; ++round)
+        for (int mode = 0; mode < 2; ++mode) {
+            PathtraceStats stats;
+            PathtraceOptions pt = benchOptions(device, &stats);
+            pt.runtimeWorkGroupSize = mode == 0;
+            Film film;
+            const double cpu0 = cpuSeconds();
+            const auto t0 = std::chrono::steady_clock::now();
+            renderPathtrace(ctx, film, RenderControl{}, pt);
+            const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+            const double cores = (cpuSeconds() - cpu0) / wall;
+            rate[mode].push_back(stats.pathsPerSecond());
+            busy[mode].push_back(cores);
+            std::printf("round %d %-26s %8.0f path samples/s  CPU/wall %.2f  (%zu work-groups of %zu, %.2f s)\n", round,
+                        mode ? "chosen from the device:" : "runtime's choice:", stats.pathsPerSecond(), cores,
+                        stats.workGroups, stats.localSize, wall);
+            if (round == 0 && mode == 0)
+                std::printf("device: %s\n", stats.device.c_str());
+        }
+    std::printf("median of %d rounds: runtime's choice %.0f path samples/s, CPU/wall %.2f; chosen %.0f path samples/s, "
+                "CPU/wall %.2f; speed-up %.2fx\n",
+                rounds, median(rate[0]), median(busy[0]), median(rate[1]), median(busy[1]),
+                median(rate[1]) / std::max(1.0, median(rate[0])));
+    double mean[2], se[2];
+    for (int mode = 0; mode < 2; ++mode) {
+        scene.render.maxDepth = mode == 0 ? 64 : 0;
+        Film film;
+        renderPathtrace(ctx, film, RenderControl{}, benchOptions(device, nullptr));
+        std::tie(mean[mode], se[mode]) = meanBeauty(film);
+    }
+    std::printf("mean beauty: max_depth 64 %.5f +- %.5f, unbounded %.5f +- %.5f (64 is %+.2f%%)\n", mean[0], se[0],
+                mean[1], se[1], 100 * (mean[0] / mean[1] - 1));
+}
+
 }  // namespace
 
 int main(int argc, char** argv)
@@ -110,6 +196,8 @@ int main(int argc, char** argv)
     const int size = argc > 2 ? std::atoi(argv[2]) : 128;
     const std::string device = argc > 3 ? argv[3] : "";
     gWispy = argc > 4 && std::string(argv[4]) == "wispy";
+    const bool launch = argc > 4 && std::string(argv[4]) == "launch";
+    const int rounds = argc > 5 ? std::max(1, std::atoi(argv[5])) : 3;
     try {
         Scene scene;
         scene.camera.width = 128;
@@ -119,7 +207,7 @@ int main(int argc, char** argv)
         scene.camera.fov = 40;
         scene.render.method = Method::Pathtrace;
         scene.render.spp = spp;
-        scene.render.maxDepth = 64;
+        scene.render.maxDepth = launch ? 0 : 64;
         Light sun;
         sun.name = "sun";
         sun.type = LightType::Distant;
@@ -142,21 +230,19 @@ int main(int argc, char** argv)
             ctx.lights.push_back(std::move(e));
         }
         ctx.background = sky.radiance;
+        if (launch) {
+            launchComparison(ctx, scene, device, rounds);
+            return 0;
+        }
 
         double rate[2] = {0, 0};
         for (int mode = 0; mode < 2; ++mode) {
             PathtraceStats stats;
-            PathtraceOptions pt;
-            pt.device = device;
+            PathtraceOptions pt = benchOptions(device, &stats);
             pt.globalMajorant = mode == 1;
-            pt.stats = &stats;
             Film film;
             renderPathtrace(ctx, film, RenderControl{}, pt);
-            double mean = 0;
-            const Aov* b = film.find("beauty");
-            for (size_t i = 0; i < b->pixels.size(); i += 4)
-                mean += (b->pixels[i] + b->pixels[i + 1] + b->pixels[i + 2]) / 3.0;
-            mean /= double(b->pixels.size() / 4);
+            const double mean = meanBeauty(film).first;
             rate[mode] = stats.pathsPerSecond();
             std::printf("%-16s %8.0f path samples/s  (%lld spp, %dx%d, %.2f s, build %.2f s%s)  mean beauty %.5f\n",
                         mode ? "global majorant" : "majorant grid", rate[mode], stats.samplesPerPixel, film.width,

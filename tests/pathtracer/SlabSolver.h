@@ -64,8 +64,10 @@ inline double expint2(double x) { return x <= 0 ? 1.0 : std::exp(-x) - x * expin
 class SlabSolver {
 public:
     // Solves for unit beam irradiance E = 1 (on a surface facing the beam), incident at cosine
-    // mu0 from the normal of the lit face.
-    SlabSolver(double tau0, double albedo, int cells, double mu0 = 1.0)
+    // mu0 from the normal of the lit face. maxOrder > 0 keeps only light scattered at most
+    // that many times (a path tracer's max_depth): the Neumann series S = sum_{k < maxOrder}
+    // K^k s0, term k being the source of light scattered k + 1 times.
+    SlabSolver(double tau0, double albedo, int cells, double mu0 = 1.0, int maxOrder = 0)
         : mTau0(tau0), mA(albedo), mMu0(mu0), mN(cells)
     {
         const double h = tau0 / cells;
@@ -90,6 +92,22 @@ public:
                 y[size_t(i)] = v;
             }
         };
+        if (maxOrder > 0) {
+            mS = s0;
+            std::vector<double> term = s0, next(static_cast<size_t>(cells));
+            for (int order = 2; order <= maxOrder; ++order) {
+                for (int i = 0; i < cells; ++i) {
+                    double v = 0;
+                    for (int j = 0; j < cells; ++j)
+                        v += k[size_t(std::abs(i - j))] * term[size_t(j)];
+                    next[size_t(i)] = v;
+                }
+                term.swap(next);
+                for (int i = 0; i < cells; ++i)
+                    mS[size_t(i)] += term[size_t(i)];
+            }
+            return;
+        }
         mS.assign(size_t(cells), 0.0);
         std::vector<double> r = s0, p = s0, Ap(static_cast<size_t>(cells));
         double rr = 0;

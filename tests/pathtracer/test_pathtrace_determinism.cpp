@@ -4,9 +4,11 @@
 #include "PtWorld.h"
 
 #include "core/Error.h"
+#include "pathtracer/OpenCl.h"
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <atomic>
 #include <chrono>
 #include <cstring>
@@ -107,6 +109,19 @@ TEST(PathtraceDeterminism, SameSeedSameBitsAnyWorkGroupSizeAndLaunchSplit)
             std::string what = "local size " + std::to_string(local) + ", " + std::to_string(perPass) + " spp per launch";
             expectIdentical(reference, f, what.c_str());
         }
+    PathtraceOptions runtime;
+    runtime.runtimeWorkGroupSize = true;
+    expectIdentical(reference, w.render(runtime), "the runtime's work-group size");
+
+    // The chosen launch (LaunchSize.h) gives every compute unit a work-group.
+    const size_t units = size_t(ocl::selectDevice("").computeUnits);
+    const Aov* beauty = reference.find("beauty");
+    const size_t pixels = size_t(reference.x1 - reference.x0) * size_t(reference.y1 - reference.y0);
+    ASSERT_NE(beauty, nullptr);
+    std::printf("launch: %zu work-groups of %zu for %zu pixels on %zu compute units\n", stats.workGroups,
+                stats.localSize, pixels, units);
+    EXPECT_GE(stats.workGroups, std::min(units, pixels));
+    EXPECT_GE(stats.workGroups * stats.localSize, pixels);
 
     w.scene.render.seed = 6;
     Film other = w.render();
@@ -174,6 +189,7 @@ TEST(PathtraceProgressive, TimeLimitStopsAfterTheLaunchThatCrossesIt)
     useTestKernelCache("determinism");
     World w = featureWorld();
     w.scene.render.spp = 0;  // no sample budget: the time limit alone stops the render
+    w.scene.render.noiseTarget = 0;
     w.scene.render.timeLimit = 0.3;
     PathtraceStats stats;
     PathtraceOptions o;
@@ -188,6 +204,56 @@ TEST(PathtraceProgressive, TimeLimitStopsAfterTheLaunchThatCrossesIt)
     EXPECT_GE(stats.samplesPerPixel, 1);
     EXPECT_LT(seconds, 30.0);
     std::printf("time limit 0.3 s: %lld spp in %.2f s\n", stats.samplesPerPixel, stats.renderSeconds);
+}
+
+namespace {
+
+// The noise target's measure from a film: mean over the crop of variance / (y^2 + eps), y the
+// channel average of beauty, eps = (0.1 mean y)^2.
+double filmNoiseRelMse(const Film& f)
+{
+    std::vector<double> y, var;
+    for (int py = f.y0; py < f.y1; ++py)
+        for (int px = f.x0; px < f.x1; ++px) {
+            y.push_back(nbAverage(pixel3(f, "beauty", px, py)));
+            var.push_back(pixel1(f, "variance", px, py));
+        }
+    double mean = 0;
+    for (double v : y)
+        mean += v / double(y.size());
+    const double eps = 0.01 * mean * mean + 1e-20;
+    double sum = 0;
+    for (size_t i = 0; i < y.size(); ++i)
+        sum += var[i] / (y[i] * y[i] + eps);
+    return sum / double(y.size());
+}
+
+}  // namespace
+
+// spp 0 (the default) renders until the beauty's relMSE from its variance reaches noise_target:
+// the launch that stops is the first to reach it, and the film says so too.
+TEST(PathtraceProgressive, NoiseTargetStopsAtTheFirstLaunchThatReachesIt)
+{
+    useTestKernelCache("determinism");
+    World w = featureWorld();
+    w.scene.render.spp = 0;
+    w.scene.render.noiseTarget = 2e-3;
+    PathtraceStats stats;
+    PathtraceOptions o;
+    o.stats = &stats;
+    o.samplesPerPass = 8;
+    Film f = w.render(o);
+    const double measured = filmNoiseRelMse(f);
+    std::printf("noise target 2e-3: %lld spp, relMSE %.3g (film %.3g)\n", stats.samplesPerPixel, stats.noiseRelMse,
+                measured);
+    EXPECT_GE(stats.samplesPerPixel, 64);
+    EXPECT_LE(stats.noiseRelMse, 2e-3);
+    EXPECT_NEAR(measured, stats.noiseRelMse, 1e-3 * stats.noiseRelMse);
+    if (stats.samplesPerPixel > 64) {
+        // The same render 8 samples shorter (bit for bit its prefix) had not reached the target.
+        w.scene.render.spp = int(stats.samplesPerPixel) - 8;
+        EXPECT_GT(filmNoiseRelMse(w.render()), 2e-3);
+    }
 }
 
 TEST(PathtraceProgressive, CancelThrowsCancelled)

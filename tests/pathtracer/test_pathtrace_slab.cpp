@@ -36,7 +36,8 @@ struct SlabCase {
 
 // Renders the slab y in [0, 1] (lit from above: the light travels along -y) seen at cosine mu
 // from above (reflection) or from below (transmission). Returns mean and standard error.
-PixelStats renderSlab(SlabCase c, double mu, bool fromAbove, int maxDepth, int spp, uint32_t seed)
+PixelStats renderSlab(SlabCase c, double mu, bool fromAbove, int maxDepth, int spp, uint32_t seed,
+                      PathtraceStats* stats = nullptr)
 {
     World w(8, 8);
     w.volumes.push_back(boxVolume(make_float3(-kHalfWidth, 0, -kHalfWidth), make_float3(kHalfWidth, 1, kHalfWidth),
@@ -50,7 +51,9 @@ PixelStats renderSlab(SlabCase c, double mu, bool fromAbove, int maxDepth, int s
     w.scene.render.maxDepth = maxDepth;
     w.scene.render.spp = spp;
     w.scene.render.seed = seed;
-    Film f = w.render();
+    PathtraceOptions pt;
+    pt.stats = stats;
+    Film f = w.render(pt);
     return pixelStats(f, "beauty", 0);
 }
 
@@ -171,4 +174,70 @@ TEST(SlabSingle, HgReflectionAndTransmissionClosedForm)
             EXPECT_LT(std::fabs(z), kSigmas);
         }
     }
+}
+
+// The reference must not be truncated (issue 13): a thick, bright half-space (tau 32 is a
+// half-space to 1e-5 here, isotropic, albedo 0.99, seen along the normal under normal incidence)
+// keeps 5.1% of its reflected radiance in paths of more than 64 scattering events. The default
+// max_depth is unbounded and must reproduce the full solution; max_depth 64 must reproduce the
+// solution without those paths (the Neumann series truncated after 64 orders), so a cap is still
+// a cap. The render's noise is small against the gap between the two answers, so either test
+// fails if the other depth were used. The solver's discretisation error (two resolutions) is
+// added to the standard error.
+namespace {
+
+struct HalfSpaceCheck {
+    double mean, se, full, capped, solverError;
+};
+
+HalfSpaceCheck renderHalfSpace(float albedo, int maxDepth, int spp, uint32_t seed, PathtraceStats* stats)
+{
+    const SlabCase c{32.0f, albedo, 0.0f};
+    const int cells = 1280;
+    const SlabSolver full(c.tau0, c.albedo, cells), coarse(c.tau0, c.albedo, cells / 2);
+    const SlabSolver capped(c.tau0, c.albedo, cells, 1.0, 64);
+    const PixelStats s = renderSlab(c, 1.0, true, maxDepth, spp, seed, stats);
+    return {s.mean, s.standardError, full.top(1.0), capped.top(1.0), std::fabs(full.top(1.0) - coarse.top(1.0))};
+}
+
+}  // namespace
+
+TEST(SlabHalfSpace, DefaultDepthIsUnboundedAndMatchesTheFullSolution)
+{
+    useTestKernelCache("slab");
+    EXPECT_EQ(RenderSettings{}.maxDepth, 0) << "the default max_depth is unbounded";
+    PathtraceStats stats;
+    const HalfSpaceCheck h = renderHalfSpace(0.99f, RenderSettings{}.maxDepth, 1024, 21, &stats);
+    const double sigma = std::hypot(h.se, h.solverError);
+    std::printf("half-space a 0.99 default depth: pt %.5f +- %.5f, full %.5f (z %+.2f), capped at 64 %.5f (z %+.2f)\n",
+                h.mean, h.se, h.full, (h.mean - h.full) / sigma, h.capped, (h.mean - h.capped) / sigma);
+    EXPECT_LT(std::fabs(h.mean - h.full), kSigmas * sigma);
+    EXPECT_GT(std::fabs(h.full - h.capped), 2 * kSigmas * sigma) << "too noisy to tell a depth cap of 64";
+    EXPECT_EQ(stats.depthCapped, 0);
+}
+
+TEST(SlabHalfSpace, MaxDepthStillCaps)
+{
+    useTestKernelCache("slab");
+    const HalfSpaceCheck h = renderHalfSpace(0.99f, 64, 1024, 22, nullptr);
+    const double sigma = std::hypot(h.se, h.solverError);
+    std::printf("half-space a 0.99 max_depth 64: pt %.5f +- %.5f, capped at 64 %.5f (z %+.2f), full %.5f (z %+.2f)\n",
+                h.mean, h.se, h.capped, (h.mean - h.capped) / sigma, h.full, (h.mean - h.full) / sigma);
+    EXPECT_LT(std::fabs(h.mean - h.capped), kSigmas * sigma);
+    EXPECT_GT(std::fabs(h.full - h.capped), 2 * kSigmas * sigma);
+}
+
+// Albedo 0.9999: a fifth of the light comes back after more than 64 events, and only Russian
+// roulette (or escape) ends a path. Every path must end before the safety cap.
+TEST(SlabHalfSpace, RussianRouletteEndsPathsAtAlbedo09999)
+{
+    useTestKernelCache("slab");
+    PathtraceStats stats;
+    const HalfSpaceCheck h = renderHalfSpace(0.9999f, 0, 256, 23, &stats);
+    const double sigma = std::hypot(h.se, h.solverError);
+    std::printf("slab tau 32 a 0.9999 unbounded: pt %.5f +- %.5f, full %.5f (z %+.2f), capped at 64 %.5f; %.2f s\n",
+                h.mean, h.se, h.full, (h.mean - h.full) / sigma, h.capped, stats.renderSeconds);
+    EXPECT_LT(std::fabs(h.mean - h.full), kSigmas * sigma);
+    EXPECT_EQ(stats.depthCapped, 0);
+    EXPECT_EQ(stats.badSamples, 0);
 }

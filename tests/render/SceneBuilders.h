@@ -46,11 +46,15 @@ inline Light distantLight(const std::string& name, float3 direction, Rgb irradia
     return l;
 }
 
+// Analytic tests compare pixels with closed forms along their rays: a one-pixel box keeps every
+// sample inside its pixel (the filters themselves: tests/engine/test_pixel_filter.cpp).
 inline Scene emptyScene(int w, int h)
 {
     Scene s;
     s.camera.width = w;
     s.camera.height = h;
+    s.render.pixelFilter = PixelFilter::Box;
+    s.render.filterWidth = 1.0f;
     s.render.threads = 0;
     s.output.file = "unused.exr";
     return s;

@@ -184,7 +184,7 @@ TEST(SceneErrors, Transforms)
 
 TEST(SceneErrors, RenderRanges)
 {
-    EXPECT_ERROR(R"({"render": {"spp": 0}})", "render.spp: must be at least 1, got 0");
+    EXPECT_ERROR(R"({"render": {"spp": -1}})", "render.spp: must be at least 0, got -1");
     EXPECT_ERROR(R"({"render": {"step": 0}})", "render.step: must be in (0, 100] voxels, got 0");
     EXPECT_ERROR(R"({"render": {"step": 101}})", "render.step: must be in (0, 100]");
     EXPECT_ERROR(R"({"render": {"shadow_map_resolution": 4}})", "render.shadow_map_resolution: must be in [8, 16384]");
@@ -192,10 +192,11 @@ TEST(SceneErrors, RenderRanges)
     EXPECT_ERROR(R"({"render": {"tolerance": 0}})", "render.tolerance: must be in (0, 0.5]");
     EXPECT_ERROR(R"({"render": {"tolerance": 0.6}})", "render.tolerance: must be in (0, 0.5]");
     EXPECT_ERROR(R"({"render": {"threads": -1}})", "render.threads: must be at least 0, got -1");
-    EXPECT_ERROR(R"({"render": {"max_depth": 0}})", "render.max_depth: must be at least 1");
+    EXPECT_ERROR(R"({"render": {"max_depth": -1}})", "render.max_depth: must be at least 0");
     EXPECT_ERROR(R"({"render": {"light_samples": 0}})", "render.light_samples: must be at least 1");
     EXPECT_ERROR(R"({"render": {"shadow_step": 0}})", "render.shadow_step: must be in (0, 100]");
     EXPECT_ERROR(R"({"render": {"time_limit": -1}})", "render.time_limit: must be in [0, inf) seconds");
+    EXPECT_ERROR(R"({"render": {"noise_target": -1e-4}})", "render.noise_target: must be in [0, 1] relMSE");
     EXPECT_ERROR(R"({"output": {"aovs": ["L0", "L0"]}})", "output.aovs[1]: 'L0' is listed twice");
     EXPECT_ERROR(R"({"background": -1})", "background: must be non-negative");
 }
@@ -208,13 +209,16 @@ TEST(SceneErrors, NumbersBeyondFloatRange)
     EXPECT_ERROR(R"({"render": {"spp": 1e12}})", "render.spp: must be an integer in");
 }
 
-TEST(SceneErrors, SppZeroOnlyWithAPathTracerTimeLimit)
+TEST(SceneErrors, PathTracerWithoutSppNeedsANoiseTargetOrATimeLimit)
 {
-    // No sample budget is valid where a time limit ends the render (docs/pathtracer.md).
-    EXPECT_NO_THROW(sceneFromJson(
-        json::parse(R"({"render": {"method": "pathtrace", "spp": 0, "time_limit": 5}})"), "scene.json"));
-    EXPECT_ERROR(R"({"render": {"method": "pathtrace", "spp": 0}})", "render.spp: must be at least 1, got 0");
-    EXPECT_ERROR(R"({"render": {"method": "single", "spp": 0, "time_limit": 5}})", "render.spp: must be at least 1");
+    // spp 0 is the default: the path tracer then stops at the noise target or the time limit
+    // (docs/pathtracer.md), and needs one of them.
+    for (const char* ok : {R"({"render": {"method": "pathtrace"}})",
+                           R"({"render": {"method": "pathtrace", "spp": 0, "noise_target": 0, "time_limit": 5}})",
+                           R"({"render": {"method": "single", "spp": 0}})"})
+        EXPECT_NO_THROW(sceneFromJson(json::parse(ok), "scene.json")) << ok;
+    EXPECT_ERROR(R"({"render": {"method": "pathtrace", "noise_target": 0}})",
+                 "render.noise_target: pathtrace with spp 0 needs a noise_target or a time_limit");
 }
 
 TEST(SceneErrors, EmptySceneIsValid)

@@ -60,7 +60,7 @@ TEST(SceneOverrides, CreatesMissingObjects)
 
 TEST(SceneOverrides, OverriddenValuesAreValidatedLikeTheFile)
 {
-    EXPECT_NE(overrideError({"render.spp=0"}).find("render.spp: must be at least 1"), std::string::npos);
+    EXPECT_NE(overrideError({"render.spp=-2"}).find("render.spp: must be at least 0"), std::string::npos);
     EXPECT_NE(overrideError({"render.spp=many"}).find("render.spp: expected an integer, got string"),
               std::string::npos);
     EXPECT_NE(overrideError({"render.bogus=1"}).find("render.bogus: unknown key"), std::string::npos);

@@ -34,13 +34,15 @@ class NimbusSettings(bpy.types.PropertyGroup):
         ],
         default="single",
     )
-    spp: bpy.props.IntProperty(name="Samples", default=4, min=1, soft_max=1024,
-                               description="Camera samples per pixel (path samples for path tracing)")
+    spp: bpy.props.IntProperty(name="Samples", default=0, min=0, soft_max=1024,
+                               description="Camera samples per pixel (path samples for path tracing); 0: the "
+                               "method's default (4; path tracing: until the noise target)")
     seed: bpy.props.IntProperty(name="Seed", default=1, min=0)
     step: bpy.props.FloatProperty(name="Step", default=0.5, min=0.001, max=100.0,
                                   description="March step, as a fraction of the smallest voxel")
     shadow_map_resolution: bpy.props.IntProperty(name="Shadow map resolution", default=256, min=8, max=16384)
-    max_depth: bpy.props.IntProperty(name="Max depth", default=64, min=1, description="Path tracing: longest path")
+    max_depth: bpy.props.IntProperty(name="Max depth", default=0, min=0,
+                                     description="Path tracing: longest path in scattering events (0: unbounded)")
     threads: bpy.props.IntProperty(name="Threads", default=0, min=0, description="0: all cores")
     backend: bpy.props.EnumProperty(
         name="Backend",
