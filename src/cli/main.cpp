@@ -16,6 +16,7 @@
 #include "io/Outputs.h"
 #include "io/ExrWriter.h"
 #include "io/Progress.h"
+#include "io/TempFiles.h"
 #include "pathtracer/Pathtracer.h"
 #include "engine/Renderer.h"
 #include "scene/DefaultScene.h"
@@ -68,19 +69,26 @@ void addSceneArgs(CLI::App* cmd, SceneArgs& a)
         ->check(CLI::IsMember({"single", "wkb", "pathtrace"}));
 }
 
+// -o and --preview as given: `set` tells "-o ''" (an error) from no -o at all.
+struct OutputArgs {
+    std::string output, preview;
+    bool outputSet = false, previewSet = false;
+};
+
 struct PathtraceArgs {
     std::string device;
     double checkpointSeconds = 0;
 };
 
-int runRender(const SceneArgs& args, const std::string& output, const std::string& preview, bool explain, bool quiet,
-              const PathtraceArgs& pt)
+int runRender(const SceneArgs& args, const OutputArgs& out, bool explain, bool quiet, const PathtraceArgs& pt)
 {
+    if (out.outputSet && out.output.empty())
+        throw InputError("-o: empty output path");
     Scene scene = loadScene(args);
-    if (!output.empty())
-        scene.output.file = output;
-    if (!preview.empty())
-        scene.output.preview = preview;
+    if (out.outputSet)
+        scene.output.file = out.output;
+    if (out.previewSet)
+        scene.output.preview = out.preview;  // "": no preview
     validateScene(scene);
     checkOutputs(scene);
 
@@ -142,17 +150,21 @@ int runInfo(const SceneArgs& args)
 
 int main(int argc, char** argv)
 {
+    // Ctrl-C or a farm's SIGTERM during a write leaves no temporary file behind (TempFiles.h).
+    removeTempFilesOnSignals();
     CLI::App app{"nimbus: a volume renderer (single scattering, WKB multiple scattering, path tracing)"};
     app.require_subcommand(1);
     app.set_version_flag("--version", std::string("nimbus ") + NIMBUS_VERSION);
 
     SceneArgs renderArgs, infoArgs;
-    std::string output, preview;
+    OutputArgs outputArgs;
     bool explain = false, quiet = false;
     CLI::App* render = app.add_subcommand("render", "Render a scene to EXR (and a preview PNG)");
     addSceneArgs(render, renderArgs);
-    render->add_option("-o,--output", output, "EXR output path (overrides output.file)");
-    render->add_option("--preview", preview, "Preview PNG path (overrides output.preview)");
+    CLI::Option* outputOption =
+        render->add_option("-o,--output", outputArgs.output, "EXR output path (overrides output.file)");
+    CLI::Option* previewOption =
+        render->add_option("--preview", outputArgs.preview, "Preview PNG path (overrides output.preview; \"\": none)");
     render->add_flag("--explain", explain, "Print the render plan, then the render statistics (stage times, memory)");
     render->add_flag("-q,--quiet", quiet, "No progress or info lines");
     PathtraceArgs ptArgs;
@@ -190,8 +202,11 @@ int main(int argc, char** argv)
         setLogQuiet(quiet);
         if (quiet)
             Progress::setQuiet(true);
-        if (*render)
-            return runRender(renderArgs, output, preview, explain, quiet, ptArgs);
+        if (*render) {
+            outputArgs.outputSet = outputOption->count() > 0;
+            outputArgs.previewSet = previewOption->count() > 0;
+            return runRender(renderArgs, outputArgs, explain, quiet, ptArgs);
+        }
         if (*devices) {
             std::vector<std::string> list = listOpenClDevices();
             for (const std::string& device : list)  // "index: name [...]"

@@ -5,6 +5,7 @@
 #include "render/Film.h"
 
 #include <Imath/half.h>
+#include <OpenImageIO/filesystem.h>
 #include <OpenImageIO/imageio.h>
 
 #include <algorithm>
@@ -131,10 +132,15 @@ void writeExr(const Film& film, const std::string& path)
     if (!hasVersion)
         spec.attribute("nimbus:version", NIMBUS_VERSION);
 
-    AtomicFile file(path, ".exr");
-    std::unique_ptr<OIIO::ImageOutput> out = OIIO::ImageOutput::create(file.tempPath());
+    // By format name: the temporary file's name has no extension (AtomicFile.h).
+    AtomicFile file(path);
+    // Through a stream AtomicFile owns, so that commit() sees every write error. Declared before
+    // the writer, which may still write through it when destroyed on an error path.
+    OIIO::Filesystem::IOFile proxy(file.stream(), OIIO::Filesystem::IOProxy::Write);
+    std::unique_ptr<OIIO::ImageOutput> out = OIIO::ImageOutput::create("openexr");
     if (!out)
         throw fail(oneLine(OIIO::geterror()));
+    out->set_ioproxy(&proxy);
     if (!out->open(file.tempPath(), spec))
         throw fail(oneLine(out->geterror()));
 

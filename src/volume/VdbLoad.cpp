@@ -7,6 +7,7 @@
 // reads the files and puts the steps together; the clamping is in VoxelClamp.h, the conversion
 // in VdbToBricks.h.
 #include "VolumeData.h"
+#include "InputFiles.h"
 
 #include "../core/Error.h"
 #include "../core/Log.h"
@@ -66,23 +67,6 @@ struct RoleGrids {
     std::vector<std::pair<std::string, GridBase::Ptr>> grids;  // role -> grid, density first
     std::vector<std::string> names;                             // file grid names, for gridsRead
 };
-
-// Relative paths are relative to the scene file. The JSON loader has usually resolved them
-// already (then relative to the working directory), so a path that exists as given is kept.
-std::string resolveVdbPath(const std::string& file, const std::string& sceneDir)
-{
-    fs::path p(file);
-    if (p.is_absolute() || sceneDir.empty())
-        return p.lexically_normal().string();
-    fs::path joined = (fs::path(sceneDir) / p).lexically_normal();
-    std::error_code ec;
-    if (fs::exists(joined, ec))
-        return joined.string();
-    fs::path rel = p.lexically_normal().lexically_relative(sceneDir);
-    if (fs::exists(p, ec) || (!rel.empty() && *rel.begin() != ".."))
-        return p.lexically_normal().string();
-    return joined.string();
-}
 
 FloatGrid::Ptr asFloatGrid(const GridBase::Ptr& grid)
 {
@@ -300,6 +284,23 @@ std::shared_ptr<VolumeData> buildVolume(const Scene& scene, size_t index, const 
 }
 
 }  // namespace
+
+// Relative paths are relative to the scene file. The JSON loader has usually resolved them
+// already (then relative to the working directory), so a path that exists as given is kept.
+std::string resolveVdbPath(const std::string& file, const std::string& sceneDir)
+{
+    fs::path p(file);
+    if (p.is_absolute() || sceneDir.empty())
+        return p.lexically_normal().string();
+    fs::path joined = (fs::path(sceneDir) / p).lexically_normal();
+    std::error_code ec;
+    if (fs::exists(joined, ec))
+        return joined.string();
+    fs::path rel = p.lexically_normal().lexically_relative(sceneDir);
+    if (fs::exists(p, ec) || (!rel.empty() && *rel.begin() != ".."))
+        return p.lexically_normal().string();
+    return joined.string();
+}
 
 std::vector<std::shared_ptr<VolumeData>> buildVolumes(const Scene& scene)
 {

@@ -158,6 +158,92 @@ class Cli(unittest.TestCase):
         s["output"] = {"aovs": ["beauty", "L2plus"]}  # single has no L2plus
         self.expect_bad_input(["render", self.scene_file(s)], "output.aovs")
 
+    # Safe outputs (issue 18, failures 1 and 2): what an output may not replace, and how it
+    # replaces what it may.
+    def test_output_that_is_an_input_is_refused(self):
+        vdb_path = os.path.join(self.d, "cloud.vdb")
+        write_vdb(vdb_path, [((0, 0, 0), 1.0)])
+        with open(vdb_path, "rb") as f:
+            vdb_bytes = f.read()
+        os.link(vdb_path, os.path.join(self.d, "hardlink.exr"))
+        s = small_scene()
+        s["volumes"][0]["source"] = {"type": "vdb", "file": "cloud.vdb"}
+        scene = self.scene_file(s)
+        with open(scene, "rb") as f:
+            scene_bytes = f.read()
+        for target, key in ((scene, "output.file"), (vdb_path, "output.file"),
+                            (os.path.join(self.d, "hardlink.exr"), "output.file"),
+                            (os.path.join(self.d, ".", "cloud.vdb"), "output.file")):
+            self.expect_bad_input(["render", scene, "-o", target], "scene.json", key, "input")
+        self.expect_bad_input(["render", scene, "--preview", scene], "output.preview", "input")
+        self.expect_bad_input(["render", scene, "--preview", self.out], "output.preview", "output.file")
+        with open(scene, "rb") as f:
+            self.assertEqual(f.read(), scene_bytes)
+        with open(vdb_path, "rb") as f:
+            self.assertEqual(f.read(), vdb_bytes)
+
+    def test_empty_output_path_is_an_error(self):  # failure 8: `-o ""` was ignored
+        self.expect_bad_input(["render", self.scene_file(small_scene()), "-o", ""], "-o", "empty")
+
+    def test_output_that_is_not_a_regular_file_is_refused(self):
+        scene = self.scene_file(small_scene())
+        fifo = os.path.join(self.d, "pipe.exr")
+        os.mkfifo(fifo)
+        os.mkdir(os.path.join(self.d, "dir.exr"))
+        for target, kind in (("/dev/null", "device"), (fifo, "FIFO"), (os.path.join(self.d, "dir.exr"), "directory")):
+            self.expect_bad_input(["render", scene, "-o", target], "output.file", target, kind)
+            self.expect_bad_input(["render", scene, "--preview", target], "output.preview", kind)
+        self.assertTrue(os.path.exists("/dev/null") and not os.path.isfile("/dev/null"))
+        import stat
+        self.assertTrue(stat.S_ISFIFO(os.lstat(fifo).st_mode))
+
+    def test_output_through_a_symlink_keeps_link_mode_and_leaves_no_temporary(self):
+        store = os.path.join(self.d, "store")
+        os.mkdir(store)
+        real = os.path.join(store, "real.exr")
+        with open(real, "wb") as f:
+            f.write(b"old")
+        os.chmod(real, 0o640)
+        link = os.path.join(self.d, "link.exr")
+        os.symlink("store/real.exr", link)
+        code, _, err = run("render", self.scene_file(small_scene()), "-q", "-o", link,
+                           "--preview", os.path.join(self.d, "p.png"))
+        self.assertEqual(code, 0, err)
+        self.assertTrue(os.path.islink(link), "the symlink was replaced by a file")
+        self.assertEqual(os.stat(real).st_mode & 0o777, 0o640)
+        read_exr(real)
+        self.assertEqual(sorted(os.listdir(store)), ["real.exr"])
+        self.assertEqual(sorted(os.listdir(self.d)), ["link.exr", "out.exr", "p.png", "scene.json", "store"])
+
+    def test_full_disk_fails_the_render_and_keeps_the_good_files(self):
+        disk = os.path.join(self.d, "disk")
+        os.mkdir(disk)
+        if subprocess.run(["mount", "-t", "tmpfs", "-o", "size=16k", "tmpfs", disk], capture_output=True).returncode:
+            self.skipTest("cannot mount a tmpfs (not root); tests/io FileSizeLimit* cover the write error")
+        try:
+            exr, png = os.path.join(disk, "f.exr"), os.path.join(disk, "f.png")
+            code, _, err = run("render", self.scene_file(small_scene()), "-q", "-o", exr, "--preview", png)
+            self.assertEqual(code, 0, err)
+            with open(exr, "rb") as f:
+                good_exr = f.read()
+            with open(png, "rb") as f:
+                good_png = f.read()
+            big = ("--set", "camera.resolution=[640,480]")  # a 16 KB preview, a 600 KB EXR
+            # The preview alone on the full disk (failure 2: exit 0 with a truncated PNG), then the EXR.
+            for exr_path, failing in ((os.path.join(self.d, "big.exr"), "f.png"), (exr, "f.exr")):
+                code, _, err = run("render", self.scene_file(small_scene()), "-q", "-o", exr_path, "--preview", png, *big)
+                self.assertEqual(code, 1, err)
+                lines = [l for l in err.splitlines() if l.strip()]
+                self.assertEqual(len(lines), 1, err)
+                self.assertIn(failing, lines[0])
+                with open(exr, "rb") as f:
+                    self.assertEqual(f.read(), good_exr)
+                with open(png, "rb") as f:
+                    self.assertEqual(f.read(), good_png)
+            self.assertEqual(sorted(os.listdir(disk)), ["f.exr", "f.png"])
+        finally:
+            subprocess.run(["umount", disk])
+
     # Tolerated input: the render succeeds with a finite, non-negative image.
     def assert_clean_render(self, scene):
         code, out, err = run("render", self.scene_file(scene), "-q")

@@ -283,3 +283,34 @@ TEST(ExrWriter, WriteFailingMidFileKeepsExistingBytes)
     EXPECT_EQ(readBytes(path), "the previous frame");
     EXPECT_EQ(dir.entryCount(), 1u) << "temporary file left behind";
 }
+
+// The EXR on a full disk (a 64 KiB tmpfs): OpenImageIO's error, or the stream's, fails the
+// write; the earlier file keeps its bytes and no temporary file remains.
+TEST(ExrWriter, FullDiskKeepsTheEarlierFile)
+{
+    test::TempDir dir;
+    test::SmallTmpfs disk(dir.path() / "disk", 64);
+    if (!disk.mounted())
+        GTEST_SKIP() << "cannot mount a tmpfs here (not root)";
+    const std::string path = disk / "frame.exr";
+    writeExr(makeFilm(), path);
+    const std::string bytes = readBytes(path);
+    Film big;
+    big.width = big.height = 256;
+    Aov& beauty = big.add("beauty", 4, true);  // float, noise: zip cannot shrink it below 1 MiB
+    uint32_t state = 7;
+    for (float& v : beauty.pixels) {
+        state = state * 1664525u + 1013904223u;
+        v = float(state) / 4294967296.0f;
+    }
+    try {
+        writeExr(big, path);
+        ADD_FAILURE() << "a 1 MiB EXR was written on a 64 KiB disk";
+    } catch (const Error& e) {
+        EXPECT_NE(std::string(e.what()).find(path), std::string::npos) << e.what();
+    }
+    EXPECT_EQ(readBytes(path), bytes);
+    EXPECT_EQ(std::distance(std::filesystem::directory_iterator(dir.path() / "disk"),
+                            std::filesystem::directory_iterator()),
+              1);
+}
