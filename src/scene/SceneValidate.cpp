@@ -5,6 +5,7 @@
 
 #include "../core/Error.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <set>
@@ -254,11 +255,31 @@ void checkTransform(const Checker& c, const Transform& t, const std::string& pat
         c.fail(path, "is singular (a zero scale?); the volume would have no extent");
 }
 
+}  // namespace
+
+double maxExtinctionAtDensityOne(const Medium& m)
+{
+    double extinction = 0.0;
+    for (int ch = 0; ch < 3; ++ch)
+        extinction = std::max(extinction, (double(component(m.sigma_s, ch)) + double(component(m.sigma_a, ch))) *
+                                              double(m.densityScale));
+    return extinction;
+}
+
+namespace {
+
 void checkMedium(const Checker& c, const Medium& m, const std::string& p)
 {
     c.nonNegative(p + "sigma_s", m.sigma_s);
     c.nonNegative(p + "sigma_a", m.sigma_a);
     c.range(p + "density_scale", m.densityScale, kNonNegative);
+    // Overflow up front (in double: the float product may already be inf): the grid's voxels
+    // are checked against the same bound once loaded (VdbLoad.cpp).
+    const double extinction = maxExtinctionAtDensityOne(m);
+    if (!(extinction <= kMaxExtinction))
+        c.fail(p + "density_scale", "the extinction (sigma_s + sigma_a) * density_scale = " + num(extinction) +
+                                        " 1/m at density 1 is beyond the " + num(kMaxExtinction) +
+                                        " 1/m nimbus renders in float; lower density_scale, sigma_s or sigma_a");
     c.range(p + "emission_scale", m.emissionScale, kNonNegative);
     c.range(p + "phase.g", m.phase.g, kAsymmetry);
     c.range(p + "phase.g2", m.phase.g2, kAsymmetry);

@@ -11,6 +11,7 @@
 
 #include "../core/Error.h"
 #include "../core/Log.h"
+#include "../scene/SceneValidate.h"
 #include "PluginSource.h"
 #include "Procedural.h"
 #include "VdbToBricks.h"
@@ -23,6 +24,7 @@
 
 #include <algorithm>
 #include <array>
+#include <cstdio>
 #include <filesystem>
 #include <map>
 
@@ -264,6 +266,18 @@ std::shared_ptr<VolumeData> buildVolume(const Scene& scene, size_t index, const 
     const std::string densityKey = volume.source.type == SourceType::Vdb ? where.key(".source.grids.density")
                                                                          : where.key(".source");
     data->density = toBricks(*density, 1, densityKey);
+    // Extinction overflow (docs/volumes.md, "Extinction range"): the densest voxel times the
+    // medium's coefficients, which validateScene bounded at density 1.
+    const double densest = double(data->density.maxValue());
+    const double atOne = maxExtinctionAtDensityOne(volume.medium);
+    if (!(densest * atOne <= kMaxExtinction)) {
+        char what[320];
+        std::snprintf(what, sizeof what,
+                      ": the extinction reaches %g 1/m (voxel density up to %g times (sigma_s + sigma_a) * "
+                      "density_scale = %g 1/m), beyond the %g 1/m nimbus renders in float; lower density_scale",
+                      densest * atOne, densest, atOne, kMaxExtinction);
+        throw InputError(where.key(".medium.density_scale") + what);
+    }
     if (emission)
         data->emission = toBricks(*emission, 3, where.key(".shader"));
 

@@ -158,6 +158,20 @@ class Cli(unittest.TestCase):
         s["output"] = {"aovs": ["beauty", "L2plus"]}  # single has no L2plus
         self.expect_bad_input(["render", self.scene_file(s)], "output.aovs")
 
+    # Failure 3 of issue 18: extinction beyond float's range hung wkb and gave NaN images with
+    # exit 0; `nimbus info` printed "optical depth: up to inf".
+    def test_extinction_overflow_is_bad_input(self):
+        huge = ["--set", "volumes[0].medium.density_scale=1e30", "--set", "volumes[0].medium.sigma_s=1e30"]
+        for method in ("single", "wkb"):
+            self.expect_bad_input(["render", "--default", "--method", method, "-o", self.out, *huge],
+                                  "volumes[0].medium.density_scale")
+            self.expect_bad_input(["info", "--default", "--method", method, *huge], "volumes[0].medium.density_scale")
+        vdb_path = os.path.join(self.d, "dense.vdb")
+        write_vdb(vdb_path, [((0, 0, 0), 1e38), ((1, 0, 0), 1.0)])
+        s = small_scene()
+        s["volumes"][0]["source"] = {"type": "vdb", "file": vdb_path}
+        self.expect_bad_input(["render", self.scene_file(s)], "scene.json", "volumes[0].medium.density_scale")
+
     # Safe outputs (issue 18, failures 1 and 2): what an output may not replace, and how it
     # replaces what it may.
     def test_output_that_is_an_input_is_refused(self):
