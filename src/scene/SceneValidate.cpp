@@ -63,6 +63,7 @@ struct Range {
 
 const double kInf = INFINITY;
 const Range kAngle{0, 180, true, true, "degrees"};
+const double kMinFov = 1e-30;  // degrees
 const Range kPositive{0, kInf, true, true, ""};
 const Range kNonNegative{0, kInf, false, true, ""};
 // |g| = 1 is a delta phase function that HG sampling cannot represent; 0.999 is the documented cap.
@@ -132,6 +133,10 @@ void checkCamera(const Checker& c, const Camera& cam)
 {
     checkPose(c, "camera.", cam.from, cam.to, cam.up);
     c.range("camera.fov", cam.fov, kAngle);
+    // Below 1e-30 degrees tan(fov / 2) is no longer a normal float and every camera ray is the
+    // same ray.
+    if (cam.fov < kMinFov)
+        c.fail("camera.fov", "must be at least " + num(kMinFov) + " degrees, got " + num(cam.fov));
     if (cam.width < 1 || cam.height < 1 || cam.width > 65536 || cam.height > 65536)
         c.fail("camera.resolution", "must be two positive integers <= 65536, got [" + std::to_string(cam.width) +
                                         ", " + std::to_string(cam.height) + "]");

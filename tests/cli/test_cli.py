@@ -172,6 +172,20 @@ class Cli(unittest.TestCase):
         s["volumes"][0]["source"] = {"type": "vdb", "file": vdb_path}
         self.expect_bad_input(["render", self.scene_file(s)], "scene.json", "volumes[0].medium.density_scale")
 
+    # Failure 4 of issue 18: SIGSEGV at `--set camera.fov=1e-10` (int overflow in tile culling).
+    def test_tiny_field_of_view_renders_finite(self):
+        for method in ("single", "wkb", "pathtrace"):
+            for fov in ("1e-10", "1e-30"):
+                code, _, err = run("render", "--default", "-q", "--method", method, "-o", self.out, "--preview", "",
+                                   "--set", "camera.fov=" + fov, "--set", "camera.resolution=[32,18]",
+                                   "--set", "render.spp=1")
+                self.assertEqual(code, 0, f"{method} fov {fov}: {err}")
+                _, px, _ = read_exr(self.out)
+                self.assertTrue(np.all(np.isfinite(px)), f"{method} fov {fov}: non-finite pixels")
+        with open(self.out, "wb") as f:
+            f.write(b"earlier render")
+        self.expect_bad_input(["render", "--default", "-o", self.out, "--set", "camera.fov=1e-40"], "camera.fov")
+
     # Safe outputs (issue 18, failures 1 and 2): what an output may not replace, and how it
     # replaces what it may.
     def test_output_that_is_an_input_is_refused(self):

@@ -121,3 +121,46 @@ TEST(InputExtremes, NonFiniteSamplesNeverReachTheFilm)
         EXPECT_EQ(nonFinite(r.film), 0u) << method;
     }
 }
+
+// Failure 4: SIGSEGV at fov 1e-10 (an int overflow in tile culling). Tiny fields of view on
+// ordinary and extreme image shapes: each method finishes with a finite film or refuses the
+// scene with an InputError. The path tracer runs where an OpenCL device exists.
+TEST(InputExtremes, TinyFieldsOfViewRenderFinite)
+{
+    struct Shape {
+        int w, h;
+    };
+    for (const char* method : {"single", "wkb", "pathtrace"})
+        for (float fov : {1e-10f, 1e-30f})
+            for (Shape shape : {Shape{24, 16}, Shape{65536, 1}, Shape{1, 65536}}) {
+                Scene s = cloudScene(method == std::string("pathtrace") ? Method::Pathtrace : methodOf(method), 1.0f);
+                s.camera.fov = fov;
+                s.camera.width = shape.w;
+                s.camera.height = shape.h;
+                s.render.maxDepth = 2;
+                try {
+                    const RenderResult r = renderWithin(s, 300);
+                    EXPECT_EQ(nonFinite(r.film), 0u) << method << " fov " << fov << " " << shape.w << "x" << shape.h;
+                } catch (const InputError& e) {
+                    EXPECT_EQ(std::string(e.what()).find('\n'), std::string::npos) << e.what();
+                } catch (const Error& e) {
+                    if (std::string(method) == "pathtrace" && std::string(e.what()).find("OpenCL") != std::string::npos)
+                        continue;  // no device on this machine: the other two still ran
+                    ADD_FAILURE() << method << " fov " << fov << ": " << e.what();
+                }
+            }
+}
+
+// Below 1e-30 degrees tan(fov / 2) is no longer a normal float and every ray would be the same:
+// the documented range's lower end (docs/scene-format.md).
+TEST(InputExtremes, FieldOfViewBelowTheRangeIsAnInputError)
+{
+    Scene s = cloudScene(Method::Single, 1.0f);
+    s.camera.fov = 1e-40f;
+    try {
+        validateScene(s);
+        ADD_FAILURE() << "fov 1e-40 accepted";
+    } catch (const InputError& e) {
+        EXPECT_NE(std::string(e.what()).find("camera.fov"), std::string::npos) << e.what();
+    }
+}
