@@ -26,7 +26,9 @@
 #include <CLI/CLI.hpp>
 #include <nlohmann/json.hpp>
 
+#include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <iostream>
 #include <string>
 #include <vector>
@@ -169,8 +171,17 @@ int main(int argc, char** argv)
     render->add_flag("-q,--quiet", quiet, "No progress or info lines");
     PathtraceArgs ptArgs;
     render->add_option("--device", ptArgs.device, "pathtrace: OpenCL device index or name substring (see `nimbus devices`)");
+    // NaN passed CLI11's PositiveNumber, and -1 was answered with a 309-digit bound.
     render->add_option("--checkpoint", ptArgs.checkpointSeconds, "pathtrace: write the running estimate every SECONDS")
-        ->check(CLI::PositiveNumber);
+        ->check(CLI::Validator(
+            [](std::string& text) -> std::string {
+                char* end = nullptr;
+                const double v = std::strtod(text.c_str(), &end);
+                if (end == text.c_str() || *end != '\0' || !std::isfinite(v) || v <= 0.0)
+                    return "must be a positive, finite number of seconds, got '" + text + "'";
+                return "";
+            },
+            "SECONDS"));
 
     CLI::App* devices = app.add_subcommand("devices", "List the OpenCL devices the path tracer can use");
 
@@ -193,9 +204,16 @@ int main(int argc, char** argv)
 
     try {
         app.parse(argc, argv);
+    } catch (const CLI::CallForHelp& e) {
+        return app.exit(e) == 0 ? kOk : kBadInput;
+    } catch (const CLI::CallForAllHelp& e) {
+        return app.exit(e) == 0 ? kOk : kBadInput;
+    } catch (const CLI::CallForVersion& e) {
+        return app.exit(e) == 0 ? kOk : kBadInput;
     } catch (const CLI::ParseError& e) {
-        int code = app.exit(e);
-        return code == 0 ? kOk : kBadInput;
+        // One line, as every other bad input (CLI11 would add "Run with --help ...").
+        std::fprintf(stderr, "nimbus: error: %s\n", e.what());
+        return kBadInput;
     }
 
     try {

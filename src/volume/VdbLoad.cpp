@@ -24,6 +24,7 @@
 
 #include <algorithm>
 #include <array>
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <map>
@@ -69,6 +70,24 @@ struct RoleGrids {
     std::vector<std::pair<std::string, GridBase::Ptr>> grids;  // role -> grid, density first
     std::vector<std::string> names;                             // file grid names, for gridsRead
 };
+
+// A file's transform that is singular, non-finite or otherwise unusable is bad input (exit 2):
+// OpenVDB throws ArithmeticError only when the map is first inverted, deep inside the build,
+// which used to surface as a render failure (issue 18, failure 8).
+void checkGridTransform(const GridBase& grid, const std::string& what)
+{
+    try {
+        const openvdb::Mat4d m = grid.transform().baseMap()->getAffineMap()->getMat4();
+        for (int r = 0; r < 4; ++r)
+            for (int c = 0; c < 4; ++c)
+                if (!std::isfinite(m(r, c)))
+                    throw InputError(what + " has a non-finite transform");
+        if (!(std::fabs(m.getMat3().det()) > 0.0))
+            throw InputError(what + " has a singular transform (a zero voxel size?)");
+    } catch (const openvdb::Exception& e) {
+        throw InputError(what + " has an invalid transform: " + e.what());
+    }
+}
 
 FloatGrid::Ptr asFloatGrid(const GridBase::Ptr& grid)
 {
@@ -170,6 +189,7 @@ RoleGrids readVdb(const VolumeSource& source, const std::string& path, bool allR
         if (!grid->transform().isLinear())
             throw InputError(key + ": grid '" + name + "' in '" + path +
                              "' has a non-linear (frustum) transform; only affine transforms are supported");
+        checkGridTransform(*grid, key + ": grid '" + name + "' in '" + path + "'");
         grid->setName(role);  // the shader reads it as @<role>
         out.grids.push_back({role, grid});
         out.names.push_back(name);

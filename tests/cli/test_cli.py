@@ -186,6 +186,52 @@ class Cli(unittest.TestCase):
             f.write(b"earlier render")
         self.expect_bad_input(["render", "--default", "-o", self.out, "--set", "camera.fov=1e-40"], "camera.fov")
 
+    # Failure 8 of issue 18, the minor items.
+    def test_bad_checkpoint_interval_is_one_line(self):
+        for value in ("nan", "-1", "0", "inf", "soon"):
+            line = self.expect_bad_input(["render", self.scene_file(small_scene()), "--checkpoint", value],
+                                         "--checkpoint", value)
+            self.assertLess(len(line), 200, "the bound is not printed with 309 digits")
+
+    def test_scene_that_is_not_a_regular_file_is_refused_unread(self):
+        fifo = os.path.join(self.d, "pipe.json")
+        os.mkfifo(fifo)  # opening it would block: refused from stat() alone
+        for path in ("/dev/zero", fifo):
+            self.expect_bad_input(["render", path, "-o", self.out], path, "not a regular file")
+
+    def test_duplicate_key_is_bad_input(self):
+        path = os.path.join(self.d, "scene.json")
+        with open(path, "w") as f:
+            f.write('{"camera": {"fov": 30, "resolution": [32, 24], "fov": 40}, "output": {"file": "%s"}}' % self.out)
+        self.expect_bad_input(["render", path], "scene.json", "camera.fov", "duplicate")
+
+    def test_invalid_vdb_transform_is_bad_input(self):
+        vdb_path = os.path.join(self.d, "flat.vdb")
+        write_vdb(vdb_path, [((0, 0, 0), 1.0)], voxel=0.125)
+        with open(vdb_path, "rb") as f:
+            data = bytearray(f.read())
+        import struct
+        at = data.find(b"UniformScaleMap")
+        for _ in range(3):  # the map's three scale factors
+            at = data.find(struct.pack("<d", 0.125), at)
+            data[at:at + 8] = struct.pack("<d", 0.0)
+        with open(vdb_path, "wb") as f:
+            f.write(data)
+        s = small_scene()
+        s["volumes"][0]["source"] = {"type": "vdb", "file": vdb_path}
+        self.expect_bad_input(["render", self.scene_file(s)], "scene.json", "volumes[0].source.grids.density", "transform")
+
+    def test_values_beyond_half_warn_once_naming_the_aov(self):
+        s = small_scene()
+        s["lights"][0]["irradiance"] = [1e9, 1e9, 1e9]
+        code, _, err = run("render", self.scene_file(s), "-q")
+        self.assertEqual(code, 0, err)
+        warnings = [l for l in err.splitlines() if "65504" in l]
+        self.assertEqual(len(warnings), 1, err)
+        self.assertIn("beauty (", warnings[0])
+        _, px, _ = read_exr(self.out)
+        self.assertTrue(np.all(np.isfinite(px)))
+
     # Safe outputs (issue 18, failures 1 and 2): what an output may not replace, and how it
     # replaces what it may.
     def test_output_that_is_an_input_is_refused(self):

@@ -2,6 +2,7 @@
 
 #include "TempDir.h"
 #include "core/Error.h"
+#include "core/Log.h"
 #include "render/Film.h"
 
 #include <OpenImageIO/imageio.h>
@@ -313,4 +314,32 @@ TEST(ExrWriter, FullDiskKeepsTheEarlierFile)
     EXPECT_EQ(std::distance(std::filesystem::directory_iterator(dir.path() / "disk"),
                             std::filesystem::directory_iterator()),
               1);
+}
+
+// Failure 8 of issue 18: values above 65504 became inf in half channels without a word. They
+// are written as +-65504, and one warning names each AOV with its count of pixels; float (data)
+// AOVs keep their values.
+TEST(ExrWriter, ValuesBeyondHalfAreClampedWithOneWarningNamingTheAov)
+{
+    test::TempDir dir;
+    Film film = makeFilm();
+    film.pixel(*film.find("L0"), 2, 3)[1] = 1e6f;
+    film.pixel(*film.find("L0"), 2, 3)[2] = -2e5f;  // the same pixel: counted once
+    film.pixel(*film.find("L0"), 4, 4)[0] = 70000.0f;
+    std::vector<std::string> warnings;
+    setLogSink([&](LogLevel level, const std::string& m) {
+        if (level == LogLevel::Warning)
+            warnings.push_back(m);
+    });
+    const std::string path = dir / "bright.exr";
+    writeExr(film, path);
+    setLogSink(nullptr);
+    const ReadBack r = readExr(path);
+    EXPECT_EQ(r.at("L0.G", 2, 3), 65504.0f);
+    EXPECT_EQ(r.at("L0.B", 2, 3), -65504.0f);
+    EXPECT_EQ(r.at("L0.R", 4, 4), 65504.0f);
+    EXPECT_EQ(r.at("depth.R", 3, 3), 1.0e6f) << "float channels are not clamped";
+    ASSERT_EQ(warnings.size(), 1u);
+    EXPECT_NE(warnings[0].find("L0 (2 pixels)"), std::string::npos) << warnings[0];
+    EXPECT_NE(warnings[0].find(path), std::string::npos) << warnings[0];
 }
