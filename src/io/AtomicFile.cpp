@@ -10,6 +10,7 @@
 #include <filesystem>
 #include <random>
 #include <system_error>
+#include <utility>
 
 #include <fcntl.h>
 #include <sys/stat.h>
@@ -48,18 +49,15 @@ bool syncPath(const std::string& path, bool directory)
 
 std::string kindOf(mode_t mode)
 {
-    if (S_ISREG(mode))
-        return "";
-    if (S_ISDIR(mode))
-        return "a directory";
-    if (S_ISCHR(mode))
-        return "a character device";
-    if (S_ISBLK(mode))
-        return "a block device";
-    if (S_ISFIFO(mode))
-        return "a FIFO";
-    if (S_ISSOCK(mode))
-        return "a socket";
+    static const std::pair<mode_t, const char*> kinds[] = {{S_IFREG, ""},
+                                                           {S_IFDIR, "a directory"},
+                                                           {S_IFCHR, "a character device"},
+                                                           {S_IFBLK, "a block device"},
+                                                           {S_IFIFO, "a FIFO"},
+                                                           {S_IFSOCK, "a socket"}};
+    for (const auto& [type, name] : kinds)
+        if ((mode & S_IFMT) == type)
+            return name;
     return "not a regular file";
 }
 

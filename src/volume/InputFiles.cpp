@@ -3,12 +3,27 @@
 #include "../core/Error.h"
 #include "VolumeShader.h"
 
+#include <cstdlib>
 #include <filesystem>
+#include <sstream>
 #include <system_error>
 
 namespace nimbus {
 
 namespace fs = std::filesystem;
+
+std::vector<std::string> searchPathDirs(const char* variable)
+{
+    std::vector<std::string> dirs;
+    if (const char* env = std::getenv(variable)) {
+        std::stringstream list(env);
+        std::string dir;
+        while (std::getline(list, dir, ':'))
+            if (!dir.empty())
+                dirs.push_back(dir);
+    }
+    return dirs;
+}
 
 std::vector<std::string> sceneInputFiles(const Scene& scene)
 {

@@ -15,6 +15,10 @@ namespace nimbus {
 // is kept as it is.
 std::string resolveVdbPath(const std::string& file, const std::string& sceneDir);
 
+// The non-empty directories of a ':'-separated search path in the environment variable, in
+// order ($NIMBUS_SHADER_PATH, $NIMBUS_PLUGIN_PATH); none when it is unset.
+std::vector<std::string> searchPathDirs(const char* variable);
+
 // The candidates for a plugin library path, in the loader's search order (PluginSource.h).
 std::vector<std::string> pluginCandidates(const std::string& path, const std::string& sceneDir);
 

@@ -155,14 +155,7 @@ std::vector<std::string> pluginCandidates(const std::string& path, const std::st
     std::vector<std::string> names = {path};
     if (path.find(".so") == std::string::npos)
         names.push_back("lib" + path + ".so");
-    std::vector<std::string> dirs;
-    if (const char* env = std::getenv("NIMBUS_PLUGIN_PATH")) {
-        std::stringstream ss(env);
-        std::string dir;
-        while (std::getline(ss, dir, ':'))
-            if (!dir.empty())
-                dirs.push_back(dir);
-    }
+    std::vector<std::string> dirs = searchPathDirs("NIMBUS_PLUGIN_PATH");
     if (!sceneDir.empty())
         dirs.push_back(sceneDir);
     for (const auto& dir : dirs)

@@ -6,6 +6,7 @@
 // AX keeps active tiles as tiles where the result is uniform and streams them to voxels where
 // it is not (its active-tile streaming), so sparse inputs stay sparse.
 #include "VolumeShader.h"
+#include "InputFiles.h"
 
 #include "../core/Error.h"
 #include "../core/Log.h"
@@ -57,13 +58,8 @@ ShaderFile findShader(const std::string& shader, const std::string& sceneDir, co
     std::vector<fs::path> candidates;
     if (name.find('/') == std::string::npos) {
         std::vector<fs::path> dirs;
-        if (const char* env = std::getenv("NIMBUS_SHADER_PATH")) {
-            std::stringstream list(env);
-            std::string dir;
-            while (std::getline(list, dir, ':'))
-                if (!dir.empty())
-                    dirs.push_back(dir);
-        }
+        for (const std::string& dir : searchPathDirs("NIMBUS_SHADER_PATH"))
+            dirs.push_back(dir);
         dirs.push_back(builtinShaderDir());
         if (!sceneDir.empty())
             dirs.push_back(sceneDir);
