@@ -16,6 +16,7 @@
 #include "io/Outputs.h"
 #include "io/ExrWriter.h"
 #include "io/Progress.h"
+#include "io/TempFiles.h"
 #include "pathtracer/Pathtracer.h"
 #include "engine/Renderer.h"
 #include "scene/DefaultScene.h"
@@ -25,7 +26,9 @@
 #include <CLI/CLI.hpp>
 #include <nlohmann/json.hpp>
 
+#include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <iostream>
 #include <string>
 #include <vector>
@@ -68,19 +71,26 @@ void addSceneArgs(CLI::App* cmd, SceneArgs& a)
         ->check(CLI::IsMember({"single", "wkb", "pathtrace"}));
 }
 
+// -o and --preview as given: `set` tells "-o ''" (an error) from no -o at all.
+struct OutputArgs {
+    std::string output, preview;
+    bool outputSet = false, previewSet = false;
+};
+
 struct PathtraceArgs {
     std::string device;
     double checkpointSeconds = 0;
 };
 
-int runRender(const SceneArgs& args, const std::string& output, const std::string& preview, bool explain, bool quiet,
-              const PathtraceArgs& pt)
+int runRender(const SceneArgs& args, const OutputArgs& out, bool explain, bool quiet, const PathtraceArgs& pt)
 {
+    if (out.outputSet && out.output.empty())
+        throw InputError("-o: empty output path");
     Scene scene = loadScene(args);
-    if (!output.empty())
-        scene.output.file = output;
-    if (!preview.empty())
-        scene.output.preview = preview;
+    if (out.outputSet)
+        scene.output.file = out.output;
+    if (out.previewSet)
+        scene.output.preview = out.preview;  // "": no preview
     validateScene(scene);
     checkOutputs(scene);
 
@@ -148,23 +158,36 @@ int runInfo(const SceneArgs& args)
 
 int main(int argc, char** argv)
 {
+    // Ctrl-C or a farm's SIGTERM during a write leaves no temporary file behind (TempFiles.h).
+    removeTempFilesOnSignals();
     CLI::App app{"nimbus: a volume renderer (single scattering, WKB multiple scattering, path tracing)"};
     app.require_subcommand(1);
     app.set_version_flag("--version", std::string("nimbus ") + NIMBUS_VERSION);
 
     SceneArgs renderArgs, infoArgs;
-    std::string output, preview;
+    OutputArgs outputArgs;
     bool explain = false, quiet = false;
     CLI::App* render = app.add_subcommand("render", "Render a scene to EXR (and a preview PNG)");
     addSceneArgs(render, renderArgs);
-    render->add_option("-o,--output", output, "EXR output path (overrides output.file)");
-    render->add_option("--preview", preview, "Preview PNG path (overrides output.preview)");
+    CLI::Option* outputOption =
+        render->add_option("-o,--output", outputArgs.output, "EXR output path (overrides output.file)");
+    CLI::Option* previewOption =
+        render->add_option("--preview", outputArgs.preview, "Preview PNG path (overrides output.preview; \"\": none)");
     render->add_flag("--explain", explain, "Print the render plan, then the render statistics (stage times, memory)");
     render->add_flag("-q,--quiet", quiet, "No progress or info lines");
     PathtraceArgs ptArgs;
     render->add_option("--device", ptArgs.device, "pathtrace: OpenCL device index or name substring (see `nimbus devices`)");
+    // NaN passed CLI11's PositiveNumber, and -1 was answered with a 309-digit bound.
     render->add_option("--checkpoint", ptArgs.checkpointSeconds, "pathtrace: write the running estimate every SECONDS")
-        ->check(CLI::PositiveNumber);
+        ->check(CLI::Validator(
+            [](std::string& text) -> std::string {
+                char* end = nullptr;
+                const double v = std::strtod(text.c_str(), &end);
+                if (end == text.c_str() || *end != '\0' || !std::isfinite(v) || v <= 0.0)
+                    return "must be a positive, finite number of seconds, got '" + text + "'";
+                return "";
+            },
+            "SECONDS"));
 
     CLI::App* devices = app.add_subcommand("devices", "List the OpenCL devices the path tracer can use");
 
@@ -187,17 +210,27 @@ int main(int argc, char** argv)
 
     try {
         app.parse(argc, argv);
+    } catch (const CLI::CallForHelp& e) {
+        return app.exit(e) == 0 ? kOk : kBadInput;
+    } catch (const CLI::CallForAllHelp& e) {
+        return app.exit(e) == 0 ? kOk : kBadInput;
+    } catch (const CLI::CallForVersion& e) {
+        return app.exit(e) == 0 ? kOk : kBadInput;
     } catch (const CLI::ParseError& e) {
-        int code = app.exit(e);
-        return code == 0 ? kOk : kBadInput;
+        // One line, as every other bad input (CLI11 would add "Run with --help ...").
+        std::fprintf(stderr, "nimbus: error: %s\n", e.what());
+        return kBadInput;
     }
 
     try {
         setLogQuiet(quiet);
         if (quiet)
             Progress::setQuiet(true);
-        if (*render)
-            return runRender(renderArgs, output, preview, explain, quiet, ptArgs);
+        if (*render) {
+            outputArgs.outputSet = outputOption->count() > 0;
+            outputArgs.previewSet = previewOption->count() > 0;
+            return runRender(renderArgs, outputArgs, explain, quiet, ptArgs);
+        }
         if (*devices) {
             std::vector<std::string> list = listOpenClDevices();
             for (const std::string& device : list)  // "index: name [...]"

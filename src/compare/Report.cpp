@@ -6,7 +6,6 @@
 #include "../io/AtomicFile.h"
 
 #include <cstdio>
-#include <fstream>
 #include <sstream>
 
 namespace nimbus {
@@ -16,13 +15,9 @@ namespace {
 void writeAtomic(const std::string& path, const std::string& text)
 {
     AtomicFile file(path);
-    {
-        std::ofstream out(file.tempPath(), std::ios::binary);
-        out << text;
-        if (!out)
-            throw Error("compare: cannot write " + file.tempPath());
-    }
-    file.commit();
+    if (std::fwrite(text.data(), 1, text.size(), file.stream()) != text.size())
+        throw Error("compare: cannot write '" + path + "'");
+    file.commit();  // checks the stream's errors and its close too
 }
 
 std::string rowsToCsv(const std::vector<CompareRow>& rows)

@@ -7,9 +7,14 @@
 #include "../render/RenderPlanner.h"
 #include "../scene/SceneValidate.h"
 
+#include "../core/Log.h"
+
+#include <tbb/blocked_range.h>
 #include <tbb/global_control.h>
+#include <tbb/parallel_reduce.h>
 
 #include <chrono>
+#include <cmath>
 #include <memory>
 #include <sstream>
 
@@ -20,6 +25,34 @@ namespace {
 double secondsSince(std::chrono::steady_clock::time_point t)
 {
     return std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count();
+}
+
+// Non-finite samples never reach the film silently (issue 18, failure 3): every NaN or infinite
+// value an integrator left is set to 0, counted, and reported in one warning naming the AOVs.
+// Within the extinction range (SceneValidate.h) a render has none; this is the net under
+// whatever still overflows (a light of 1e38 W/m^2, say).
+void zeroNonFinite(Film& film)
+{
+    size_t total = 0;
+    std::string names;
+    for (Aov& aov : film.aovs) {
+        float* p = aov.pixels.data();
+        const size_t count = tbb::parallel_reduce(
+            tbb::blocked_range<size_t>(0, aov.pixels.size(), size_t(1) << 16), size_t(0),
+            [&](const tbb::blocked_range<size_t>& r, size_t n) {
+                for (size_t i = r.begin(); i != r.end(); ++i)
+                    if (!std::isfinite(p[i]))
+                        p[i] = 0.0f, ++n;
+                return n;
+            },
+            [](size_t a, size_t b) { return a + b; });
+        if (count) {
+            total += count;
+            names += (names.empty() ? "" : ", ") + aov.name + " (" + std::to_string(count) + ")";
+        }
+    }
+    if (total)
+        logWarning("render: " + std::to_string(total) + " non-finite pixel values (NaN or inf) set to 0 in " + names);
 }
 
 std::string settingsSummary(const Scene& s)
@@ -108,6 +141,7 @@ RenderResult render(const Scene& input, const RenderOptions& options)
         integrator->renderImage(result.film, options);
         result.stats.addStage(methodName(scene.render.method), secondsSince(t));
     }
+    zeroNonFinite(result.film);
     result.plan = planned.plan;
 
     result.seconds = secondsSince(start);

@@ -50,6 +50,15 @@ inline bool tileMissesBox(const NbCamera& cam, int width, int height, int x0, in
     return left || right || below || above || behind;
 }
 
+// floor(v) clamped to [lo, hi] in double, then converted: never outside int, NaN gives lo for a
+// first index and hi for a last one (lo <= hi callers pass as (0, n) and (-1, n - 1)).
+inline int tileIndex(double v, int lo, int hi)
+{
+    if (std::isnan(v))
+        return lo < 0 ? hi : lo;
+    return int(std::clamp(std::floor(v), double(lo), double(hi)));
+}
+
 // Finer than the bounding box: marks in `seen` (tilesX x tilesY tiles of `tile` pixels, the
 // first at pixel (fx0, fy0)) every tile whose rays could meet an occupied brick of `grid`
 // (positive majorant), placed by worldFromIndex. Each brick's trilinear support, index box
@@ -83,8 +92,11 @@ inline bool markTilesSeeingBricks(const NbCamera& cam, int width, int height, in
         // Pixels [floor(lo - margin), hi + margin] hold every ray that can pass the rectangle.
         const double x0 = std::floor(pxLo - margin) - fx0, x1 = pxHi + margin - fx0;
         const double y0 = std::floor(pyLo - margin) - fy0, y1 = pyHi + margin - fy0;
-        const int tx0 = int(std::max(0.0, std::floor(x0 / tile))), tx1 = int(std::min(double(tilesX - 1), std::floor(x1 / tile)));
-        const int ty0 = int(std::max(0.0, std::floor(y0 / tile))), ty1 = int(std::min(double(tilesY - 1), std::floor(y1 / tile)));
+        // Clamped in double before the conversion: at a tiny field of view (fov 1e-10) a brick's
+        // image spans 1e14 pixels, beyond int, and int() of it was undefined (issue 18, failure
+        // 4: tile indices wrapped negative and the loop wrote out of bounds). NaN marks all.
+        const int tx0 = tileIndex(x0 / tile, 0, tilesX), tx1 = tileIndex(x1 / tile, -1, tilesX - 1);
+        const int ty0 = tileIndex(y0 / tile, 0, tilesY), ty1 = tileIndex(y1 / tile, -1, tilesY - 1);
         for (int ty = ty0; ty <= ty1; ++ty)
             for (int tx = tx0; tx <= tx1; ++tx)
                 seen[size_t(ty) * tilesX + tx] = 1;

@@ -2,12 +2,15 @@
 
 #include "AtomicFile.h"
 #include "core/Error.h"
+#include "core/Log.h"
 #include "render/Film.h"
 
 #include <Imath/half.h>
+#include <OpenImageIO/filesystem.h>
 #include <OpenImageIO/imageio.h>
 
 #include <algorithm>
+#include <cmath>
 #include <cstring>
 #include <memory>
 #include <set>
@@ -33,6 +36,8 @@ std::string oneLine(std::string text)
         text.pop_back();
     return text.empty() ? std::string("unknown OpenImageIO error") : text;
 }
+
+constexpr float kHalfMax = 65504.0f;
 
 OIIO::TypeDesc typeOf(const Aov& aov) { return aov.isData ? OIIO::TypeDesc::FLOAT : OIIO::TypeDesc::HALF; }
 
@@ -131,10 +136,15 @@ void writeExr(const Film& film, const std::string& path)
     if (!hasVersion)
         spec.attribute("nimbus:version", NIMBUS_VERSION);
 
-    AtomicFile file(path, ".exr");
-    std::unique_ptr<OIIO::ImageOutput> out = OIIO::ImageOutput::create(file.tempPath());
+    // By format name: the temporary file's name has no extension (AtomicFile.h).
+    AtomicFile file(path);
+    // Through a stream AtomicFile owns, so that commit() sees every write error. Declared before
+    // the writer, which may still write through it when destroyed on an error path.
+    OIIO::Filesystem::IOFile proxy(file.stream(), OIIO::Filesystem::IOProxy::Write);
+    std::unique_ptr<OIIO::ImageOutput> out = OIIO::ImageOutput::create("openexr");
     if (!out)
         throw fail(oneLine(OIIO::geterror()));
+    out->set_ioproxy(&proxy);
     if (!out->open(file.tempPath(), spec))
         throw fail(oneLine(out->geterror()));
 
@@ -146,15 +156,32 @@ void writeExr(const Film& film, const std::string& path)
         pixelBytes += channel.type.size();
     constexpr int rowsPerBlock = 16;
     std::vector<unsigned char> block(size_t(rowsPerBlock) * cropWidth * pixelBytes);
+    // Half holds up to 65504; a larger finite value would become inf in the file. It is written
+    // as +-65504 instead, and the pixels this happened to are counted per AOV for one warning.
+    std::vector<std::pair<const Aov*, size_t>> clipped;  // AOV, pixels
+    std::vector<const Aov*> clippedHere;                  // the AOVs clipped in this pixel
     for (int yBegin = y0; yBegin < y1; yBegin += rowsPerBlock) {
         const int yEnd = std::min(y1, yBegin + rowsPerBlock);
         unsigned char* dst = block.data();
         for (int y = yBegin; y < yEnd; ++y)
-            for (int x = x0; x < x1; ++x)
+            for (int x = x0; x < x1; ++x) {
+                clippedHere.clear();
                 for (const ChannelSource& channel : channels) {
                     const size_t index = size_t(y) * film.width + x;
-                    const float v = channel.aov ? channel.aov->pixels[index * channel.aov->channels + channel.component] : 1.0f;
+                    float v = channel.aov ? channel.aov->pixels[index * channel.aov->channels + channel.component] : 1.0f;
                     if (channel.type == OIIO::TypeDesc::HALF) {
+                        if (std::fabs(v) > kHalfMax && std::isfinite(v)) {
+                            v = std::copysign(kHalfMax, v);
+                            if (std::find(clippedHere.begin(), clippedHere.end(), channel.aov) == clippedHere.end()) {
+                                clippedHere.push_back(channel.aov);
+                                auto it = std::find_if(clipped.begin(), clipped.end(),
+                                                       [&](const auto& c) { return c.first == channel.aov; });
+                                if (it == clipped.end())
+                                    clipped.push_back({channel.aov, 1});
+                                else
+                                    ++it->second;
+                            }
+                        }
                         const Imath::half h(v);
                         std::memcpy(dst, &h, sizeof h);
                         dst += sizeof h;
@@ -163,6 +190,7 @@ void writeExr(const Film& film, const std::string& path)
                         dst += sizeof v;
                     }
                 }
+            }
         if (!out->write_scanlines(yBegin, yEnd, 0, OIIO::TypeDesc::UNKNOWN, block.data()))
             throw fail(oneLine(out->geterror()));
     }
@@ -170,6 +198,12 @@ void writeExr(const Film& film, const std::string& path)
         throw fail(oneLine(out->geterror()));
     out.reset();
     file.commit();
+    if (!clipped.empty()) {
+        std::string list;
+        for (const auto& [aov, pixels] : clipped)
+            list += (list.empty() ? "" : ", ") + aov->name + " (" + std::to_string(pixels) + " pixels)";
+        logWarning("EXR '" + path + "': values above 65504, the largest half, written as 65504 in " + list);
+    }
 }
 
 }  // namespace nimbus

@@ -2,6 +2,8 @@
 
 #include "../core/Error.h"
 #include "../engine/Renderer.h"
+#include "../volume/InputFiles.h"
+#include "AtomicFile.h"
 #include "ExrWriter.h"
 #include "Preview.h"
 
@@ -9,6 +11,7 @@
 #include <cerrno>
 #include <cstring>
 #include <filesystem>
+#include <sys/stat.h>
 #include <unistd.h>
 
 namespace nimbus {
@@ -22,14 +25,31 @@ std::string where(const Scene& scene)
     return scene.sourcePath.empty() ? std::string("scene") : scene.sourcePath;
 }
 
-void checkWritable(const Scene& scene, const std::string& path, const std::string& key)
+bool sameFile(const struct stat& a, const std::string& path)
 {
+    struct stat b;
+    return ::stat(path.c_str(), &b) == 0 && a.st_dev == b.st_dev && a.st_ino == b.st_ino;
+}
+
+void checkWritable(const Scene& scene, const std::string& path, const std::string& key,
+                   const std::vector<std::string>& inputs)
+{
+    auto fail = [&](const std::string& what) { return InputError(where(scene) + ": " + key + ": " + what); };
     if (path.empty())
-        throw InputError(where(scene) + ": " + key + ": empty path");
-    fs::path p(path);
-    if (fs::is_directory(p))
-        throw InputError(where(scene) + ": " + key + ": '" + path + "' is a directory");
+        throw fail("empty path");
+    // What is at the path after its symlinks: only a regular file may be replaced, and never one
+    // the render reads (compared by device and inode, so hard links and "./x" spellings count).
+    const std::string resolved = followSymlinks(path);
+    const std::string kind = nonRegularKind(resolved);
+    if (!kind.empty())
+        throw fail("'" + path + "' is " + kind + "; nimbus writes only regular files");
+    struct stat target;
+    if (::stat(resolved.c_str(), &target) == 0)
+        for (const std::string& input : inputs)
+            if (sameFile(target, input))
+                throw fail("'" + path + "' is an input of this render ('" + input + "'); writing it would destroy it");
     // Walk up to the first ancestor that exists: it must be a writable directory.
+    fs::path p(resolved);
     fs::path dir = p.parent_path().empty() ? fs::path(".") : p.parent_path();
     std::error_code ec;
     fs::path existing = dir;
@@ -38,20 +58,25 @@ void checkWritable(const Scene& scene, const std::string& path, const std::strin
     if (existing.empty())
         existing = ".";
     if (!fs::is_directory(existing, ec))
-        throw InputError(where(scene) + ": " + key + ": cannot create '" + dir.string() + "': '" + existing.string() +
-                         "' is not a directory");
+        throw fail("cannot create '" + dir.string() + "': '" + existing.string() + "' is not a directory");
     if (::access(existing.c_str(), W_OK) != 0)
-        throw InputError(where(scene) + ": " + key + ": cannot write to '" + existing.string() +
-                         "': " + std::strerror(errno));
+        throw fail("cannot write to '" + existing.string() + "': " + std::strerror(errno));
 }
 
 }  // namespace
 
 void checkOutputs(const Scene& scene)
 {
-    checkWritable(scene, scene.output.file, "output.file");
-    if (!scene.output.preview.empty())
-        checkWritable(scene, scene.output.preview, "output.preview");
+    const std::vector<std::string> inputs = sceneInputFiles(scene);
+    checkWritable(scene, scene.output.file, "output.file", inputs);
+    if (!scene.output.preview.empty()) {
+        checkWritable(scene, scene.output.preview, "output.preview", inputs);
+        std::error_code ec;
+        if (fs::weakly_canonical(followSymlinks(scene.output.preview), ec) ==
+            fs::weakly_canonical(followSymlinks(scene.output.file), ec))
+            throw InputError(where(scene) + ": output.preview: '" + scene.output.preview +
+                             "' is also output.file; the preview would replace the EXR");
+    }
     std::vector<std::string> available = aovNames(scene, scene.render.method);
     for (size_t i = 0; i < scene.output.aovs.size(); ++i) {
         const std::string& name = scene.output.aovs[i];

@@ -8,9 +8,11 @@
 
 namespace nimbus {
 
-// Checks, before any heavy work, that the scene's output paths can be written (the parent
-// directory exists or can be created, and is writable) and that output.aovs names AOVs the
-// method produces. Throws InputError naming the file and key path.
+// Checks, before any heavy work, that the scene's output paths can be written: not empty; after
+// their symlinks, nothing or a regular file (not a directory, device, FIFO or socket); not any
+// file the render reads (the scene, a VDB file, a shader, a plugin: compared by inode); the
+// preview not the EXR itself; the parent directory existing or creatable, and writable. Also
+// that output.aovs names AOVs the method produces. Throws InputError naming the file and key.
 void checkOutputs(const Scene& scene);
 
 // Keeps only the AOVs listed in scene.output.aovs (beauty always), in the listed order.

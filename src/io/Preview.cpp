@@ -7,6 +7,7 @@
 #include "render/Film.h"
 
 #include <OpenColorIO/OpenColorIO.h>
+#include <OpenImageIO/filesystem.h>
 #include <OpenImageIO/imageio.h>
 
 #include <algorithm>
@@ -153,12 +154,22 @@ void writePreview(const Film& film, const std::string& path, const PreviewOption
     spec.attribute("oiio:ColorSpace", "sRGB");
     spec.attribute("Software", "nimbus " NIMBUS_VERSION);
 
-    AtomicFile file(path, ".png");
-    std::unique_ptr<OIIO::ImageOutput> out = OIIO::ImageOutput::create(file.tempPath());
+    // By format name: the temporary file's name has no extension (AtomicFile.h). Every step's
+    // result is checked (a full disk shows up at write_image or close): a failure throws before
+    // commit, so the truncated temporary file is removed and never renamed over a good preview.
+    AtomicFile file(path);
+    // Through a stream AtomicFile owns, so that commit() sees every write error. Declared before
+    // the writer, which may still write through it when destroyed on an error path.
+    OIIO::Filesystem::IOFile proxy(file.stream(), OIIO::Filesystem::IOProxy::Write);
+    std::unique_ptr<OIIO::ImageOutput> out = OIIO::ImageOutput::create("png");
     if (!out)
         throw fail(oneLine(OIIO::geterror()));
-    if (!out->open(file.tempPath(), spec) || !out->write_image(OIIO::TypeDesc::UINT8, pixels.data()) ||
-        !out->close())
+    out->set_ioproxy(&proxy);
+    if (!out->open(file.tempPath(), spec))
+        throw fail(oneLine(out->geterror()));
+    if (!out->write_image(OIIO::TypeDesc::UINT8, pixels.data()))
+        throw fail(oneLine(out->geterror()));
+    if (!out->close())
         throw fail(oneLine(out->geterror()));
     out.reset();
     file.commit();

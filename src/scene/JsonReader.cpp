@@ -7,6 +7,8 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <set>
+#include <string>
 #include <vector>
 
 namespace nimbus {
@@ -18,6 +20,61 @@ std::string jsonTypeName(const json& value)
     if (value.is_array())
         return "an array of " + std::to_string(value.size());
     return value.type_name();
+}
+
+namespace {
+
+// Where the parser is: one frame per open object or array, for the key set and the key path.
+struct ParseFrame {
+    bool array = false;
+    size_t index = 0;     // array: the element being parsed
+    std::string key;      // object: the key whose value is being parsed
+    std::set<std::string> keys;
+};
+
+std::string framePath(const std::vector<ParseFrame>& frames, const std::string& last)
+{
+    std::string path;
+    for (size_t i = 0; i + 1 < frames.size(); ++i)
+        path += frames[i].array ? "[" + std::to_string(frames[i].index) + "]"
+                                : (path.empty() ? "" : ".") + frames[i].key;
+    return path + (path.empty() ? "" : ".") + last;
+}
+
+}  // namespace
+
+json parseJsonRejectingDuplicateKeys(const std::string& text, const std::string& file)
+{
+    std::vector<ParseFrame> frames;
+    auto elementDone = [&] {
+        if (!frames.empty() && frames.back().array)
+            ++frames.back().index;
+    };
+    json::parser_callback_t callback = [&](int, json::parse_event_t event, json& parsed) {
+        switch (event) {
+        case json::parse_event_t::object_start:
+        case json::parse_event_t::array_start:
+            frames.push_back(ParseFrame{event == json::parse_event_t::array_start, 0, {}, {}});
+            break;
+        case json::parse_event_t::key: {
+            ParseFrame& top = frames.back();
+            top.key = parsed.get<std::string>();
+            if (!top.keys.insert(top.key).second)
+                throwSceneError(file, framePath(frames, top.key), "duplicate key (each key may appear once in an object)");
+            break;
+        }
+        case json::parse_event_t::object_end:
+        case json::parse_event_t::array_end:
+            frames.pop_back();
+            elementDone();
+            break;
+        case json::parse_event_t::value:
+            elementDone();
+            break;
+        }
+        return true;
+    };
+    return json::parse(text, callback);
 }
 
 void JsonValue::fail(const std::string& what) const { throwSceneError(file, path, what); }

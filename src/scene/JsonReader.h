@@ -36,6 +36,12 @@ struct JsonValue {
     void floats(float* out, int n) const;  // array of exactly n numbers
 };
 
+// Parses a JSON document like nlohmann::json::parse, but a key that appears twice in one object
+// is an error: "<file>: <key.path>: duplicate key" (JSON leaves which one wins undefined; the
+// parser kept the last, so a scene file's first value was silently ignored). Syntax errors throw
+// nlohmann's parse_error as parse() does.
+nlohmann::json parseJsonRejectingDuplicateKeys(const std::string& text, const std::string& file);
+
 class JsonReader {
 public:
     // Fails unless value is an object. path is the object's own key path ("" at the top level).

@@ -13,6 +13,8 @@
 
 #include <nlohmann/json.hpp>
 
+#include <sys/stat.h>
+
 #include <cerrno>
 #include <cstdint>
 #include <cstdio>
@@ -518,18 +520,33 @@ std::string lineColumn(const std::string& text, size_t offset)
 
 json readJsonFile(const std::string& path)
 {
+    // Only a regular file of sane size is read: /dev/zero, a FIFO or a runaway file would be read
+    // until memory ran out (issue 18, failure 8). stat() first, then a bounded read, since some
+    // files (/proc) report a size of 0.
+    struct stat st;
+    if (::stat(path.c_str(), &st) != 0)
+        throw InputError(path + ": cannot open scene file: " + std::strerror(errno));
+    if (S_ISDIR(st.st_mode))
+        throw InputError(path + ": cannot open scene file: " + std::strerror(EISDIR));
+    if (!S_ISREG(st.st_mode))
+        throw InputError(path + ": cannot open scene file: not a regular file (a device, FIFO or socket)");
+    if (uint64_t(st.st_size) > kMaxSceneFileBytes)
+        throw InputError(path + ": cannot open scene file: " + std::to_string(st.st_size) + " bytes, more than the " +
+                         std::to_string(kMaxSceneFileBytes >> 20) + " MiB a scene file may have");
     errno = 0;
     std::ifstream in(path, std::ios::binary);
-    std::error_code ec;
-    if (in && std::filesystem::is_directory(path, ec))
-        errno = EISDIR, in.setstate(std::ios::failbit);
     if (!in)
         throw InputError(path + ": cannot open scene file: " + (errno ? std::strerror(errno) : "unreadable"));
-    std::ostringstream buffer;
-    buffer << in.rdbuf();
-    std::string text = buffer.str();
+    std::string text;
+    text.reserve(size_t(st.st_size));
+    char chunk[1 << 16];
+    while (text.size() <= kMaxSceneFileBytes && in.read(chunk, sizeof chunk).gcount() > 0)
+        text.append(chunk, size_t(in.gcount()));
+    if (text.size() > kMaxSceneFileBytes)
+        throw InputError(path + ": cannot open scene file: more than the " + std::to_string(kMaxSceneFileBytes >> 20) +
+                         " MiB a scene file may have");
     try {
-        return json::parse(text);
+        return parseJsonRejectingDuplicateKeys(text, path);
     } catch (const json::parse_error& e) {
         // nlohmann's message is "[json.exception.parse_error.101] parse error at line L, column
         // C: <what>"; keep <what> and say where in our own words.

@@ -10,6 +10,7 @@
 
 #include <nlohmann/json_fwd.hpp>
 
+#include <cstdint>
 #include <string>
 #include <vector>
 
@@ -18,7 +19,12 @@ namespace nimbus {
 // The format version this build reads and writes (the optional top-level "version" key).
 constexpr int kSceneFormatVersion = 1;
 
-// Reads and parses a JSON file. Throws InputError "path: cannot open scene file: <reason>" or
+// The largest scene file read: 64 MiB, far beyond any scene (grids live in VDB files).
+constexpr uint64_t kMaxSceneFileBytes = uint64_t(64) << 20;
+
+// Reads and parses a JSON file: a regular file of at most kMaxSceneFileBytes (anything else is
+// refused before it is read), each key once per object (a duplicate throws InputError naming its
+// key path). Throws InputError "path: cannot open scene file: <reason>" or
 // "path: invalid JSON at line L, column C: <message>".
 nlohmann::json readJsonFile(const std::string& path);
 

@@ -5,6 +5,7 @@
 
 #include "../core/Error.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <set>
@@ -62,6 +63,7 @@ struct Range {
 
 const double kInf = INFINITY;
 const Range kAngle{0, 180, true, true, "degrees"};
+const double kMinFov = 1e-30;  // degrees
 const Range kPositive{0, kInf, true, true, ""};
 const Range kNonNegative{0, kInf, false, true, ""};
 // |g| = 1 is a delta phase function that HG sampling cannot represent; 0.999 is the documented cap.
@@ -131,6 +133,10 @@ void checkCamera(const Checker& c, const Camera& cam)
 {
     checkPose(c, "camera.", cam.from, cam.to, cam.up);
     c.range("camera.fov", cam.fov, kAngle);
+    // Below 1e-30 degrees tan(fov / 2) is no longer a normal float and every camera ray is the
+    // same ray.
+    if (cam.fov < kMinFov)
+        c.fail("camera.fov", "must be at least " + num(kMinFov) + " degrees, got " + num(cam.fov));
     if (cam.width < 1 || cam.height < 1 || cam.width > 65536 || cam.height > 65536)
         c.fail("camera.resolution", "must be two positive integers <= 65536, got [" + std::to_string(cam.width) +
                                         ", " + std::to_string(cam.height) + "]");
@@ -254,11 +260,31 @@ void checkTransform(const Checker& c, const Transform& t, const std::string& pat
         c.fail(path, "is singular (a zero scale?); the volume would have no extent");
 }
 
+}  // namespace
+
+double maxExtinctionAtDensityOne(const Medium& m)
+{
+    double extinction = 0.0;
+    for (int ch = 0; ch < 3; ++ch)
+        extinction = std::max(extinction, (double(component(m.sigma_s, ch)) + double(component(m.sigma_a, ch))) *
+                                              double(m.densityScale));
+    return extinction;
+}
+
+namespace {
+
 void checkMedium(const Checker& c, const Medium& m, const std::string& p)
 {
     c.nonNegative(p + "sigma_s", m.sigma_s);
     c.nonNegative(p + "sigma_a", m.sigma_a);
     c.range(p + "density_scale", m.densityScale, kNonNegative);
+    // Overflow up front (in double: the float product may already be inf): the grid's voxels
+    // are checked against the same bound once loaded (VdbLoad.cpp).
+    const double extinction = maxExtinctionAtDensityOne(m);
+    if (!(extinction <= kMaxExtinction))
+        c.fail(p + "density_scale", "the extinction (sigma_s + sigma_a) * density_scale = " + num(extinction) +
+                                        " 1/m at density 1 is beyond the " + num(kMaxExtinction) +
+                                        " 1/m nimbus renders in float; lower density_scale, sigma_s or sigma_a");
     c.range(p + "emission_scale", m.emissionScale, kNonNegative);
     c.range(p + "phase.g", m.phase.g, kAsymmetry);
     c.range(p + "phase.g2", m.phase.g2, kAsymmetry);

@@ -13,6 +13,16 @@
 
 namespace nimbus {
 
+// The largest extinction sigma_t = (sigma_s + sigma_a) * density_scale * density, 1/m, that
+// nimbus renders (docs/volumes.md, "Extinction range"). Float holds 3.4e38; the marchers form
+// products of sigma_t with step lengths, radiance and sums of both, so 1e30 keeps eight orders
+// of headroom, and is twenty-five orders beyond the densest smoke (about 1e4 1/m).
+constexpr double kMaxExtinction = 1e30;
+
+// max over channels of (sigma_s + sigma_a) * density_scale, in double (the float product of
+// huge values is already inf): the medium's extinction at density 1, 1/m.
+double maxExtinctionAtDensityOne(const Medium& m);
+
 // Throws InputError "<file>: <keyPath>: <what>", one line. An empty file drops the "<file>: "
 // prefix (a scene built in memory); an empty keyPath drops "<keyPath>: ".
 [[noreturn]] void throwSceneError(const std::string& file, const std::string& keyPath, const std::string& what);

@@ -5,6 +5,7 @@
 // dlclose. A C++ plugin that throws through the C interface is caught too (undefined by the
 // letter of the ABI, but better a message than std::terminate in a DCC session).
 #include "PluginSource.h"
+#include "InputFiles.h"
 
 #include "../abi/nimbus_volume_plugin.h"
 #include "../core/Error.h"
@@ -44,46 +45,12 @@ constexpr int kBlock = 8;  // one OpenVDB leaf
 
 std::string fileName(const std::string& path) { return fs::path(path).filename().string(); }
 
-// The candidates for a library path, in search order (PluginSource.h).
-std::vector<std::string> candidates(const std::string& path, const std::string& sceneDir)
-{
-    std::vector<std::string> out;
-    fs::path p(path);
-    if (p.is_absolute())
-        return {path};
-    if (path.find('/') != std::string::npos) {
-        if (!sceneDir.empty())
-            out.push_back((fs::path(sceneDir) / p).lexically_normal().string());
-        out.push_back(fs::absolute(p).lexically_normal().string());
-        return out;
-    }
-    std::vector<std::string> names = {path};
-    if (path.find(".so") == std::string::npos)
-        names.push_back("lib" + path + ".so");
-    std::vector<std::string> dirs;
-    if (const char* env = std::getenv("NIMBUS_PLUGIN_PATH")) {
-        std::stringstream ss(env);
-        std::string dir;
-        while (std::getline(ss, dir, ':'))
-            if (!dir.empty())
-                dirs.push_back(dir);
-    }
-    if (!sceneDir.empty())
-        dirs.push_back(sceneDir);
-    for (const auto& dir : dirs)
-        for (const auto& name : names)
-            out.push_back((fs::path(dir) / name).string());
-    for (const auto& name : names)
-        out.push_back(name);  // bare: the dynamic linker searches
-    return out;
-}
-
 class Library {
 public:
     Library(const std::string& path, const std::string& sceneDir, const std::string& key)
     {
         std::string firstError;
-        for (const std::string& candidate : candidates(path, sceneDir)) {
+        for (const std::string& candidate : pluginCandidates(path, sceneDir)) {
             // A path that names an existing file is the one meant: report its own error rather
             // than "not found" from a later candidate.
             std::error_code ec;
@@ -171,6 +138,33 @@ std::string message(const char* buffer, const char* fallback)
 bool finite3(const double* v) { return std::isfinite(v[0]) && std::isfinite(v[1]) && std::isfinite(v[2]); }
 
 }  // namespace
+
+// The candidates for a library path, in search order (PluginSource.h).
+std::vector<std::string> pluginCandidates(const std::string& path, const std::string& sceneDir)
+{
+    std::vector<std::string> out;
+    fs::path p(path);
+    if (p.is_absolute())
+        return {path};
+    if (path.find('/') != std::string::npos) {
+        if (!sceneDir.empty())
+            out.push_back((fs::path(sceneDir) / p).lexically_normal().string());
+        out.push_back(fs::absolute(p).lexically_normal().string());
+        return out;
+    }
+    std::vector<std::string> names = {path};
+    if (path.find(".so") == std::string::npos)
+        names.push_back("lib" + path + ".so");
+    std::vector<std::string> dirs = searchPathDirs("NIMBUS_PLUGIN_PATH");
+    if (!sceneDir.empty())
+        dirs.push_back(sceneDir);
+    for (const auto& dir : dirs)
+        for (const auto& name : names)
+            out.push_back((fs::path(dir) / name).string());
+    for (const auto& name : names)
+        out.push_back(name);  // bare: the dynamic linker searches
+    return out;
+}
 
 std::shared_ptr<VdbFloatGrid> makePluginGrid(const VolumeSource& source, const std::string& sceneDir,
                                              const std::string& keyPath, std::vector<std::string>& gridsRead)

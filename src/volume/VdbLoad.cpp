@@ -7,10 +7,12 @@
 // reads the files and puts the steps together; the clamping is in VoxelClamp.h, the conversion
 // in VdbToBricks.h.
 #include "VolumeData.h"
+#include "InputFiles.h"
 
 #include "../core/DataFiles.h"
 #include "../core/Error.h"
 #include "../core/Log.h"
+#include "../scene/SceneValidate.h"
 #include "PluginSource.h"
 #include "Procedural.h"
 #include "VdbToBricks.h"
@@ -23,6 +25,8 @@
 
 #include <algorithm>
 #include <array>
+#include <cmath>
+#include <cstdio>
 #include <filesystem>
 #include <map>
 
@@ -68,21 +72,22 @@ struct RoleGrids {
     std::vector<std::string> names;                             // file grid names, for gridsRead
 };
 
-// Relative paths are relative to the scene file. The JSON loader has usually resolved them
-// already (then relative to the working directory), so a path that exists as given is kept.
-std::string resolveVdbPath(const std::string& file, const std::string& sceneDir)
+// A file's transform that is singular, non-finite or otherwise unusable is bad input (exit 2):
+// OpenVDB throws ArithmeticError only when the map is first inverted, deep inside the build,
+// which used to surface as a render failure (issue 18, failure 8).
+void checkGridTransform(const GridBase& grid, const std::string& what)
 {
-    fs::path p(file);
-    if (p.is_absolute() || sceneDir.empty())
-        return p.lexically_normal().string();
-    fs::path joined = (fs::path(sceneDir) / p).lexically_normal();
-    std::error_code ec;
-    if (fs::exists(joined, ec))
-        return joined.string();
-    fs::path rel = p.lexically_normal().lexically_relative(sceneDir);
-    if (fs::exists(p, ec) || (!rel.empty() && *rel.begin() != ".."))
-        return p.lexically_normal().string();
-    return joined.string();
+    try {
+        const openvdb::Mat4d m = grid.transform().baseMap()->getAffineMap()->getMat4();
+        for (int r = 0; r < 4; ++r)
+            for (int c = 0; c < 4; ++c)
+                if (!std::isfinite(m(r, c)))
+                    throw InputError(what + " has a non-finite transform");
+        if (!(std::fabs(m.getMat3().det()) > 0.0))
+            throw InputError(what + " has a singular transform (a zero voxel size?)");
+    } catch (const openvdb::Exception& e) {
+        throw InputError(what + " has an invalid transform: " + e.what());
+    }
 }
 
 FloatGrid::Ptr asFloatGrid(const GridBase::Ptr& grid)
@@ -185,6 +190,7 @@ RoleGrids readVdb(const VolumeSource& source, const std::string& path, bool allR
         if (!grid->transform().isLinear())
             throw InputError(key + ": grid '" + name + "' in '" + path +
                              "' has a non-linear (frustum) transform; only affine transforms are supported");
+        checkGridTransform(*grid, key + ": grid '" + name + "' in '" + path + "'");
         grid->setName(role);  // the shader reads it as @<role>
         out.grids.push_back({role, grid});
         out.names.push_back(name);
@@ -281,6 +287,18 @@ std::shared_ptr<VolumeData> buildVolume(const Scene& scene, size_t index, const 
     const std::string densityKey = volume.source.type == SourceType::Vdb ? where.key(".source.grids.density")
                                                                          : where.key(".source");
     data->density = toBricks(*density, 1, densityKey);
+    // Extinction overflow (docs/volumes.md, "Extinction range"): the densest voxel times the
+    // medium's coefficients, which validateScene bounded at density 1.
+    const double densest = double(data->density.maxValue());
+    const double atOne = maxExtinctionAtDensityOne(volume.medium);
+    if (!(densest * atOne <= kMaxExtinction)) {
+        char what[320];
+        std::snprintf(what, sizeof what,
+                      ": the extinction reaches %g 1/m (voxel density up to %g times (sigma_s + sigma_a) * "
+                      "density_scale = %g 1/m), beyond the %g 1/m nimbus renders in float; lower density_scale",
+                      densest * atOne, densest, atOne, kMaxExtinction);
+        throw InputError(where.key(".medium.density_scale") + what);
+    }
     if (emission)
         data->emission = toBricks(*emission, 3, where.key(".shader"));
 
@@ -301,6 +319,23 @@ std::shared_ptr<VolumeData> buildVolume(const Scene& scene, size_t index, const 
 }
 
 }  // namespace
+
+// Relative paths are relative to the scene file. The JSON loader has usually resolved them
+// already (then relative to the working directory), so a path that exists as given is kept.
+std::string resolveVdbPath(const std::string& file, const std::string& sceneDir)
+{
+    fs::path p(file);
+    if (p.is_absolute() || sceneDir.empty())
+        return p.lexically_normal().string();
+    fs::path joined = (fs::path(sceneDir) / p).lexically_normal();
+    std::error_code ec;
+    if (fs::exists(joined, ec))
+        return joined.string();
+    fs::path rel = p.lexically_normal().lexically_relative(sceneDir);
+    if (fs::exists(p, ec) || (!rel.empty() && *rel.begin() != ".."))
+        return p.lexically_normal().string();
+    return joined.string();
+}
 
 std::vector<std::shared_ptr<VolumeData>> buildVolumes(const Scene& scene)
 {

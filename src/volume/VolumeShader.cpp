@@ -6,6 +6,7 @@
 // AX keeps active tiles as tiles where the result is uniform and streams them to voxels where
 // it is not (its active-tile streaming), so sparse inputs stay sparse.
 #include "VolumeShader.h"
+#include "InputFiles.h"
 
 #include "../core/DataFiles.h"
 
@@ -63,13 +64,8 @@ ShaderFile findShader(const std::string& shader, const std::string& sceneDir, co
     std::vector<fs::path> dirs;
     if (p.is_relative()) {
         dirs.push_back(sceneDir.empty() ? fs::path(".") : fs::path(sceneDir));
-        if (const char* env = std::getenv("NIMBUS_SHADER_PATH")) {
-            std::stringstream list(env);
-            std::string dir;
-            while (std::getline(list, dir, ':'))
-                if (!dir.empty())
-                    dirs.push_back(dir);
-        }
+        for (const std::string& dir : searchPathDirs("NIMBUS_SHADER_PATH"))
+            dirs.push_back(dir);
         dirs.push_back(builtinShaderDir());
     } else {
         dirs.push_back(fs::path());

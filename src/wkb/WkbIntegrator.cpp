@@ -45,6 +45,13 @@ constexpr double kCoarseFrom = 0.5;
 constexpr double kFineStepScale = 2.0;
 // Optical depth of a light voxel above which delta sources read E itself at small blur.
 constexpr double kExactDepth = 0.5;
+// Guaranteed progress of the l-march (issue 18, failure 3: with sigma * density at float's limit
+// the take below became 0 and the loop spun forever). Each pass takes at least this fraction of
+// its piece, and a node ends after kMaxPassesPerNode passes, whatever the numbers do. Neither
+// binds in a medium within the extinction range (SceneValidate.h, kMaxExtinction): a node is
+// a handful of pieces there.
+constexpr double kMinTakeFraction = 1e-6;
+constexpr int kMaxPassesPerNode = 1 << 20;
 
 }  // namespace
 
@@ -392,7 +399,11 @@ void WkbIntegrator::march(float3 o, float3 d, NbRng& rng, CameraSample& out, flo
         double budget = kNodeSpatial * std::max(sigmaMarch, double(mMinLightVoxel));
         std::fill(sc.nodeW.begin(), sc.nodeW.end(), 0.0);
         bool done = false;
-        while (sc.table.back().lhat < lTarget && budget > 0.0) {
+        for (int pass = 0; sc.table.back().lhat < lTarget && budget > 0.0; ++pass) {
+            if (pass == kMaxPassesPerNode) {
+                done = true;
+                break;
+            }
             if (!sc.hasPending) {
                 double maxLen = budget;
                 if (lastB > 0.0)
@@ -417,6 +428,8 @@ void WkbIntegrator::march(float3 o, float3 d, NbRng& rng, CameraSample& out, flo
             // Round-off must not leave slivers: finish a piece that is all but consumed.
             if (p.len - take <= 1e-9 * p.len)
                 take = p.len;
+            if (!(take >= kMinTakeFraction * p.len))  // also NaN, from an infinite b
+                take = kMinTakeFraction * p.len;
             if (sc.sEntry < 0.0 && bhat > 0.0)
                 sc.sEntry = sc.table.back().s;
             sc.table.append(take, p.b, p.a);

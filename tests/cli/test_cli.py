@@ -158,6 +158,166 @@ class Cli(unittest.TestCase):
         s["output"] = {"aovs": ["beauty", "L2plus"]}  # single has no L2plus
         self.expect_bad_input(["render", self.scene_file(s)], "output.aovs")
 
+    # Failure 3 of issue 18: extinction beyond float's range hung wkb and gave NaN images with
+    # exit 0; `nimbus info` printed "optical depth: up to inf".
+    def test_extinction_overflow_is_bad_input(self):
+        huge = ["--set", "volumes[0].medium.density_scale=1e30", "--set", "volumes[0].medium.sigma_s=1e30"]
+        for method in ("single", "wkb"):
+            self.expect_bad_input(["render", "--default", "--method", method, "-o", self.out, *huge],
+                                  "volumes[0].medium.density_scale")
+            self.expect_bad_input(["info", "--default", "--method", method, *huge], "volumes[0].medium.density_scale")
+        vdb_path = os.path.join(self.d, "dense.vdb")
+        write_vdb(vdb_path, [((0, 0, 0), 1e38), ((1, 0, 0), 1.0)])
+        s = small_scene()
+        s["volumes"][0]["source"] = {"type": "vdb", "file": vdb_path}
+        self.expect_bad_input(["render", self.scene_file(s)], "scene.json", "volumes[0].medium.density_scale")
+
+    # Failure 4 of issue 18: SIGSEGV at `--set camera.fov=1e-10` (int overflow in tile culling).
+    def test_tiny_field_of_view_renders_finite(self):
+        for method in ("single", "wkb", "pathtrace"):
+            for fov in ("1e-10", "1e-30"):
+                code, _, err = run("render", "--default", "-q", "--method", method, "-o", self.out, "--preview", "",
+                                   "--set", "camera.fov=" + fov, "--set", "camera.resolution=[32,18]",
+                                   "--set", "render.spp=1")
+                self.assertEqual(code, 0, f"{method} fov {fov}: {err}")
+                _, px, _ = read_exr(self.out)
+                self.assertTrue(np.all(np.isfinite(px)), f"{method} fov {fov}: non-finite pixels")
+        with open(self.out, "wb") as f:
+            f.write(b"earlier render")
+        self.expect_bad_input(["render", "--default", "-o", self.out, "--set", "camera.fov=1e-40"], "camera.fov")
+
+    # Failure 8 of issue 18, the minor items.
+    def test_bad_checkpoint_interval_is_one_line(self):
+        for value in ("nan", "-1", "0", "inf", "soon"):
+            line = self.expect_bad_input(["render", self.scene_file(small_scene()), "--checkpoint", value],
+                                         "--checkpoint", value)
+            self.assertLess(len(line), 200, "the bound is not printed with 309 digits")
+
+    def test_scene_that_is_not_a_regular_file_is_refused_unread(self):
+        fifo = os.path.join(self.d, "pipe.json")
+        os.mkfifo(fifo)  # opening it would block: refused from stat() alone
+        for path in ("/dev/zero", fifo):
+            self.expect_bad_input(["render", path, "-o", self.out], path, "not a regular file")
+
+    def test_duplicate_key_is_bad_input(self):
+        path = os.path.join(self.d, "scene.json")
+        with open(path, "w") as f:
+            f.write('{"camera": {"fov": 30, "resolution": [32, 24], "fov": 40}, "output": {"file": "%s"}}' % self.out)
+        self.expect_bad_input(["render", path], "scene.json", "camera.fov", "duplicate")
+
+    def test_invalid_vdb_transform_is_bad_input(self):
+        vdb_path = os.path.join(self.d, "flat.vdb")
+        write_vdb(vdb_path, [((0, 0, 0), 1.0)], voxel=0.125)
+        with open(vdb_path, "rb") as f:
+            data = bytearray(f.read())
+        import struct
+        at = data.find(b"UniformScaleMap")
+        for _ in range(3):  # the map's three scale factors
+            at = data.find(struct.pack("<d", 0.125), at)
+            data[at:at + 8] = struct.pack("<d", 0.0)
+        with open(vdb_path, "wb") as f:
+            f.write(data)
+        s = small_scene()
+        s["volumes"][0]["source"] = {"type": "vdb", "file": vdb_path}
+        self.expect_bad_input(["render", self.scene_file(s)], "scene.json", "volumes[0].source.grids.density", "transform")
+
+    def test_values_beyond_half_warn_once_naming_the_aov(self):
+        s = small_scene()
+        s["lights"][0]["irradiance"] = [1e9, 1e9, 1e9]
+        code, _, err = run("render", self.scene_file(s), "-q")
+        self.assertEqual(code, 0, err)
+        warnings = [l for l in err.splitlines() if "65504" in l]
+        self.assertEqual(len(warnings), 1, err)
+        self.assertIn("beauty (", warnings[0])
+        _, px, _ = read_exr(self.out)
+        self.assertTrue(np.all(np.isfinite(px)))
+
+    # Safe outputs (issue 18, failures 1 and 2): what an output may not replace, and how it
+    # replaces what it may.
+    def test_output_that_is_an_input_is_refused(self):
+        vdb_path = os.path.join(self.d, "cloud.vdb")
+        write_vdb(vdb_path, [((0, 0, 0), 1.0)])
+        with open(vdb_path, "rb") as f:
+            vdb_bytes = f.read()
+        os.link(vdb_path, os.path.join(self.d, "hardlink.exr"))
+        s = small_scene()
+        s["volumes"][0]["source"] = {"type": "vdb", "file": "cloud.vdb"}
+        scene = self.scene_file(s)
+        with open(scene, "rb") as f:
+            scene_bytes = f.read()
+        for target, key in ((scene, "output.file"), (vdb_path, "output.file"),
+                            (os.path.join(self.d, "hardlink.exr"), "output.file"),
+                            (os.path.join(self.d, ".", "cloud.vdb"), "output.file")):
+            self.expect_bad_input(["render", scene, "-o", target], "scene.json", key, "input")
+        self.expect_bad_input(["render", scene, "--preview", scene], "output.preview", "input")
+        self.expect_bad_input(["render", scene, "--preview", self.out], "output.preview", "output.file")
+        with open(scene, "rb") as f:
+            self.assertEqual(f.read(), scene_bytes)
+        with open(vdb_path, "rb") as f:
+            self.assertEqual(f.read(), vdb_bytes)
+
+    def test_empty_output_path_is_an_error(self):  # failure 8: `-o ""` was ignored
+        self.expect_bad_input(["render", self.scene_file(small_scene()), "-o", ""], "-o", "empty")
+
+    def test_output_that_is_not_a_regular_file_is_refused(self):
+        scene = self.scene_file(small_scene())
+        fifo = os.path.join(self.d, "pipe.exr")
+        os.mkfifo(fifo)
+        os.mkdir(os.path.join(self.d, "dir.exr"))
+        for target, kind in (("/dev/null", "device"), (fifo, "FIFO"), (os.path.join(self.d, "dir.exr"), "directory")):
+            self.expect_bad_input(["render", scene, "-o", target], "output.file", target, kind)
+            self.expect_bad_input(["render", scene, "--preview", target], "output.preview", kind)
+        self.assertTrue(os.path.exists("/dev/null") and not os.path.isfile("/dev/null"))
+        import stat
+        self.assertTrue(stat.S_ISFIFO(os.lstat(fifo).st_mode))
+
+    def test_output_through_a_symlink_keeps_link_mode_and_leaves_no_temporary(self):
+        store = os.path.join(self.d, "store")
+        os.mkdir(store)
+        real = os.path.join(store, "real.exr")
+        with open(real, "wb") as f:
+            f.write(b"old")
+        os.chmod(real, 0o640)
+        link = os.path.join(self.d, "link.exr")
+        os.symlink("store/real.exr", link)
+        code, _, err = run("render", self.scene_file(small_scene()), "-q", "-o", link,
+                           "--preview", os.path.join(self.d, "p.png"))
+        self.assertEqual(code, 0, err)
+        self.assertTrue(os.path.islink(link), "the symlink was replaced by a file")
+        self.assertEqual(os.stat(real).st_mode & 0o777, 0o640)
+        read_exr(real)
+        self.assertEqual(sorted(os.listdir(store)), ["real.exr"])
+        self.assertEqual(sorted(os.listdir(self.d)), ["link.exr", "out.exr", "p.png", "scene.json", "store"])
+
+    def test_full_disk_fails_the_render_and_keeps_the_good_files(self):
+        disk = os.path.join(self.d, "disk")
+        os.mkdir(disk)
+        if subprocess.run(["mount", "-t", "tmpfs", "-o", "size=16k", "tmpfs", disk], capture_output=True).returncode:
+            self.skipTest("cannot mount a tmpfs (not root); tests/io FileSizeLimit* cover the write error")
+        try:
+            exr, png = os.path.join(disk, "f.exr"), os.path.join(disk, "f.png")
+            code, _, err = run("render", self.scene_file(small_scene()), "-q", "-o", exr, "--preview", png)
+            self.assertEqual(code, 0, err)
+            with open(exr, "rb") as f:
+                good_exr = f.read()
+            with open(png, "rb") as f:
+                good_png = f.read()
+            big = ("--set", "camera.resolution=[640,480]")  # a 16 KB preview, a 600 KB EXR
+            # The preview alone on the full disk (failure 2: exit 0 with a truncated PNG), then the EXR.
+            for exr_path, failing in ((os.path.join(self.d, "big.exr"), "f.png"), (exr, "f.exr")):
+                code, _, err = run("render", self.scene_file(small_scene()), "-q", "-o", exr_path, "--preview", png, *big)
+                self.assertEqual(code, 1, err)
+                lines = [l for l in err.splitlines() if l.strip()]
+                self.assertEqual(len(lines), 1, err)
+                self.assertIn(failing, lines[0])
+                with open(exr, "rb") as f:
+                    self.assertEqual(f.read(), good_exr)
+                with open(png, "rb") as f:
+                    self.assertEqual(f.read(), good_png)
+            self.assertEqual(sorted(os.listdir(disk)), ["f.exr", "f.png"])
+        finally:
+            subprocess.run(["umount", disk])
+
     # Tolerated input: the render succeeds with a finite, non-negative image.
     def assert_clean_render(self, scene):
         code, out, err = run("render", self.scene_file(scene), "-q")

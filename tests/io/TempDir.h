@@ -8,6 +8,11 @@
 #include <iterator>
 #include <string>
 
+#include <sys/mount.h>
+#include <sys/resource.h>
+#include <sys/wait.h>
+#include <csignal>
+#include <functional>
 #include <unistd.h>
 
 namespace nimbus::test {
@@ -46,6 +51,52 @@ inline std::string readBytes(const std::string& path)
 inline void writeBytes(const std::string& path, const std::string& bytes)
 {
     std::ofstream(path, std::ios::binary) << bytes;
+}
+
+// A real full disk: a tmpfs of `kilobytes` mounted on a fresh directory, unmounted afterwards.
+// Needs root (CAP_SYS_ADMIN); mounted() is false where it cannot be done, and the test then says
+// so and skips.
+class SmallTmpfs {
+public:
+    explicit SmallTmpfs(const std::filesystem::path& at, int kilobytes) : mPath(at)
+    {
+        std::filesystem::create_directories(mPath);
+        const std::string options = "size=" + std::to_string(kilobytes) + "k";
+        mMounted = ::mount("tmpfs", mPath.c_str(), "tmpfs", 0, options.c_str()) == 0;
+    }
+    ~SmallTmpfs()
+    {
+        if (mMounted)
+            ::umount(mPath.c_str());
+    }
+    bool mounted() const { return mMounted; }
+    std::string operator/(const std::string& name) const { return (mPath / name).string(); }
+
+private:
+    std::filesystem::path mPath;
+    bool mMounted = false;
+};
+
+// Runs `body` in a forked child whose files may not grow beyond `bytes` (RLIMIT_FSIZE, SIGXFSZ
+// ignored: a write past it fails with EFBIG, as a full disk fails with ENOSPC). Works without
+// root. Returns the child's exit status: `body`'s return value, or 99 if it threw.
+inline int inChildWithFileSizeLimit(rlim_t bytes, const std::function<int()>& body)
+{
+    const pid_t pid = ::fork();
+    if (pid == 0) {
+        std::signal(SIGXFSZ, SIG_IGN);
+        struct rlimit limit = {bytes, bytes};
+        ::setrlimit(RLIMIT_FSIZE, &limit);
+        int code = 99;
+        try {
+            code = body();
+        } catch (...) {
+        }
+        ::_exit(code);
+    }
+    int status = 0;
+    ::waitpid(pid, &status, 0);
+    return WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
 }
 
 }  // namespace nimbus::test

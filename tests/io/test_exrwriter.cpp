@@ -2,6 +2,7 @@
 
 #include "TempDir.h"
 #include "core/Error.h"
+#include "core/Log.h"
 #include "render/Film.h"
 
 #include <OpenImageIO/imageio.h>
@@ -282,4 +283,63 @@ TEST(ExrWriter, WriteFailingMidFileKeepsExistingBytes)
     EXPECT_NE(message.find(path), std::string::npos) << message;
     EXPECT_EQ(readBytes(path), "the previous frame");
     EXPECT_EQ(dir.entryCount(), 1u) << "temporary file left behind";
+}
+
+// The EXR on a full disk (a 64 KiB tmpfs): OpenImageIO's error, or the stream's, fails the
+// write; the earlier file keeps its bytes and no temporary file remains.
+TEST(ExrWriter, FullDiskKeepsTheEarlierFile)
+{
+    test::TempDir dir;
+    test::SmallTmpfs disk(dir.path() / "disk", 64);
+    if (!disk.mounted())
+        GTEST_SKIP() << "cannot mount a tmpfs here (not root)";
+    const std::string path = disk / "frame.exr";
+    writeExr(makeFilm(), path);
+    const std::string bytes = readBytes(path);
+    Film big;
+    big.width = big.height = 256;
+    Aov& beauty = big.add("beauty", 4, true);  // float, noise: zip cannot shrink it below 1 MiB
+    uint32_t state = 7;
+    for (float& v : beauty.pixels) {
+        state = state * 1664525u + 1013904223u;
+        v = float(state) / 4294967296.0f;
+    }
+    try {
+        writeExr(big, path);
+        ADD_FAILURE() << "a 1 MiB EXR was written on a 64 KiB disk";
+    } catch (const Error& e) {
+        EXPECT_NE(std::string(e.what()).find(path), std::string::npos) << e.what();
+    }
+    EXPECT_EQ(readBytes(path), bytes);
+    EXPECT_EQ(std::distance(std::filesystem::directory_iterator(dir.path() / "disk"),
+                            std::filesystem::directory_iterator()),
+              1);
+}
+
+// Failure 8 of issue 18: values above 65504 became inf in half channels without a word. They
+// are written as +-65504, and one warning names each AOV with its count of pixels; float (data)
+// AOVs keep their values.
+TEST(ExrWriter, ValuesBeyondHalfAreClampedWithOneWarningNamingTheAov)
+{
+    test::TempDir dir;
+    Film film = makeFilm();
+    film.pixel(*film.find("L0"), 2, 3)[1] = 1e6f;
+    film.pixel(*film.find("L0"), 2, 3)[2] = -2e5f;  // the same pixel: counted once
+    film.pixel(*film.find("L0"), 4, 4)[0] = 70000.0f;
+    std::vector<std::string> warnings;
+    setLogSink([&](LogLevel level, const std::string& m) {
+        if (level == LogLevel::Warning)
+            warnings.push_back(m);
+    });
+    const std::string path = dir / "bright.exr";
+    writeExr(film, path);
+    setLogSink(nullptr);
+    const ReadBack r = readExr(path);
+    EXPECT_EQ(r.at("L0.G", 2, 3), 65504.0f);
+    EXPECT_EQ(r.at("L0.B", 2, 3), -65504.0f);
+    EXPECT_EQ(r.at("L0.R", 4, 4), 65504.0f);
+    EXPECT_EQ(r.at("depth.R", 3, 3), 1.0e6f) << "float channels are not clamped";
+    ASSERT_EQ(warnings.size(), 1u);
+    EXPECT_NE(warnings[0].find("L0 (2 pixels)"), std::string::npos) << warnings[0];
+    EXPECT_NE(warnings[0].find(path), std::string::npos) << warnings[0];
 }

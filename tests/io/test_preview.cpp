@@ -211,3 +211,60 @@ TEST(Preview, FilmWithoutBeautyIsAnError)
     film.add("depth", 1, true);
     EXPECT_THROW(writePreview(film, dir / "p.png", shipped()), Error);
 }
+
+namespace {
+
+// A frame PNG cannot compress (every 8-bit value random): about 3 bytes a pixel.
+Film noiseFilm(int size)
+{
+    Film film = greyFilm(0.0f, size, size);
+    uint32_t state = 12345;
+    for (float& v : film.find("beauty")->pixels) {
+        state = state * 1664525u + 1013904223u;
+        v = float(state >> 8) / float(1u << 24);
+    }
+    return film;
+}
+
+// Writes a good preview, then one too large for the file system (or the file-size limit), and
+// returns 0 when the second write threw an Error naming the path and the good file survived.
+int fullDiskCheck(const std::string& path)
+{
+    writePreview(greyFilm(0.18f), path, shipped());
+    const std::string good = test::readBytes(path);
+    try {
+        writePreview(noiseFilm(256), path, shipped());
+        return 1;  // a truncated preview went through
+    } catch (const Error& e) {
+        if (std::string(e.what()).find(path) == std::string::npos)
+            return 2;
+    }
+    return test::readBytes(path) == good ? 0 : 3;
+}
+
+}  // namespace
+
+// Failure 2 of issue 18: on a full disk the PNG writer's error went unchecked and the truncated
+// file was renamed over the good one (exit 0). A real full disk: a 64 KiB tmpfs.
+TEST(Preview, FullDiskKeepsTheGoodPreview)
+{
+    test::TempDir dir;
+    test::SmallTmpfs disk(dir.path() / "disk", 64);
+    if (!disk.mounted())
+        GTEST_SKIP() << "cannot mount a tmpfs here (not root); FileSizeLimitKeepsTheGoodPreview covers the error path";
+    EXPECT_EQ(fullDiskCheck(disk / "preview.png"), 0) << "1: no error; 2: error without the path; 3: file changed";
+    EXPECT_EQ(std::distance(std::filesystem::directory_iterator(dir.path() / "disk"),
+                            std::filesystem::directory_iterator()),
+              1)
+        << "temporary file left on the full disk";
+}
+
+// The same write error without root: files may not grow past 64 KiB in a child process.
+TEST(Preview, FileSizeLimitKeepsTheGoodPreview)
+{
+    test::TempDir dir;
+    const std::string path = dir / "preview.png";
+    EXPECT_EQ(test::inChildWithFileSizeLimit(64 * 1024, [&] { return fullDiskCheck(path); }), 0)
+        << "1: no error; 2: error without the path; 3: file changed; 99: threw something else";
+    EXPECT_EQ(dir.entryCount(), 1u);
+}

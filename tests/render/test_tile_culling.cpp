@@ -185,3 +185,42 @@ TEST(TileCulling, TilesLeftUnmarkedHaveNoRayThroughAnOccupiedBrick)
                 "%d cameras too close to bound\n",
                 unmarkedInBox, marked, markedHit, unbounded);
 }
+
+// Failure 4 of issue 18: at fov 1e-10 a brick's image spans ~1e14 pixels; int() of that was
+// undefined and the marking loop wrote out of bounds (SIGSEGV). The indices are clamped in
+// double first; marked tiles stay inside the grid and the tile looking at the brick is marked.
+TEST(TileCulling, TinyFieldOfViewMarksOnlyTilesInsideTheGrid)
+{
+    EXPECT_EQ(tileIndex(1e20, 0, 10), 10);
+    EXPECT_EQ(tileIndex(-1e20, 0, 10), 0);
+    EXPECT_EQ(tileIndex(1e20, -1, 9), 9);
+    EXPECT_EQ(tileIndex(-1e20, -1, 9), -1);
+    EXPECT_EQ(tileIndex(std::nan(""), 0, 10), 0);
+    EXPECT_EQ(tileIndex(std::nan(""), -1, 9), 9);
+    for (float fov : {1e-10f, 1e-30f}) {
+        BrickGrid g;
+        g.reset({0, 0, 0}, {4, 2, 2}, 1);
+        // Eight bricks around the view axis, and one off to the side whose image lies ~1e13
+        // pixels away: the one whose tile index overflowed int.
+        for (int b = 0; b < 9; ++b) {
+            float* v = b < 8 ? g.allocateBrick(b & 1, b >> 1 & 1, b >> 2 & 1) : g.allocateBrick(3, 0, 0);
+            for (int n = 0; n < BrickGrid::kBrickValues; ++n)
+                v[n] = 1.0f;
+        }
+        g.pruneZeroBricks();
+        const Transform place = Transform::translate(-0.4, -0.4, -0.4) * Transform::scale(0.05, 0.05, 0.05);
+        Camera c;
+        c.width = 64, c.height = 40;
+        c.fov = fov;
+        c.from = make_float3(0.01f, 0.02f, 5);
+        const NbCamera cam = makeNbCamera(c);
+        constexpr int kTile = 8;
+        const int tilesX = 8, tilesY = 5;
+        std::vector<char> seen(size_t(tilesX * tilesY), 0);
+        ASSERT_TRUE(markTilesSeeingBricks(cam, c.width, c.height, 0, 0, kTile, tilesX, tilesY, g, place, seen,
+                                          filterMargin(kFilterWidth)));
+        EXPECT_TRUE(seen[size_t(2 * tilesX + 4)] || seen[size_t(2 * tilesX + 3)]) << "the centre tile sees the bricks";
+        for (char flag : seen)
+            EXPECT_TRUE(flag == 0 || flag == 1);
+    }
+}

@@ -1,9 +1,17 @@
 // Every class of scene input error: one line naming the file and the key path.
 #include "core/Error.h"
+#include "scene/JsonReader.h"
 #include "scene/SceneJson.h"
 
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
+
+#include <filesystem>
+#include <fstream>
+#include <string>
+
+#include <sys/stat.h>
+#include <unistd.h>
 
 using namespace nimbus;
 using nlohmann::json;
@@ -224,4 +232,50 @@ TEST(SceneErrors, PathTracerWithoutSppNeedsANoiseTargetOrATimeLimit)
 TEST(SceneErrors, EmptySceneIsValid)
 {
     EXPECT_NO_THROW(sceneFromJson(json::parse(R"({"lights": [], "volumes": []})"), "scene.json"));
+}
+
+// Failure 8 of issue 18: duplicate keys were accepted silently (the last won).
+TEST(SceneErrors, DuplicateKeysAreAnErrorNamingTheKeyPath)
+{
+    auto duplicateError = [](const std::string& text) {
+        try {
+            parseJsonRejectingDuplicateKeys(text, "scene.json");
+        } catch (const InputError& e) {
+            return std::string(e.what());
+        }
+        return std::string();
+    };
+    EXPECT_EQ(duplicateError(R"({"camera": {"fov": 30, "fov": 40}})"),
+              "scene.json: camera.fov: duplicate key (each key may appear once in an object)");
+    EXPECT_NE(duplicateError(R"({"volumes": [{"name": "a"}, {"medium": {"sigma_s": 1, "sigma_s": 2}}]})")
+                  .find("scene.json: volumes[1].medium.sigma_s: duplicate key"),
+              std::string::npos);
+    EXPECT_NE(duplicateError(R"({"lights": [[1, 2], {"a": 1}, {"b": [0, {"c": 1, "c": 2}]}]})").find("lights[2].b[1].c:"),
+              std::string::npos);
+    EXPECT_NE(duplicateError(R"({"render": {}, "render": {}})").find("scene.json: render: duplicate key"), std::string::npos);
+    // The same key in different objects is fine, and the document parses as parse() would.
+    EXPECT_EQ(duplicateError(R"({"a": {"x": 1}, "b": {"x": 1}, "c": [{"x": 1}, {"x": 2}]})"), "");
+    EXPECT_EQ(parseJsonRejectingDuplicateKeys(R"({"a": [1, {"b": 2}]})", "f"), json::parse(R"({"a": [1, {"b": 2}]})"));
+}
+
+// Failure 8: /dev/zero as a scene was read until memory ran out. Only a regular file of at most
+// 64 MiB is read; the others are refused from stat() alone.
+TEST(SceneErrors, SceneFileMustBeARegularFileOfSaneSize)
+{
+    const std::string dir = std::filesystem::temp_directory_path() / ("nimbus-scene-" + std::to_string(getpid()));
+    std::filesystem::create_directories(dir);
+    const std::string fifo = dir + "/pipe.json", big = dir + "/big.json";
+    ASSERT_EQ(mkfifo(fifo.c_str(), 0644), 0);
+    std::ofstream(big) << "{}";
+    std::filesystem::resize_file(big, kMaxSceneFileBytes + 1);  // sparse
+    for (const std::string& path : {std::string("/dev/zero"), fifo, big, dir}) {
+        try {
+            readJsonFile(path);
+            ADD_FAILURE() << path << " was read";
+        } catch (const InputError& e) {
+            const std::string what = e.what();
+            EXPECT_EQ(what.rfind(path + ": cannot open scene file", 0), 0u) << what;
+        }
+    }
+    std::filesystem::remove_all(dir);
 }

@@ -7,6 +7,8 @@
 #include <openvdb/openvdb.h>
 
 #include <cmath>
+#include <cstring>
+#include <iterator>
 #include <limits>
 
 using namespace nimbus;
@@ -281,4 +283,36 @@ TEST(VdbLoad, ProceduralGridsAreFloatGridsWithTiles)
     EXPECT_EQ(g->tree().activeVoxelCount(), 64u * 64u * 64u);
     EXPECT_EQ(g->tree().leafCount(), 0u);  // 64 is a multiple of 8: tiles only
     EXPECT_NEAR(g->transform().indexToWorld(Coord(0)).x(), -2.0 + 0.03125, 1e-12);
+}
+
+// Failure 8 of issue 18: a VDB file whose transform is singular or non-finite exited 1 (an
+// ArithmeticError deep in the build) instead of 2. The file is written, then its map's scale
+// bytes are overwritten, as a corrupt or hand-edited file would hold them.
+TEST(VdbLoad, InvalidTransformInTheFileIsAnInputError)
+{
+    ScratchDir dir;
+    for (double bad : {0.0, std::numeric_limits<double>::quiet_NaN(), std::numeric_limits<double>::infinity()}) {
+        const std::string path = dir / "bad.vdb";
+        FloatGrid::Ptr grid = FloatGrid::create(0.0f);
+        grid->setName("density");
+        grid->setTransform(openvdb::math::Transform::createLinearTransform(0.125));
+        grid->tree().setValue(Coord(0, 0, 0), 1.0f);
+        writeVdb(path, {grid});
+        std::string bytes;
+        {
+            std::ifstream in(path, std::ios::binary);
+            bytes.assign(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+        }
+        const size_t map = bytes.find("UniformScaleMap");
+        ASSERT_NE(map, std::string::npos);
+        const double scale = 0.125;
+        for (size_t at = bytes.find(std::string(reinterpret_cast<const char*>(&scale), 8), map), n = 0;
+             at != std::string::npos && n < 3; at = bytes.find(std::string(reinterpret_cast<const char*>(&scale), 8), at + 8), ++n)
+            std::memcpy(&bytes[at], &bad, 8);  // the three scale factors
+        writeText(path, bytes);
+        const std::string message = inputError(vdbScene(path));
+        EXPECT_NE(message.find("volumes[0].source.grids.density"), std::string::npos) << bad << ": " << message;
+        EXPECT_NE(message.find("transform"), std::string::npos) << message;
+        EXPECT_EQ(message.find('\n'), std::string::npos) << message;
+    }
 }
