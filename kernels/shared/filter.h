@@ -11,8 +11,9 @@
  *                    pixel, pbrt-v4's default standard deviation)
  *   blackman_harris  the 4-term Blackman-Harris window over [-r, r] (Harris 1978: a0..a3 below;
  *                    default width 3, as Arnold's)
- * Sampling inverts the profile's analytic CDF by Newton steps kept inside a shrinking bracket
- * (bisection where a step leaves it): 12 steps reach float resolution for every u.
+ * Sampling inverts the profile's CDF: the Gaussian's in closed form (the inverse error function,
+ * Giles 2010), the Blackman-Harris window's by Newton steps kept inside a shrinking bracket
+ * (bisection where a step leaves it), which reach float resolution within 12 steps for every u.
  */
 #ifndef NIMBUS_KERNELS_SHARED_FILTER_H
 #define NIMBUS_KERNELS_SHARED_FILTER_H
@@ -69,11 +70,34 @@ NB_FN float nbFilterCdf(int type, float width, float x)
     return x / width + 0.5f;
 }
 
+/* erf^-1(x) for |x| <= 0.993 (w < 5): Giles 2010, "Approximating the erfinv function" (GPU Computing
+ * Gems), single-precision central branch; absolute error 3.5e-7 over |x| <= erf(sqrt 2), the range
+ * the Gaussian filter uses (tests/core/test_filter.cpp holds it against Boost.Math). */
+NB_FN float nbErfInvCentral(float x)
+{
+    float w = -log((1.0f - x) * (1.0f + x)) - 2.5f;
+    float p = 2.81022636e-08f;
+    p = 3.43273939e-07f + p * w;
+    p = -3.5233877e-06f + p * w;
+    p = -4.39150654e-06f + p * w;
+    p = 0.00021858087f + p * w;
+    p = -0.00125372503f + p * w;
+    p = -0.00417768164f + p * w;
+    p = 0.246640727f + p * w;
+    p = 1.50140941f + p * w;
+    return p * x;
+}
+
 /* An offset in pixels from the pixel's centre, distributed as the profile, for u in [0, 1). */
 NB_FN float nbFilterSample(int type, float width, float u)
 {
     float r = 0.5f * width;
-    if (type != NB_FILTER_GAUSSIAN && type != NB_FILTER_BLACKMAN_HARRIS)
+    if (type == NB_FILTER_GAUSSIAN) {
+        /* CDF(x) = 1/2 + erf(x / (s sqrt 2)) / (2 erf(sqrt 2)), so x = s sqrt 2 erf^-1((2u - 1) erf(sqrt 2)). */
+        float s = 0.25f * width;
+        return clamp(s * 1.4142136f * nbErfInvCentral((2.0f * u - 1.0f) * 0.95449974f), -r, r);
+    }
+    if (type != NB_FILTER_BLACKMAN_HARRIS)
         return (u - 0.5f) * width;
     float lo = -r, hi = r, x = (u - 0.5f) * r; /* the profiles are narrower than the box */
     for (int i = 0; i < 12; ++i) {
