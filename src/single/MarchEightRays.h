@@ -9,7 +9,7 @@
 // brick: gathers for the density and each light's baked optical depth) or, in an empty
 // brick, jumps its sample index past the brick's exit, as the scalar walk skips it. Same
 // estimator, same lattice t_k = t_in + (k + jitter) dt, same cut-off: the lanes agree with the
-// scalar march to float rounding (tests/render/test_eight_rays.cpp).
+// scalar march to float rounding (tests/single/test_eight_rays.cpp).
 #pragma once
 
 #include "SingleScatter.h"

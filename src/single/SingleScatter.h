@@ -19,7 +19,7 @@ void marchSingle(const RenderContext& ctx, float3 o, float3 d, NbRng& rng, Camer
 void marchSingleRays(const RenderContext& ctx, int n, const float3* o, const float3* d, NbRng* rng, CameraSample* out,
                      float* perLight);
 
-// Test hooks, for tests/render/test_marcher_reference.cpp, which checks every specialised loop
+// Test hooks, for tests/single/test_marcher_reference.cpp, which checks every specialised loop
 // against the general one ray by ray.
 // The loop a ray that meets the volumes takes: through marchSingle (batch false) or through
 // marchSingleRays with more than one ray (batch true). The lanes may still hand a batch back to

@@ -1,6 +1,6 @@
 // Determinism (STYLE rule 7) and tolerated inputs (issue 2): the same seed gives the same image
 // at any thread count; a camera or a light inside a volume renders a finite, non-negative image.
-#include "SceneBuilders.h"
+#include "../render/SceneBuilders.h"
 
 #include "engine/Renderer.h"
 

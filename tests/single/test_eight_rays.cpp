@@ -6,7 +6,7 @@
 // as zero), the sample counts in one march and not in the other. Such rays are rare (a sample
 // would have to land within ~1e-6 voxels of a face); the test counts them and bounds them.
 #include "ProbeRays.h"
-#include "SceneBuilders.h"
+#include "../render/SceneBuilders.h"
 
 #include "single/MarchEightRays.h"
 #include "render/RenderContext.h"

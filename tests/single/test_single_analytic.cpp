@@ -1,7 +1,7 @@
 // Single scattering against closed forms and an independent quadrature (issue 2 "How it is
 // checked"): Skanberg's homogeneous box (eq. 44), a point light in a homogeneous medium, and
 // deep-shadow-map transmittance against Beer-Lambert.
-#include "SceneBuilders.h"
+#include "../render/SceneBuilders.h"
 
 #include "render/DeepShadowMap.h"
 #include "render/RenderContext.h"

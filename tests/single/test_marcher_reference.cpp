@@ -21,7 +21,7 @@
 // for those; a loop that skips a sample, reads a wrong light or drops a term moves most rays by
 // far more than kRel and fails.
 #include "ProbeRays.h"
-#include "SceneBuilders.h"
+#include "../render/SceneBuilders.h"
 
 #include "render/RenderContext.h"
 #include "single/SingleScatter.h"
