@@ -46,14 +46,14 @@
  * NB_HAS_EMISSION, NB_TWO_LOBE, NB_CHROMATIC, NB_GLOBAL_MAJORANT. Code for what a scene lacks is
  * not compiled.
  */
-#include "shared/compat.h"
-#include "shared/rng.h"
-#include "shared/phase.h"
-#include "shared/camera.h"
-#include "shared/light.h"
-#include "shared/ptscene.h"
 #include "shared/brickgrid.h"
+#include "shared/camera.h"
+#include "shared/compat.h"
+#include "shared/light.h"
 #include "shared/majorant.h"
+#include "shared/phase.h"
+#include "shared/ptscene.h"
+#include "shared/rng.h"
 
 #ifndef NB_NUM_LIGHTS
 #define NB_NUM_LIGHTS 0
@@ -66,7 +66,10 @@
 #endif
 
 /* Uniform in (0, 1]: safe for -log. */
-NB_FN float nbRngOpen(__private NbRng* rng) { return 1.0f - nbRngNext(rng); }
+NB_FN float nbRngOpen(__private NbRng* rng)
+{
+    return 1.0f - nbRngNext(rng);
+}
 
 /* t + dt, but at least one ulp past t: a majorant so large that dt falls below t's precision
  * must not stall the walk (the shift is far below a voxel for any sane scene). */
@@ -76,8 +79,14 @@ NB_FN float nbAdvance(float t, float dt)
     return tn > t ? tn : nextafter(t, NB_INF);
 }
 
-NB_FN float3 nbSigmaS(__global const NbVolumeDesc* vd) { return make_float3(vd->sigma_s[0], vd->sigma_s[1], vd->sigma_s[2]); }
-NB_FN float3 nbSigmaT(__global const NbVolumeDesc* vd) { return make_float3(vd->sigma_t[0], vd->sigma_t[1], vd->sigma_t[2]); }
+NB_FN float3 nbSigmaS(__global const NbVolumeDesc* vd)
+{
+    return make_float3(vd->sigma_s[0], vd->sigma_s[1], vd->sigma_s[2]);
+}
+NB_FN float3 nbSigmaT(__global const NbVolumeDesc* vd)
+{
+    return make_float3(vd->sigma_t[0], vd->sigma_t[1], vd->sigma_t[2]);
+}
 
 /* Channel average of w * v: the "history-aware" weights of spectral tracking. Grey media need
  * one channel only. */
@@ -100,22 +109,40 @@ NB_FN NbLightSample nbSampleLight(NbLight l, float3 p, float u0, float u1)
     s.weight = make_float3(0.0f, 0.0f, 0.0f);
     switch (l.type) {
 #if NB_HAS_LIGHT_DISTANT
-    case NB_LIGHT_DISTANT: l.type = NB_LIGHT_DISTANT; s = nbLightSample(l, p, u0, u1); break;
+    case NB_LIGHT_DISTANT:
+        l.type = NB_LIGHT_DISTANT;
+        s = nbLightSample(l, p, u0, u1);
+        break;
 #endif
 #if NB_HAS_LIGHT_POINT
-    case NB_LIGHT_POINT: l.type = NB_LIGHT_POINT; s = nbLightSample(l, p, u0, u1); break;
+    case NB_LIGHT_POINT:
+        l.type = NB_LIGHT_POINT;
+        s = nbLightSample(l, p, u0, u1);
+        break;
 #endif
 #if NB_HAS_LIGHT_SPOT
-    case NB_LIGHT_SPOT: l.type = NB_LIGHT_SPOT; s = nbLightSample(l, p, u0, u1); break;
+    case NB_LIGHT_SPOT:
+        l.type = NB_LIGHT_SPOT;
+        s = nbLightSample(l, p, u0, u1);
+        break;
 #endif
 #if NB_HAS_LIGHT_RECT
-    case NB_LIGHT_RECT: l.type = NB_LIGHT_RECT; s = nbLightSample(l, p, u0, u1); break;
+    case NB_LIGHT_RECT:
+        l.type = NB_LIGHT_RECT;
+        s = nbLightSample(l, p, u0, u1);
+        break;
 #endif
 #if NB_HAS_LIGHT_SPHERE
-    case NB_LIGHT_SPHERE: l.type = NB_LIGHT_SPHERE; s = nbLightSample(l, p, u0, u1); break;
+    case NB_LIGHT_SPHERE:
+        l.type = NB_LIGHT_SPHERE;
+        s = nbLightSample(l, p, u0, u1);
+        break;
 #endif
 #if NB_HAS_LIGHT_ENVIRONMENT
-    case NB_LIGHT_ENVIRONMENT: l.type = NB_LIGHT_ENVIRONMENT; s = nbLightSample(l, p, u0, u1); break;
+    case NB_LIGHT_ENVIRONMENT:
+        l.type = NB_LIGHT_ENVIRONMENT;
+        s = nbLightSample(l, p, u0, u1);
+        break;
 #endif
     default: break;
     }
@@ -161,9 +188,9 @@ NB_FN float3 nbRatioTransmittance(float3 o, float3 d, float tMax, __global const
 
 /* The contributions of one camera path, by scattering order. */
 typedef struct {
-    float3 L[3];           /* L0, L1, L2plus */
-    float transmittance;   /* camera-ray transmittance estimate (channel average) */
-    float depth;           /* distance to the first scattering vertex; valid if hasDepth */
+    float3 L[3];         /* L0, L1, L2plus */
+    float transmittance; /* camera-ray transmittance estimate (channel average) */
+    float depth;         /* distance to the first scattering vertex; valid if hasDepth */
     float hasDepth;
 #if NB_NUM_LIGHTS > 0
     float3 perLight[NB_NUM_LIGHTS];
@@ -318,9 +345,8 @@ NB_FN void nbTracePath(float3 o, float3 d, __global const NbPtParams* P, __globa
 }
 
 __kernel void nbPathtrace(__global const NbPtParams* P, __global const NbLight* lights,
-                          __global const NbVolumeDesc* vols, __global const int* tables,
-                          __global const float* pools, __global const float* majorants, __global float* acc,
-                          __global int* counters)
+                          __global const NbVolumeDesc* vols, __global const int* tables, __global const float* pools,
+                          __global const float* majorants, __global float* acc, __global int* counters)
 {
     const int gid = (int)get_global_id(0);
     if (gid >= P->pixelCount)

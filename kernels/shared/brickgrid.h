@@ -23,12 +23,12 @@
 
 /* Plain data, 48 bytes on host and device. A grid with channels == 0 is absent. */
 typedef struct {
-    int brickLo[4];           /* xyz: brick coordinates of table slot (0,0,0); w unused */
-    int dims[4];              /* xyz: table size in bricks; w: channels (0 absent, 1 or 3) */
-    nb_uint tableOffset;      /* first slot of this grid in the concatenated table buffer */
-    nb_uint poolOffset;       /* first float of this grid's bricks in the pool buffer */
-    nb_uint majorantOffset;   /* first slot majorant of this grid in the majorant buffer */
-    float maxValue;           /* the largest slot majorant (global-majorant mode) */
+    int brickLo[4];         /* xyz: brick coordinates of table slot (0,0,0); w unused */
+    int dims[4];            /* xyz: table size in bricks; w: channels (0 absent, 1 or 3) */
+    nb_uint tableOffset;    /* first slot of this grid in the concatenated table buffer */
+    nb_uint poolOffset;     /* first float of this grid's bricks in the pool buffer */
+    nb_uint majorantOffset; /* first slot majorant of this grid in the majorant buffer */
+    float maxValue;         /* the largest slot majorant (global-majorant mode) */
 } NbGridDesc;
 
 /* Table slot of brick (bx,by,bz), or -1 outside the table. */

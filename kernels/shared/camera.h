@@ -13,15 +13,15 @@
 
 /* Plain data with fixed-width members (STYLE rule 3): 3 * 4 * 2 + 4 floats = 112 bytes. */
 typedef struct {
-    float originOpen[4];   /* xyz, w unused */
-    float forwardOpen[4];  /* unit view direction */
-    float rightOpen[4];    /* unit, scaled by tanHalfFov * aspect in w */
+    float originOpen[4];  /* xyz, w unused */
+    float forwardOpen[4]; /* unit view direction */
+    float rightOpen[4];   /* unit, scaled by tanHalfFov * aspect in w */
     float originClose[4];
     float forwardClose[4];
     float rightClose[4];
-    float tanHalfFov;      /* tan(fov/2), vertical */
-    float aspect;          /* width / height */
-    float hasMotion;       /* 0 or 1 */
+    float tanHalfFov; /* tan(fov/2), vertical */
+    float aspect;     /* width / height */
+    float hasMotion;  /* 0 or 1 */
     float pad;
 } NbCamera;
 

@@ -58,30 +58,94 @@ using std::sqrt;
 struct float3 {
     float x, y, z;
 };
-NB_FN float3 make_float3(float a, float b, float c) { return float3{a, b, c}; }
-NB_FN float3 operator+(float3 a, float3 b) { return {a.x + b.x, a.y + b.y, a.z + b.z}; }
-NB_FN float3 operator-(float3 a, float3 b) { return {a.x - b.x, a.y - b.y, a.z - b.z}; }
-NB_FN float3 operator*(float3 a, float3 b) { return {a.x * b.x, a.y * b.y, a.z * b.z}; }
-NB_FN float3 operator/(float3 a, float3 b) { return {a.x / b.x, a.y / b.y, a.z / b.z}; }
-NB_FN float3 operator*(float3 a, float s) { return {a.x * s, a.y * s, a.z * s}; }
-NB_FN float3 operator*(float s, float3 a) { return {a.x * s, a.y * s, a.z * s}; }
-NB_FN float3 operator/(float3 a, float s) { return {a.x / s, a.y / s, a.z / s}; }
-NB_FN float3 operator-(float3 a) { return {-a.x, -a.y, -a.z}; }
-NB_FN float3& operator+=(float3& a, float3 b) { a = a + b; return a; }
-NB_FN float3& operator-=(float3& a, float3 b) { a = a - b; return a; }
-NB_FN float3& operator*=(float3& a, float3 b) { a = a * b; return a; }
-NB_FN float3& operator*=(float3& a, float s) { a = a * s; return a; }
-NB_FN float dot(float3 a, float3 b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
+NB_FN float3 make_float3(float a, float b, float c)
+{
+    return float3{a, b, c};
+}
+NB_FN float3 operator+(float3 a, float3 b)
+{
+    return {a.x + b.x, a.y + b.y, a.z + b.z};
+}
+NB_FN float3 operator-(float3 a, float3 b)
+{
+    return {a.x - b.x, a.y - b.y, a.z - b.z};
+}
+NB_FN float3 operator*(float3 a, float3 b)
+{
+    return {a.x * b.x, a.y * b.y, a.z * b.z};
+}
+NB_FN float3 operator/(float3 a, float3 b)
+{
+    return {a.x / b.x, a.y / b.y, a.z / b.z};
+}
+NB_FN float3 operator*(float3 a, float s)
+{
+    return {a.x * s, a.y * s, a.z * s};
+}
+NB_FN float3 operator*(float s, float3 a)
+{
+    return {a.x * s, a.y * s, a.z * s};
+}
+NB_FN float3 operator/(float3 a, float s)
+{
+    return {a.x / s, a.y / s, a.z / s};
+}
+NB_FN float3 operator-(float3 a)
+{
+    return {-a.x, -a.y, -a.z};
+}
+NB_FN float3& operator+=(float3& a, float3 b)
+{
+    a = a + b;
+    return a;
+}
+NB_FN float3& operator-=(float3& a, float3 b)
+{
+    a = a - b;
+    return a;
+}
+NB_FN float3& operator*=(float3& a, float3 b)
+{
+    a = a * b;
+    return a;
+}
+NB_FN float3& operator*=(float3& a, float s)
+{
+    a = a * s;
+    return a;
+}
+NB_FN float dot(float3 a, float3 b)
+{
+    return a.x * b.x + a.y * b.y + a.z * b.z;
+}
 NB_FN float3 cross(float3 a, float3 b)
 {
     return {a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x};
 }
-NB_FN float length(float3 a) { return std::sqrt(dot(a, a)); }
-NB_FN float3 normalize(float3 a) { return a / length(a); }
-NB_FN float3 exp(float3 a) { return {std::exp(a.x), std::exp(a.y), std::exp(a.z)}; }
-NB_FN float3 fmin(float3 a, float3 b) { return {std::fmin(a.x, b.x), std::fmin(a.y, b.y), std::fmin(a.z, b.z)}; }
-NB_FN float3 fmax(float3 a, float3 b) { return {std::fmax(a.x, b.x), std::fmax(a.y, b.y), std::fmax(a.z, b.z)}; }
-NB_FN float clamp(float v, float lo, float hi) { return v < lo ? lo : (v > hi ? hi : v); }
+NB_FN float length(float3 a)
+{
+    return std::sqrt(dot(a, a));
+}
+NB_FN float3 normalize(float3 a)
+{
+    return a / length(a);
+}
+NB_FN float3 exp(float3 a)
+{
+    return {std::exp(a.x), std::exp(a.y), std::exp(a.z)};
+}
+NB_FN float3 fmin(float3 a, float3 b)
+{
+    return {std::fmin(a.x, b.x), std::fmin(a.y, b.y), std::fmin(a.z, b.z)};
+}
+NB_FN float3 fmax(float3 a, float3 b)
+{
+    return {std::fmax(a.x, b.x), std::fmax(a.y, b.y), std::fmax(a.z, b.z)};
+}
+NB_FN float clamp(float v, float lo, float hi)
+{
+    return v < lo ? lo : (v > hi ? hi : v);
+}
 
 #endif
 
@@ -105,10 +169,16 @@ NB_FN float nbMinComponent(float3 v)
 }
 // Divided, not multiplied by 1/3: the mean of three equal values must be that value exactly (an
 // opaque-free pixel has alpha 1 - mean(T) = 0), which (1 + 1 + 1) * 0.33333334f, fused, is not.
-NB_FN float nbAverage(float3 v) { return (v.x + v.y + v.z) / 3.0f; }
+NB_FN float nbAverage(float3 v)
+{
+    return (v.x + v.y + v.z) / 3.0f;
+}
 
 /* float[4] storage in plain-data structs to float3 (OpenCL float3 is 16 bytes in buffers). */
-NB_FN float3 nbLoad3(const float* v) { return make_float3(v[0], v[1], v[2]); }
+NB_FN float3 nbLoad3(const float* v)
+{
+    return make_float3(v[0], v[1], v[2]);
+}
 
 /* An orthonormal basis around unit vector n (Duff et al. 2017, branchless). */
 NB_FN void nbBasis(float3 n, NB_PRIVATE float3* t, NB_PRIVATE float3* b)

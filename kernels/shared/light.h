@@ -23,21 +23,21 @@
 
 /* Plain data, 20 floats + 4 ints = 96 bytes on host and device. */
 typedef struct {
-    float position[4];   /* point, spot, sphere: position; rect: centre */
-    float direction[4];  /* distant, spot: unit direction of travel; rect: unit normal (emitting side) */
-    float color[4];      /* irradiance (distant), intensity (point, spot) or radiance */
-    float axisU[4];      /* rect: half-width vector; */
-    float axisV[4];      /* rect: half-height vector */
+    float position[4];  /* point, spot, sphere: position; rect: centre */
+    float direction[4]; /* distant, spot: unit direction of travel; rect: unit normal (emitting side) */
+    float color[4];     /* irradiance (distant), intensity (point, spot) or radiance */
+    float axisU[4];     /* rect: half-width vector; */
+    float axisV[4];     /* rect: half-height vector */
     int type;
-    int index;           /* position in the scene's light list (per-light AOVs) */
-    float p0;            /* distant: cos of half the apparent angle; spot: cos outer; sphere: radius */
-    float p1;            /* spot: cos inner (full intensity inside) */
+    int index; /* position in the scene's light list (per-light AOVs) */
+    float p0;  /* distant: cos of half the apparent angle; spot: cos outer; sphere: radius */
+    float p1;  /* spot: cos inner (full intensity inside) */
 } NbLight;
 
 typedef struct {
-    float3 wi;       /* unit direction from the shading point toward the light */
-    float distance;  /* to the sampled point on the light; INFINITY-like 1e30 for distant/env */
-    float3 weight;   /* L_i / pdf, W/m^2 (see the header comment); zero if the sample is void */
+    float3 wi;      /* unit direction from the shading point toward the light */
+    float distance; /* to the sampled point on the light; INFINITY-like 1e30 for distant/env */
+    float3 weight;  /* L_i / pdf, W/m^2 (see the header comment); zero if the sample is void */
 } NbLightSample;
 
 NB_FN float nbSmoothstep(float e0, float e1, float x)

@@ -12,8 +12,8 @@
  *
  * Amanatides & Woo (1987) stepping, per volume, in that volume's index space (brickdda.h, the
  * same DDA as the host's brick walks): the index-space ray o_i + t d_i keeps the world
- * parameter t (d_i is not normalised), so crossings of all volumes are ordered on one axis. NB_GLOBAL_MAJORANT=1 replaces the grid by one majorant per
- * volume (its largest slot), for benchmarks.
+ * parameter t (d_i is not normalised), so crossings of all volumes are ordered on one axis. NB_GLOBAL_MAJORANT=1
+ * replaces the grid by one majorant per volume (its largest slot), for benchmarks.
  */
 #ifndef NIMBUS_KERNELS_SHARED_MAJORANT_H
 #define NIMBUS_KERNELS_SHARED_MAJORANT_H
@@ -33,7 +33,10 @@
 
 #define NB_INF INFINITY
 
-NB_FN float nbComponent(float3 v, int axis) { return axis == 0 ? v.x : (axis == 1 ? v.y : v.z); }
+NB_FN float nbComponent(float3 v, int axis)
+{
+    return axis == 0 ? v.x : (axis == 1 ? v.y : v.z);
+}
 
 typedef struct {
     float3 o[NB_NUM_VOLUMES];       /* index-space ray origin, per volume */
@@ -82,8 +85,9 @@ NB_FN void nbMajorantInit(NB_PRIVATE NbMajorantIter* it, NB_GLOBAL const NbVolum
         if (v >= count)
             continue;
         NB_GLOBAL const float* m = vols[v].indexFromWorld;
-        float3 oi = make_float3(m[0] * o.x + m[1] * o.y + m[2] * o.z + m[3], m[4] * o.x + m[5] * o.y + m[6] * o.z + m[7],
-                                m[8] * o.x + m[9] * o.y + m[10] * o.z + m[11]);
+        float3 oi =
+            make_float3(m[0] * o.x + m[1] * o.y + m[2] * o.z + m[3], m[4] * o.x + m[5] * o.y + m[6] * o.z + m[7],
+                        m[8] * o.x + m[9] * o.y + m[10] * o.z + m[11]);
         float3 di = make_float3(m[0] * d.x + m[1] * d.y + m[2] * d.z, m[4] * d.x + m[5] * d.y + m[6] * d.z,
                                 m[8] * d.x + m[9] * d.y + m[10] * d.z);
         it->o[v] = oi;

@@ -61,7 +61,10 @@ typedef float nb_moment;
 typedef double nb_moment;
 #endif
 
-NB_FN nb_moment nbPhaseBlend(NbPhase p) { return p.blend > 0.0f ? (nb_moment)p.blend : (nb_moment)0; }
+NB_FN nb_moment nbPhaseBlend(NbPhase p)
+{
+    return p.blend > 0.0f ? (nb_moment)p.blend : (nb_moment)0;
+}
 
 /* Adds w p_j to pj[j] for j = 0..order, by running powers (one multiply per order and lobe; the
  * WKB march mixes volumes this way, weighting each by its share of the scattering). */

@@ -17,37 +17,37 @@
 /* 224 bytes. Coefficients in 1/m with the density scale folded in: sigma at a point is
  * sigma_* times the trilinear density there. */
 typedef struct {
-    float indexFromWorld[12];  /* 3x4 row-major: p_index = M p_world + t (rows: M | t) */
-    float sigma_s[4];          /* xyz RGB scattering; w: 0 */
-    float sigma_t[4];          /* xyz RGB extinction; w: majorant scale = max channel (x 1 + 1e-5) */
+    float indexFromWorld[12]; /* 3x4 row-major: p_index = M p_world + t (rows: M | t) */
+    float sigma_s[4];         /* xyz RGB scattering; w: 0 */
+    float sigma_t[4];         /* xyz RGB extinction; w: majorant scale = max channel (x 1 + 1e-5) */
     NbPhase phase;
-    float boundsLo[4];         /* xyz: index-space box of the active bricks (density and emission),
-                                * brick aligned; w: extinction majorant (1/m) of an emitting slot
-                                * (see pathtrace.cl, "emission") */
-    float boundsHi[4];         /* xyz: upper corner; w: emission scale (medium.emissionScale) */
-    NbGridDesc density;        /* 1 channel: density after the shader */
-    NbGridDesc emission;       /* 3 channels: emitted radiance per metre W/(m^3 sr); or absent */
+    float boundsLo[4];   /* xyz: index-space box of the active bricks (density and emission),
+                          * brick aligned; w: extinction majorant (1/m) of an emitting slot
+                          * (see pathtrace.cl, "emission") */
+    float boundsHi[4];   /* xyz: upper corner; w: emission scale (medium.emissionScale) */
+    NbGridDesc density;  /* 1 channel: density after the shader */
+    NbGridDesc emission; /* 3 channels: emitted radiance per metre W/(m^3 sr); or absent */
 } NbVolumeDesc;
 
 /* Per-launch parameters, 192 bytes. */
 typedef struct {
     NbCamera camera;
-    float background[4];  /* radiance seen by camera rays that leave the volumes (L0) */
-    int width, height;    /* full image, pixels */
-    int x0, y0;           /* the data window's (crop's) top-left pixel */
-    int cropWidth;        /* data window width; the launch covers cropWidth x rows pixels */
+    float background[4]; /* radiance seen by camera rays that leave the volumes (L0) */
+    int width, height;   /* full image, pixels */
+    int x0, y0;          /* the data window's (crop's) top-left pixel */
+    int cropWidth;       /* data window width; the launch covers cropWidth x rows pixels */
     int pixelCount;
     nb_uint seed;
-    nb_uint sampleStart;  /* global index of this launch's first sample per pixel */
-    int samples;          /* samples per pixel in this launch */
-    int maxDepth;         /* the most scattering events a path may have */
-    int rrDepth;          /* Russian roulette from this many scattering events on */
+    nb_uint sampleStart; /* global index of this launch's first sample per pixel */
+    int samples;         /* samples per pixel in this launch */
+    int maxDepth;        /* the most scattering events a path may have */
+    int rrDepth;         /* Russian roulette from this many scattering events on */
     int lightCount;
     int volumeCount;
-    int countDepthCap;    /* 1: maxDepth is the safety cap of an unbounded render; paths reaching
-                           * it are counted in counters[NB_COUNTER_DEPTH_CAP] */
-    int filterType;       /* NB_FILTER_* (filter.h) */
-    float filterWidth;    /* pixels */
+    int countDepthCap; /* 1: maxDepth is the safety cap of an unbounded render; paths reaching
+                        * it are counted in counters[NB_COUNTER_DEPTH_CAP] */
+    int filterType;    /* NB_FILTER_* (filter.h) */
+    float filterWidth; /* pixels */
 } NbPtParams;
 
 /* The kernel's event counters (one int each). */

@@ -54,7 +54,10 @@ static double lattice(int x, int y, int z, unsigned seed)
     return (double)(hash3(x, y, z, seed) & 0xFFFFFF) / (double)0x7FFFFF - 1.0;
 }
 
-static double smooth(double t) { return t * t * (3.0 - 2.0 * t); }
+static double smooth(double t)
+{
+    return t * t * (3.0 - 2.0 * t);
+}
 
 /* Trilinear value noise with smoothstep weights, in [-1, 1]. */
 static double valueNoise(double x, double y, double z, unsigned seed)
@@ -86,7 +89,10 @@ static double fbm(const Torus* t, double x, double y, double z)
 }
 
 /* The largest distance from the centre line at which the density can be non-zero. */
-static double reach(const Torus* t) { return t->minorRadius * (1.0 + t->noise) + t->softness; }
+static double reach(const Torus* t)
+{
+    return t->minorRadius * (1.0 + t->noise) + t->softness;
+}
 
 static int parseNumber(const char* name, const char* text, double* out, char* error, size_t size)
 {
@@ -100,7 +106,10 @@ static int parseNumber(const char* name, const char* text, double* out, char* er
     return 0;
 }
 
-NIMBUS_VOLUME_PLUGIN_EXPORT int nimbus_volume_plugin_version(void) { return NIMBUS_VOLUME_PLUGIN_VERSION; }
+NIMBUS_VOLUME_PLUGIN_EXPORT int nimbus_volume_plugin_version(void)
+{
+    return NIMBUS_VOLUME_PLUGIN_VERSION;
+}
 
 NIMBUS_VOLUME_PLUGIN_EXPORT void* nimbus_volume_init(const NimbusVolumeParam* params, size_t count, char* error,
                                                      size_t errorSize)
@@ -111,15 +120,24 @@ NIMBUS_VOLUME_PLUGIN_EXPORT void* nimbus_volume_init(const NimbusVolumeParam* pa
         double v = 0.0;
         if (parseNumber(name, params[i].value, &v, error, errorSize))
             return NULL;
-        if (!strcmp(name, "major_radius")) t.majorRadius = v;
-        else if (!strcmp(name, "minor_radius")) t.minorRadius = v;
-        else if (!strcmp(name, "density")) t.density = v;
-        else if (!strcmp(name, "softness")) t.softness = v;
-        else if (!strcmp(name, "noise")) t.noise = v;
-        else if (!strcmp(name, "frequency")) t.frequency = v;
-        else if (!strcmp(name, "voxel_size")) t.voxelSize = v;
-        else if (!strcmp(name, "octaves")) t.octaves = (int)v;
-        else if (!strcmp(name, "seed")) t.seed = (unsigned)v;
+        if (!strcmp(name, "major_radius"))
+            t.majorRadius = v;
+        else if (!strcmp(name, "minor_radius"))
+            t.minorRadius = v;
+        else if (!strcmp(name, "density"))
+            t.density = v;
+        else if (!strcmp(name, "softness"))
+            t.softness = v;
+        else if (!strcmp(name, "noise"))
+            t.noise = v;
+        else if (!strcmp(name, "frequency"))
+            t.frequency = v;
+        else if (!strcmp(name, "voxel_size"))
+            t.voxelSize = v;
+        else if (!strcmp(name, "octaves"))
+            t.octaves = (int)v;
+        else if (!strcmp(name, "seed"))
+            t.seed = (unsigned)v;
         else {
             snprintf(error, errorSize,
                      "params.%s: unknown parameter (expected major_radius, minor_radius, density, softness, noise, "
@@ -162,9 +180,9 @@ NIMBUS_VOLUME_PLUGIN_EXPORT int nimbus_volume_sample(void* state, const double* 
     for (size_t i = 0; i < count; ++i) {
         double x = p[3 * i], y = p[3 * i + 1], z = p[3 * i + 2];
         double ring = sqrt(x * x + z * z) - t->majorRadius;
-        double d = sqrt(ring * ring + y * y);  /* distance to the centre line */
+        double d = sqrt(ring * ring + y * y); /* distance to the centre line */
         double surface = t->minorRadius * (1.0 + t->noise * fbm(t, x, y, z));
-        double inside = surface - d;  /* > 0 inside the tube */
+        double inside = surface - d; /* > 0 inside the tube */
         double w = t->softness > 0 ? inside / t->softness : (inside > 0 ? 1.0 : 0.0);
         w = w < 0 ? 0 : (w > 1 ? 1 : w);
         densities[i] = (float)(t->density * smooth(w));
@@ -181,10 +199,13 @@ NIMBUS_VOLUME_PLUGIN_EXPORT int nimbus_volume_block_empty(void* state, const dou
     double nx = lo[0] > 0 ? lo[0] : (hi[0] < 0 ? hi[0] : 0), nz = lo[2] > 0 ? lo[2] : (hi[2] < 0 ? hi[2] : 0);
     double fx = fabs(lo[0]) > fabs(hi[0]) ? lo[0] : hi[0], fz = fabs(lo[2]) > fabs(hi[2]) ? lo[2] : hi[2];
     double rhoMin = sqrt(nx * nx + nz * nz), rhoMax = sqrt(fx * fx + fz * fz);
-    double dRho = t->majorRadius < rhoMin ? rhoMin - t->majorRadius
-                                          : (t->majorRadius > rhoMax ? t->majorRadius - rhoMax : 0.0);
+    double dRho =
+        t->majorRadius < rhoMin ? rhoMin - t->majorRadius : (t->majorRadius > rhoMax ? t->majorRadius - rhoMax : 0.0);
     double dy = lo[1] > 0 ? lo[1] : (hi[1] < 0 ? -hi[1] : 0.0);
     return sqrt(dRho * dRho + dy * dy) > reach(t) ? 1 : 0;
 }
 
-NIMBUS_VOLUME_PLUGIN_EXPORT void nimbus_volume_cleanup(void* state) { free(state); }
+NIMBUS_VOLUME_PLUGIN_EXPORT void nimbus_volume_cleanup(void* state)
+{
+    free(state);
+}

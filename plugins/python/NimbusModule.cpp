@@ -67,11 +67,14 @@ void checkPy(NimbusStatus status)
 
 bool isNumber(const py::handle& v)
 {
-    return !py::isinstance<py::bool_>(v) && (py::isinstance<py::int_>(v) || py::isinstance<py::float_>(v) ||
-                                             py::hasattr(v, "__float__"));
+    return !py::isinstance<py::bool_>(v) &&
+           (py::isinstance<py::int_>(v) || py::isinstance<py::float_>(v) || py::hasattr(v, "__float__"));
 }
 
-std::string toJsonText(const py::handle& v) { return py::module_::import("json").attr("dumps")(v).cast<std::string>(); }
+std::string toJsonText(const py::handle& v)
+{
+    return py::module_::import("json").attr("dumps")(v).cast<std::string>();
+}
 
 // One Python value through the C setter of its type.
 void setValue(NimbusHandle h, const std::string& name, const py::handle& value)
@@ -86,7 +89,8 @@ void setValue(NimbusHandle h, const std::string& name, const py::handle& value)
     else if (py::isinstance<py::float_>(v))
         checkPy(nimbus_set_float(h, name.c_str(), v.cast<double>()));
     else if (py::isinstance<py::str>(v) || py::hasattr(v, "__fspath__"))
-        checkPy(nimbus_set_string(h, name.c_str(), py::str(py::module_::import("os").attr("fspath")(v)).cast<std::string>().c_str()));
+        checkPy(nimbus_set_string(h, name.c_str(),
+                                  py::str(py::module_::import("os").attr("fspath")(v)).cast<std::string>().c_str()));
     else if (py::isinstance<py::dict>(v))
         checkPy(nimbus_set_json(h, name.c_str(), toJsonText(v).c_str()));
     else if (py::isinstance<py::sequence>(v) || py::hasattr(v, "tolist")) {
@@ -160,8 +164,8 @@ std::string gridFile(const py::dict& grids)
         py::module_::import("atexit").attr("register")(py::module_::import("shutil").attr("rmtree"), dir, true);
         nimbusModule.attr("_grid_dir") = dir;
     }
-    std::string path = py::str(os.attr("path").attr("join")(nimbusModule.attr("_grid_dir"),
-                                                          "grids" + std::to_string(counter++) + ".vdb"));
+    std::string path = py::str(
+        os.attr("path").attr("join")(nimbusModule.attr("_grid_dir"), "grids" + std::to_string(counter++) + ".vdb"));
     py::list list;
     for (auto item : grids)
         list.append(item.second);
@@ -211,7 +215,7 @@ py::buffer_info aovBuffer(const PyAov& a)
 {
     const NimbusAov& v = a.aov;
     std::vector<py::ssize_t> shape = {v.height, v.width}, strides = {py::ssize_t(sizeof(float)) * v.width * v.channels,
-                                                                      py::ssize_t(sizeof(float)) * v.channels};
+                                                                     py::ssize_t(sizeof(float)) * v.channels};
     if (v.channels > 1) {
         shape.push_back(v.channels);
         strides.push_back(sizeof(float));
@@ -442,10 +446,16 @@ PYBIND11_MODULE(nimbus, m)
                     return adopt<PyCamera>(h);
                 },
                 [](PyScene& s, const PyCamera& c) { checkPy(nimbus_scene_set_camera(s.handle.get(), c.handle.get())); })
-            .def("add", [](PyScene& s, const PyLight& l) { checkPy(nimbus_scene_add_light(s.handle.get(), l.handle.get())); })
-            .def("add", [](PyScene& s, const PyVolume& v) { checkPy(nimbus_scene_add_volume(s.handle.get(), v.handle.get())); })
-            .def("remove", [](PyScene& s, const PyLight& l) { checkPy(nimbus_scene_remove_light(s.handle.get(), l.handle.get())); })
-            .def("remove", [](PyScene& s, const PyVolume& v) { checkPy(nimbus_scene_remove_volume(s.handle.get(), v.handle.get())); })
+            .def("add",
+                 [](PyScene& s, const PyLight& l) { checkPy(nimbus_scene_add_light(s.handle.get(), l.handle.get())); })
+            .def("add", [](PyScene& s,
+                           const PyVolume& v) { checkPy(nimbus_scene_add_volume(s.handle.get(), v.handle.get())); })
+            .def("remove", [](PyScene& s,
+                              const PyLight& l) { checkPy(nimbus_scene_remove_light(s.handle.get(), l.handle.get())); })
+            .def("remove",
+                 [](PyScene& s, const PyVolume& v) {
+                     checkPy(nimbus_scene_remove_volume(s.handle.get(), v.handle.get()));
+                 })
             .def_property_readonly("lights",
                                    [](const PyScene& s) {
                                        size_t n;
@@ -515,8 +525,9 @@ PYBIND11_MODULE(nimbus, m)
                  return d;
              })
         .def_property_readonly("seconds", [](const PyFrame& f) { return f.frame.seconds(); })
-        .def("write_outputs", [](const PyFrame& f) { checkPy(nimbus_frame_write_outputs(f.frame.get())); },
-             "Writes the scene's output.file (EXR) and output.preview as `nimbus render` does.");
+        .def(
+            "write_outputs", [](const PyFrame& f) { checkPy(nimbus_frame_write_outputs(f.frame.get())); },
+            "Writes the scene's output.file (EXR) and output.preview as `nimbus render` does.");
 
     py::class_<PySession>(m, "Session", "Renders a scene's committed snapshot, in the foreground or background.")
         .def(py::init<const PyScene&, py::object>(), py::arg("scene"), py::arg("progress") = py::none())
@@ -525,7 +536,8 @@ PYBIND11_MODULE(nimbus, m)
         .def("wait", &PySession::wait, py::arg("timeout") = -1.0,
              "Waits for a background render: True when finished, False on timeout; raises if it failed.")
         .def("cancel", &PySession::cancel)
-        .def_property_readonly("state", &PySession::state, "(state, progress): 'idle', 'running', 'finished', 'failed'.")
+        .def_property_readonly("state", &PySession::state,
+                               "(state, progress): 'idle', 'running', 'finished', 'failed'.")
         .def_property_readonly("frame", &PySession::frame);
 
     m.def(
@@ -540,7 +552,8 @@ PYBIND11_MODULE(nimbus, m)
     m.def(
         "load_dict",
         [](const py::dict& d, py::object baseDir) {
-            std::string base = baseDir.is_none() ? "" : std::string(py::str(py::module_::import("os").attr("fspath")(baseDir)));
+            std::string base =
+                baseDir.is_none() ? "" : std::string(py::str(py::module_::import("os").attr("fspath")(baseDir)));
             return sceneFromJson(toJsonText(d), base);
         },
         py::arg("scene"), py::arg("base_dir") = py::none(),

@@ -52,21 +52,21 @@ extern "C" {
 
 typedef enum NimbusStatus {
     NIMBUS_OK = 0,
-    NIMBUS_ERROR_INVALID_ARGUMENT = 1,   /* a NULL pointer, a negative count, a bad enum value */
-    NIMBUS_ERROR_INVALID_HANDLE = 2,     /* 0, released, or never a handle */
-    NIMBUS_ERROR_WRONG_HANDLE_TYPE = 3,  /* e.g. a light where a scene is expected */
-    NIMBUS_ERROR_UNKNOWN_PARAMETER = 4,  /* not a key of this object in the scene format */
-    NIMBUS_ERROR_WRONG_TYPE = 5,         /* e.g. a string for "fov" */
-    NIMBUS_ERROR_BAD_INPUT = 6,          /* out of range, missing file / grid / plugin, bad JSON (CLI exit 2) */
-    NIMBUS_ERROR_NOT_COMMITTED = 7,      /* rendering a scene that was never committed */
-    NIMBUS_ERROR_BUSY = 8,               /* the session is rendering */
-    NIMBUS_ERROR_CANCELLED = 9,          /* the render was cancelled */
-    NIMBUS_ERROR_TIMEOUT = 10,           /* nimbus_session_wait: still rendering */
-    NIMBUS_ERROR_NOT_FOUND = 11,         /* no such AOV, index out of range, no frame yet */
-    NIMBUS_ERROR_RENDER_FAILED = 12,     /* a failure that is not the input's fault (CLI exit 1) */
+    NIMBUS_ERROR_INVALID_ARGUMENT = 1,  /* a NULL pointer, a negative count, a bad enum value */
+    NIMBUS_ERROR_INVALID_HANDLE = 2,    /* 0, released, or never a handle */
+    NIMBUS_ERROR_WRONG_HANDLE_TYPE = 3, /* e.g. a light where a scene is expected */
+    NIMBUS_ERROR_UNKNOWN_PARAMETER = 4, /* not a key of this object in the scene format */
+    NIMBUS_ERROR_WRONG_TYPE = 5,        /* e.g. a string for "fov" */
+    NIMBUS_ERROR_BAD_INPUT = 6,         /* out of range, missing file / grid / plugin, bad JSON (CLI exit 2) */
+    NIMBUS_ERROR_NOT_COMMITTED = 7,     /* rendering a scene that was never committed */
+    NIMBUS_ERROR_BUSY = 8,              /* the session is rendering */
+    NIMBUS_ERROR_CANCELLED = 9,         /* the render was cancelled */
+    NIMBUS_ERROR_TIMEOUT = 10,          /* nimbus_session_wait: still rendering */
+    NIMBUS_ERROR_NOT_FOUND = 11,        /* no such AOV, index out of range, no frame yet */
+    NIMBUS_ERROR_RENDER_FAILED = 12,    /* a failure that is not the input's fault (CLI exit 1) */
     NIMBUS_ERROR_OUT_OF_MEMORY = 13,
-    NIMBUS_ERROR_BUFFER_TOO_SMALL = 14,  /* nimbus_scene_to_json: *length says what is needed */
-    NIMBUS_ERROR_INTERNAL = 15           /* a bug: please report the message */
+    NIMBUS_ERROR_BUFFER_TOO_SMALL = 14, /* nimbus_scene_to_json: *length says what is needed */
+    NIMBUS_ERROR_INTERNAL = 15          /* a bug: please report the message */
 } NimbusStatus;
 
 typedef enum NimbusHandleType {
@@ -91,8 +91,8 @@ typedef NimbusHandle NimbusFrame;
 
 /* ---- library ------------------------------------------------------------------------------ */
 
-NIMBUS_API const char* nimbus_version(void);  /* "0.1.0" */
-NIMBUS_API int nimbus_abi_version(void);      /* NIMBUS_ABI_VERSION of the library */
+NIMBUS_API const char* nimbus_version(void); /* "0.1.0" */
+NIMBUS_API int nimbus_abi_version(void);     /* NIMBUS_ABI_VERSION of the library */
 /* The calling thread's message for its last failed call ("" if none). */
 NIMBUS_API const char* nimbus_last_error(void);
 /* "NIMBUS_ERROR_BUSY" etc.; "unknown status" for other values. */
@@ -169,10 +169,10 @@ NIMBUS_API NimbusStatus nimbus_volume_create(const char* source_type, NimbusVolu
 typedef int (*NimbusProgressCallback)(float fraction, void* user_data);
 
 typedef enum NimbusSessionState {
-    NIMBUS_SESSION_IDLE = 0,      /* never rendered */
+    NIMBUS_SESSION_IDLE = 0, /* never rendered */
     NIMBUS_SESSION_RUNNING = 1,
-    NIMBUS_SESSION_FINISHED = 2,  /* the last render succeeded: nimbus_session_frame has it */
-    NIMBUS_SESSION_FAILED = 3     /* failed or cancelled: nimbus_session_wait says which */
+    NIMBUS_SESSION_FINISHED = 2, /* the last render succeeded: nimbus_session_frame has it */
+    NIMBUS_SESSION_FAILED = 3    /* failed or cancelled: nimbus_session_wait says which */
 } NimbusSessionState;
 
 /* A session renders a scene's committed snapshot (taken when each render starts). */
@@ -198,11 +198,11 @@ NIMBUS_API NimbusStatus nimbus_session_frame(NimbusSession session, NimbusFrame*
 /* ---- frames: a finished render's AOVs ------------------------------------------------------ */
 
 typedef struct NimbusAov {
-    const char* name;      /* "beauty", "L0", "L1", "L2plus", "alpha", "depth", "variance", "light_<name>" */
-    const float* pixels;   /* width * height * channels floats, rows from the top, channels interleaved */
-    int32_t width, height; /* the full frame */
-    int32_t channels;      /* 4 for beauty (RGBA), 3 for colour AOVs, 1 for data AOVs */
-    int32_t is_data;       /* 1: alpha, depth, variance (not colour) */
+    const char* name;       /* "beauty", "L0", "L1", "L2plus", "alpha", "depth", "variance", "light_<name>" */
+    const float* pixels;    /* width * height * channels floats, rows from the top, channels interleaved */
+    int32_t width, height;  /* the full frame */
+    int32_t channels;       /* 4 for beauty (RGBA), 3 for colour AOVs, 1 for data AOVs */
+    int32_t is_data;        /* 1: alpha, depth, variance (not colour) */
     int32_t x0, y0, x1, y1; /* data window (crop) [x0, x1) x [y0, y1); pixels outside it are 0 */
 } NimbusAov;
 

@@ -247,10 +247,7 @@ public:
 
 class Session : public Handle {
 public:
-    explicit Session(const Scene& scene)
-    {
-        check(nimbus_session_create(scene.get(), &mHandle));
-    }
+    explicit Session(const Scene& scene) { check(nimbus_session_create(scene.get(), &mHandle)); }
     // The callback runs on a render thread; it must outlive the render (this wrapper and its
     // copies keep it alive).
     void onProgress(std::function<bool(float)> callback)

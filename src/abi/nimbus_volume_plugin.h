@@ -78,8 +78,8 @@ typedef void* (*NimbusVolumeInitFn)(const NimbusVolumeParam* params, size_t coun
 typedef int (*NimbusVolumeBoundsFn)(void* state, NimbusVolumeBounds* bounds, char* error, size_t error_size);
 /* Densities (>= 0, per unit of the medium's coefficients) at count points; positions holds
  * x, y, z for each point. nimbus calls it with up to 512 points at a time (an 8^3 block). */
-typedef int (*NimbusVolumeSampleFn)(void* state, const double* positions, size_t count, float* densities,
-                                    char* error, size_t error_size);
+typedef int (*NimbusVolumeSampleFn)(void* state, const double* positions, size_t count, float* densities, char* error,
+                                    size_t error_size);
 /* Optional, for sparse procedurals: 1 if the density is zero everywhere in the closed box
  * [min, max], 0 if it may not be (the block is then sampled). The "ray extents" of production
  * plugins, asked per 8^3 block so that empty space costs no samples. */

@@ -123,9 +123,15 @@ void ParamObject::assign(json document)
 
 // ---- cameras, lights, volumes --------------------------------------------------------------
 
-json CameraObject::wrap(const json& object) const { return {{"camera", object}}; }
+json CameraObject::wrap(const json& object) const
+{
+    return {{"camera", object}};
+}
 
-json LightObject::wrap(const json& object) const { return {{"lights", json::array({object})}}; }
+json LightObject::wrap(const json& object) const
+{
+    return {{"lights", json::array({object})}};
+}
 
 json VolumeObject::wrap(const json& object) const
 {

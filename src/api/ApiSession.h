@@ -38,7 +38,10 @@ private:
 
 class SessionObject : public ApiObject {
 public:
-    explicit SessionObject(std::shared_ptr<SceneObject> scene) : ApiObject(NIMBUS_TYPE_SESSION), mScene(std::move(scene)) {}
+    explicit SessionObject(std::shared_ptr<SceneObject> scene)
+        : ApiObject(NIMBUS_TYPE_SESSION), mScene(std::move(scene))
+    {
+    }
     ~SessionObject() override;
 
     void setProgressCallback(NimbusProgressCallback callback, void* userData);

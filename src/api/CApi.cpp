@@ -12,8 +12,8 @@
 #include "HandleRegistry.h"
 
 #include "../core/Error.h"
-#include "../io/Outputs.h"
 #include "../engine/Renderer.h"
+#include "../io/Outputs.h"
 #include "../scene/SceneJson.h"
 
 #include <nlohmann/json.hpp>
@@ -72,16 +72,28 @@ T* required(T* p, const char* what)
     return p;
 }
 
-const char* requiredString(const char* s, const char* what) { return required(s, what); }
+const char* requiredString(const char* s, const char* what)
+{
+    return required(s, what);
+}
 
-HandleRegistry& registry() { return HandleRegistry::instance(); }
+HandleRegistry& registry()
+{
+    return HandleRegistry::instance();
+}
 
-std::shared_ptr<SceneObject> sceneOf(NimbusHandle h) { return registry().get<SceneObject>(h, NIMBUS_TYPE_SCENE); }
+std::shared_ptr<SceneObject> sceneOf(NimbusHandle h)
+{
+    return registry().get<SceneObject>(h, NIMBUS_TYPE_SCENE);
+}
 std::shared_ptr<SessionObject> sessionOf(NimbusHandle h)
 {
     return registry().get<SessionObject>(h, NIMBUS_TYPE_SESSION);
 }
-std::shared_ptr<FrameObject> frameOf(NimbusHandle h) { return registry().get<FrameObject>(h, NIMBUS_TYPE_FRAME); }
+std::shared_ptr<FrameObject> frameOf(NimbusHandle h)
+{
+    return registry().get<FrameObject>(h, NIMBUS_TYPE_FRAME);
+}
 
 // Scenes, cameras, lights and volumes take parameters; sessions and frames do not.
 std::shared_ptr<ParamObject> paramsOf(NimbusHandle h)
@@ -91,8 +103,7 @@ std::shared_ptr<ParamObject> paramsOf(NimbusHandle h)
     case NIMBUS_TYPE_SCENE:
     case NIMBUS_TYPE_CAMERA:
     case NIMBUS_TYPE_LIGHT:
-    case NIMBUS_TYPE_VOLUME:
-        return std::static_pointer_cast<ParamObject>(o);
+    case NIMBUS_TYPE_VOLUME: return std::static_pointer_cast<ParamObject>(o);
     default:
         throw ApiError(NIMBUS_ERROR_WRONG_HANDLE_TYPE, std::string("wrong handle type: a ") +
                                                            handleTypeName(o->type()) +
@@ -135,11 +146,20 @@ extern "C" {
 
 // ---- library --------------------------------------------------------------------------------
 
-const char* nimbus_version(void) { return NIMBUS_VERSION; }
+const char* nimbus_version(void)
+{
+    return NIMBUS_VERSION;
+}
 
-int nimbus_abi_version(void) { return NIMBUS_ABI_VERSION; }
+int nimbus_abi_version(void)
+{
+    return NIMBUS_ABI_VERSION;
+}
 
-const char* nimbus_last_error(void) { return tLastError.c_str(); }
+const char* nimbus_last_error(void)
+{
+    return tLastError.c_str();
+}
 
 const char* nimbus_status_name(NimbusStatus status)
 {
@@ -243,7 +263,8 @@ NimbusStatus nimbus_set_json(NimbusHandle object, const char* name, const char* 
         try {
             value = json::parse(requiredString(text, "json"));
         } catch (const json::exception& e) {
-            throw ApiError(NIMBUS_ERROR_WRONG_TYPE, std::string(name ? name : "") + ": invalid JSON value: " + e.what());
+            throw ApiError(NIMBUS_ERROR_WRONG_TYPE,
+                           std::string(name ? name : "") + ": invalid JSON value: " + e.what());
         }
         return setParam(object, name, std::move(value));
     });

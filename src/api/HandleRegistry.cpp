@@ -96,9 +96,8 @@ HandleRegistry::Slot& HandleRegistry::slotOf(NimbusHandle h) const
     const uint32_t generation = uint32_t((h >> kIndexBits) & kGenerationMask);
     const auto type = NimbusHandleType((h >> 48) & 0xFF);
     if (!slot.object || (slot.generation & kGenerationMask) != generation || slot.object->type() != type)
-        throw ApiError(NIMBUS_ERROR_INVALID_HANDLE,
-                       std::string("invalid handle ") + hex(h) + ": the " + handleTypeName(type) +
-                           " it named was released");
+        throw ApiError(NIMBUS_ERROR_INVALID_HANDLE, std::string("invalid handle ") + hex(h) + ": the " +
+                                                        handleTypeName(type) + " it named was released");
     return slot;
 }
 

@@ -13,12 +13,12 @@
 #include "compare/Compare.h"
 #include "core/Error.h"
 #include "core/Log.h"
-#include "io/Outputs.h"
+#include "engine/Renderer.h"
 #include "io/ExrWriter.h"
+#include "io/Outputs.h"
 #include "io/Progress.h"
 #include "io/TempFiles.h"
 #include "pathtracer/Pathtracer.h"
-#include "engine/Renderer.h"
 #include "scene/DefaultScene.h"
 #include "scene/SceneJson.h"
 #include "scene/SceneValidate.h"
@@ -176,7 +176,8 @@ int main(int argc, char** argv)
     render->add_flag("--explain", explain, "Print the render plan, then the render statistics (stage times, memory)");
     render->add_flag("-q,--quiet", quiet, "No progress or info lines");
     PathtraceArgs ptArgs;
-    render->add_option("--device", ptArgs.device, "pathtrace: OpenCL device index or name substring (see `nimbus devices`)");
+    render->add_option("--device", ptArgs.device,
+                       "pathtrace: OpenCL device index or name substring (see `nimbus devices`)");
     // NaN passed CLI11's PositiveNumber, and -1 was answered with a 309-digit bound.
     render->add_option("--checkpoint", ptArgs.checkpointSeconds, "pathtrace: write the running estimate every SECONDS")
         ->check(CLI::Validator(
@@ -196,12 +197,17 @@ int main(int argc, char** argv)
 
     SceneArgs compareArgs;
     CompareOptions compareOptions;
-    CLI::App* compare = app.add_subcommand("compare", "Error against run time: WKB and the path tracer against a converged reference");
+    CLI::App* compare =
+        app.add_subcommand("compare", "Error against run time: WKB and the path tracer against a converged reference");
     addSceneArgs(compare, compareArgs);
-    compare->add_option("--out", compareOptions.outDir, "Output directory (compare.csv, error_vs_time.png, sheet.png, summary.md)");
-    compare->add_option("--minutes", compareOptions.minutes, "Scales the reference's 45 s and the path tracer's 0.5..8 s ladder")
+    compare->add_option("--out", compareOptions.outDir,
+                        "Output directory (compare.csv, error_vs_time.png, sheet.png, summary.md)");
+    compare
+        ->add_option("--minutes", compareOptions.minutes,
+                     "Scales the reference's 45 s and the path tracer's 0.5..8 s ladder")
         ->check(CLI::PositiveNumber);
-    compare->add_option("--seeds", compareOptions.seeds, "Independent path-tracer seeds per ladder step")->check(CLI::Range(1, 64));
+    compare->add_option("--seeds", compareOptions.seeds, "Independent path-tracer seeds per ladder step")
+        ->check(CLI::Range(1, 64));
     compare->add_option("--cache", compareOptions.cacheDir, "Reference cache directory");
     compare->add_flag("--full", compareOptions.fullLadder, "A longer WKB quality ladder");
     compare->add_flag("-q,--quiet", quiet, "No progress lines");

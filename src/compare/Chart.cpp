@@ -11,9 +11,9 @@
 #include <OpenImageIO/imagebufalgo.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdio>
-#include <array>
 #include <map>
 
 namespace nimbus {
@@ -139,9 +139,10 @@ void writeErrorChart(const std::vector<CompareRow>& rows, const std::string& pat
         cv.disc(X(p.first), Y(p.second), 4, blue);
 
     // WKB and single.
-    const std::map<std::string, std::array<float, 3>> colours = {
-        {"straight/gaussian", {0.9f, 0.45f, 0.05f}}, {"straight/exact", {0.8f, 0.1f, 0.1f}},
-        {"random_walk/gaussian", {0.1f, 0.6f, 0.2f}}, {"random_walk/exact", {0.55f, 0.2f, 0.7f}}};
+    const std::map<std::string, std::array<float, 3>> colours = {{"straight/gaussian", {0.9f, 0.45f, 0.05f}},
+                                                                 {"straight/exact", {0.8f, 0.1f, 0.1f}},
+                                                                 {"random_walk/gaussian", {0.1f, 0.6f, 0.2f}},
+                                                                 {"random_walk/exact", {0.55f, 0.2f, 0.7f}}};
     const float dark[3] = {0.3f, 0.3f, 0.3f};
     for (const CompareRow& r : rows) {
         if (r.method == "wkb") {

@@ -10,8 +10,8 @@
 #include "Sheet.h"
 
 #include "../core/Error.h"
-#include "../io/ExrWriter.h"
 #include "../engine/Renderer.h"
+#include "../io/ExrWriter.h"
 
 #include <algorithm>
 #include <cstdio>
@@ -113,8 +113,8 @@ CompareResult runCompare(const Scene& input, const CompareOptions& opt)
             RenderResult r = render(s);
             rows.push_back(makeRow("wkb", "base", s, r, ref));
             say(std::string("wkb ") + wkbSourceName(src) + "/" + wkbKernelName(ker) + ": beauty relMSE " +
-                fmt("%.3g", rows.back().beauty.relMse) + ", L2plus energy " + fmt("%+.3f", rows.back().L2plus.energyRel) +
-                ", " + fmt("%.2f", r.seconds) + " s");
+                fmt("%.3g", rows.back().beauty.relMse) + ", L2plus energy " +
+                fmt("%+.3f", rows.back().L2plus.energyRel) + ", " + fmt("%.2f", r.seconds) + " s");
             if (src == input.render.wkbSource && ker == input.render.wkbKernel) {
                 baseWkb = r.film;
                 baseWkbSeconds = r.seconds;
@@ -125,8 +125,8 @@ CompareResult runCompare(const Scene& input, const CompareOptions& opt)
         float lStep;
         int orderMax, lightRes, shadowRes, spp;
     };
-    std::vector<Step> ladder = {{"coarse", 1.0f, 16, 16, 64, 1}, {"fast", 0.5f, 32, 32, 128, 2},
-                                {"fine", 0.125f, 256, 0, 512, 8}};
+    std::vector<Step> ladder = {
+        {"coarse", 1.0f, 16, 16, 64, 1}, {"fast", 0.5f, 32, 32, 128, 2}, {"fine", 0.125f, 256, 0, 512, 8}};
     if (opt.fullLadder) {
         ladder.push_back({"lstep0.0625", 0.0625f, 128, 0, 256, 4});
         ladder.push_back({"order8", 0.25f, 8, 0, 256, 4});

@@ -31,8 +31,8 @@ ErrorMetrics measureError(const Film& x, const Film& ref, const std::string& aov
 double referenceNoiseRelMse(const Film& ref);
 
 struct CompareRow {
-    std::string method;  // "pathtrace", "wkb", "single"
-    std::string label;   // ladder step, e.g. "t=2s", "base", "coarse", "fine"
+    std::string method;          // "pathtrace", "wkb", "single"
+    std::string label;           // ladder step, e.g. "t=2s", "base", "coarse", "fine"
     std::string source, kernel;  // wkb only
     uint32_t seed = 0;
     double seconds = 0;
@@ -42,9 +42,9 @@ struct CompareRow {
 
 struct CompareOptions {
     std::string outDir = "compare";
-    double minutes = 1.0;  // scales the reference's time and the path tracer's time ladder
-    int seeds = 2;         // independent path-tracer seeds per ladder step
-    std::string cacheDir;  // empty: $NIMBUS_CACHE_DIR, $XDG_CACHE_HOME/nimbus, ~/.cache/nimbus
+    double minutes = 1.0;     // scales the reference's time and the path tracer's time ladder
+    int seeds = 2;            // independent path-tracer seeds per ladder step
+    std::string cacheDir;     // empty: $NIMBUS_CACHE_DIR, $XDG_CACHE_HOME/nimbus, ~/.cache/nimbus
     bool fullLadder = false;  // more WKB quality steps
     bool quiet = false;
 };

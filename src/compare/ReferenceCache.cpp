@@ -86,7 +86,8 @@ bool loadReference(const std::string& path, Film& f)
         return false;
     char magic[8];
     int32_t hdr[2];
-    if (!in.read(magic, 8) || std::string(magic, 8) != "NBCMPREF" || !in.read(reinterpret_cast<char*>(hdr), sizeof(hdr)))
+    if (!in.read(magic, 8) || std::string(magic, 8) != "NBCMPREF" ||
+        !in.read(reinterpret_cast<char*>(hdr), sizeof(hdr)))
         return false;
     f = Film{};
     f.width = hdr[0], f.height = hdr[1], f.x1 = hdr[0], f.y1 = hdr[1];

@@ -46,7 +46,10 @@ std::string fmt(const char* format, double v)
     return buf;
 }
 
-void writeCsv(const std::vector<CompareRow>& rows, const std::string& path) { writeAtomic(path, rowsToCsv(rows)); }
+void writeCsv(const std::vector<CompareRow>& rows, const std::string& path)
+{
+    writeAtomic(path, rowsToCsv(rows));
+}
 
 void writeSummary(const Scene& input, const Film& ref, const CompareResult& result, const std::string& path)
 {
@@ -63,14 +66,15 @@ void writeSummary(const Scene& input, const Film& ref, const CompareResult& resu
         if (r.method == "pathtrace" && r.seed != 1000u && r.label != "equal-time")
             continue;
         md << "| " << r.method << " | " << r.label << " | " << r.source << " | " << r.kernel << " | "
-           << fmt("%.2f", r.seconds) << " | " << fmt("%.3g", r.beauty.relMse) << " | " << fmt("%+.3f", r.beauty.energyRel)
-           << " | " << fmt("%+.3f", r.L1.energyRel) << " | " << fmt("%+.3f", r.L2plus.energyRel) << " | "
-           << fmt("%.3f", r.L2plus.meanRel) << " | "
+           << fmt("%.2f", r.seconds) << " | " << fmt("%.3g", r.beauty.relMse) << " | "
+           << fmt("%+.3f", r.beauty.energyRel) << " | " << fmt("%+.3f", r.L1.energyRel) << " | "
+           << fmt("%+.3f", r.L2plus.energyRel) << " | " << fmt("%.3f", r.L2plus.meanRel) << " | "
            << (r.method == "wkb" ? fmt("%.2f", ptTimeToError(rows, r.beauty.relMse)) : std::string("")) << " |\n";
     }
     md << "\nFiles: compare.csv (every run, every seed), error_vs_time.png, sheet.png (reference | WKB "
        << wkbSourceName(input.render.wkbSource) << "/" << wkbKernelName(input.render.wkbKernel)
-       << " | path tracer at WKB's time | WKB - reference, luminance, red brighter, blue darker, full scale the largest difference).\n";
+       << " | path tracer at WKB's time | WKB - reference, luminance, red brighter, blue darker, full scale the "
+          "largest difference).\n";
     writeAtomic(path, md.str());
 }
 

@@ -64,7 +64,7 @@ struct BulkAllocator {
 
     // Value-less construction default-initialises (no zeroing); anything else as usual.
     template <class U>
-    void construct(U* p) noexcept(noexcept(::new(static_cast<void*>(p)) U))
+    void construct(U* p) noexcept(noexcept(::new (static_cast<void*>(p)) U))
     {
         ::new (static_cast<void*>(p)) U;
     }

@@ -29,8 +29,17 @@ void setLogSink(LogSink sink)
     std::lock_guard<std::mutex> lock(gMutex);
     gSink = std::move(sink);
 }
-void setLogQuiet(bool quiet) { gQuiet = quiet; }
-void logInfo(const std::string& message) { emit(LogLevel::Info, message); }
-void logWarning(const std::string& message) { emit(LogLevel::Warning, message); }
+void setLogQuiet(bool quiet)
+{
+    gQuiet = quiet;
+}
+void logInfo(const std::string& message)
+{
+    emit(LogLevel::Info, message);
+}
+void logWarning(const std::string& message)
+{
+    emit(LogLevel::Warning, message);
+}
 
 }  // namespace nimbus

@@ -33,9 +33,9 @@ Transform Transform::rotateDegrees(double angle, double ax, double ay, double az
     ax /= len, ay /= len, az /= len;
     double r = angle * M_PI / 180.0, c = std::cos(r), s = std::sin(r), t = 1.0 - c;
     // Rodrigues' rotation formula.
-    return fromRowMajor({t * ax * ax + c, t * ax * ay - s * az, t * ax * az + s * ay, 0,
-                         t * ax * ay + s * az, t * ay * ay + c, t * ay * az - s * ax, 0,
-                         t * ax * az - s * ay, t * ay * az + s * ax, t * az * az + c, 0, 0, 0, 0, 1});
+    return fromRowMajor({t * ax * ax + c, t * ax * ay - s * az, t * ax * az + s * ay, 0, t * ax * ay + s * az,
+                         t * ay * ay + c, t * ay * az - s * ax, 0, t * ax * az - s * ay, t * ay * az + s * ax,
+                         t * az * az + c, 0, 0, 0, 0, 1});
 }
 
 Transform Transform::operator*(const Transform& rhs) const

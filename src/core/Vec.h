@@ -16,9 +16,18 @@ struct Int3 {
     int32_t x = 0, y = 0, z = 0;
 };
 
-inline float3 splat(float v) { return make_float3(v, v, v); }
-inline bool isFinite(float3 v) { return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z); }
-inline float component(float3 v, int axis) { return axis == 0 ? v.x : (axis == 1 ? v.y : v.z); }
+inline float3 splat(float v)
+{
+    return make_float3(v, v, v);
+}
+inline bool isFinite(float3 v)
+{
+    return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z);
+}
+inline float component(float3 v, int axis)
+{
+    return axis == 0 ? v.x : (axis == 1 ? v.y : v.z);
+}
 // floor(x) as an int for |x| < 2^31, without a libm call: baseline x86-64 has no SSE4.1 round
 // instruction, so std::floor is a function call, and the hot loops take three per sample.
 inline int floorToInt(float x)

@@ -16,9 +16,8 @@ IntegratorEntry singleEntry()
 {
     IntegratorEntry e;
     e.traits = singleTraits();
-    e.create = [](const RenderContext& ctx, const RenderPlan&, const RenderOptions&, RenderStats&) -> std::unique_ptr<Integrator> {
-        return std::make_unique<SingleIntegrator>(ctx);
-    };
+    e.create = [](const RenderContext& ctx, const RenderPlan&, const RenderOptions&,
+                  RenderStats&) -> std::unique_ptr<Integrator> { return std::make_unique<SingleIntegrator>(ctx); };
     return e;
 }
 

@@ -21,8 +21,8 @@ struct IntegratorEntry {
     void (*plan)(const RenderContext& ctx, RenderPlan& plan) = nullptr;
     // Builds the integrator (its heavy precomputation, e.g. wkb's light volumes, recording sizes
     // and times in stats) once the context's shadow maps exist.
-    std::unique_ptr<Integrator> (*create)(const RenderContext& ctx, const RenderPlan& plan, const RenderOptions& options,
-                                          RenderStats& stats) = nullptr;
+    std::unique_ptr<Integrator> (*create)(const RenderContext& ctx, const RenderPlan& plan,
+                                          const RenderOptions& options, RenderStats& stats) = nullptr;
 };
 
 // The row of `method`. Throws std::logic_error for a method with no row (a registry bug).

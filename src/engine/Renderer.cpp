@@ -58,9 +58,9 @@ void zeroNonFinite(Film& film)
 std::string settingsSummary(const Scene& s)
 {
     std::ostringstream o;
-    o << "spp=" << s.render.spp << " step=" << s.render.step << " shadow_map_resolution=" << s.render.shadowMapResolution
-      << " tolerance=" << s.render.tolerance << " shadow_step=" << s.render.shadowStep
-      << " light_samples=" << s.render.lightSamples;
+    o << "spp=" << s.render.spp << " step=" << s.render.step
+      << " shadow_map_resolution=" << s.render.shadowMapResolution << " tolerance=" << s.render.tolerance
+      << " shadow_step=" << s.render.shadowStep << " light_samples=" << s.render.lightSamples;
     return o.str();
 }
 

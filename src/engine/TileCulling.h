@@ -15,7 +15,10 @@ namespace nimbus {
 
 // The culling margin, pixels, for a pixel filter of full width `filterWidth`: rays leave their
 // pixel by up to filterWidth / 2 - 1/2, and one more pixel covers rounding.
-inline double filterMargin(float filterWidth) { return 1.0 + std::max(0.0, 0.5 * double(filterWidth) - 0.5); }
+inline double filterMargin(float filterWidth)
+{
+    return 1.0 + std::max(0.0, 0.5 * double(filterWidth) - 0.5);
+}
 
 // True where no primary ray through pixels [x0, x1) x [y0, y1) can meet `box`: the box lies
 // wholly outside one of the four planes through the eye that bound the tile's rays, or behind
@@ -38,7 +41,8 @@ inline bool tileMissesBox(const NbCamera& cam, int width, int height, int x0, in
     const double sy1 = (1.0 - 2.0 * (y0 - margin) / height) * cam.tanHalfFov;
     bool left = true, right = true, below = true, above = true, behind = true;
     for (int i = 0; i < 8; ++i) {
-        const float3 c = make_float3(i & 1 ? box.hi.x : box.lo.x, i & 2 ? box.hi.y : box.lo.y, i & 4 ? box.hi.z : box.lo.z);
+        const float3 c =
+            make_float3(i & 1 ? box.hi.x : box.lo.x, i & 2 ? box.hi.y : box.lo.y, i & 4 ? box.hi.z : box.lo.z);
         const float3 q = c - o;
         const double cx = dot(q, r), cy = dot(q, u), cz = dot(q, f);
         left = left && cx < sx0 * cz;

@@ -91,8 +91,8 @@ void renderTiles(const RenderContext& ctx, const Integrator& integrator, Film& f
         if (depth)
             *film.pixel(*depth, x, y) = px.depthWeight > 0.0f ? px.depthSum / px.depthWeight : 0.0f;
         for (size_t i = 0; i < nLights; ++i)
-            put3(perLightAov[i], make_float3(px.perLight[3 * i] * inv, px.perLight[3 * i + 1] * inv,
-                                             px.perLight[3 * i + 2] * inv));
+            put3(perLightAov[i],
+                 make_float3(px.perLight[3 * i] * inv, px.perLight[3 * i + 1] * inv, px.perLight[3 * i + 2] * inv));
     };
     // What every sample of a pixel whose rays all miss the volumes gathers: the background
     // (marchSingle's answer to such a ray, summed the same way, so the pixels are identical).
@@ -118,8 +118,9 @@ void renderTiles(const RenderContext& ctx, const Integrator& integrator, Film& f
             bounded = bounded && markTilesSeeingBricks(cam, film.width, film.height, film.x0, film.y0, kTile, tilesX,
                                                        tilesY, v->density, v->worldFromIndex, seesBricks, margin);
             if (v->hasEmission())
-                bounded = bounded && markTilesSeeingBricks(cam, film.width, film.height, film.x0, film.y0, kTile,
-                                                           tilesX, tilesY, v->emission, v->worldFromIndex, seesBricks, margin);
+                bounded =
+                    bounded && markTilesSeeingBricks(cam, film.width, film.height, film.x0, film.y0, kTile, tilesX,
+                                                     tilesY, v->emission, v->worldFromIndex, seesBricks, margin);
         }
         if (!bounded)
             std::fill(seesBricks.begin(), seesBricks.end(), 1);
@@ -139,9 +140,9 @@ void renderTiles(const RenderContext& ctx, const Integrator& integrator, Film& f
                 return;
             const int tx0 = film.x0 + (tile % tilesX) * kTile, ty0 = film.y0 + (tile / tilesX) * kTile;
             const int tx1 = std::min(tx0 + kTile, film.x1), ty1 = std::min(ty0 + kTile, film.y1);
-            const bool empty = skipEmpty && (!seesBricks[size_t(tile)] || tileMissesBox(cam, film.width, film.height, tx0, ty0,
-                                                                                   tx1, ty1, ctx.volumes.worldBounds(),
-                                                                                   margin));
+            const bool empty =
+                skipEmpty && (!seesBricks[size_t(tile)] || tileMissesBox(cam, film.width, film.height, tx0, ty0, tx1,
+                                                                         ty1, ctx.volumes.worldBounds(), margin));
             for (int y = ty0; y < ty1; ++y) {
                 if (empty) {
                     for (int x = tx0; x < tx1; ++x)
@@ -162,8 +163,7 @@ void renderTiles(const RenderContext& ctx, const Integrator& integrator, Film& f
                         float jy = nbFilterSample(filterType, filterWidth, nbRngNext(&rng));
                         float time = nbRngNext(&rng);
                         nbCameraRay(cam, float(x) + 0.5f + jx, float(y) + 0.5f + jy, film.width, film.height, time,
-                                    &origins[size_t(i)],
-                                    &directions[size_t(i)]);
+                                    &origins[size_t(i)], &directions[size_t(i)]);
                     }
                 }
                 integrator.marchRays(int(rays), origins.data(), directions.data(), rngs.data(), samples.data(),
@@ -183,6 +183,5 @@ void renderTiles(const RenderContext& ctx, const Integrator& integrator, Film& f
     if (cancelled)
         throw Cancelled();
 }
-
 
 }  // namespace nimbus

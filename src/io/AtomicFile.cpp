@@ -22,7 +22,10 @@ namespace fs = std::filesystem;
 
 namespace {
 
-std::string inQuotes(const std::string& path) { return "'" + path + "'"; }
+std::string inQuotes(const std::string& path)
+{
+    return "'" + path + "'";
+}
 
 // A suffix no other writer uses: 48 random bits separate processes, threads and hosts writing
 // into the same shared directory.
@@ -49,12 +52,9 @@ bool syncPath(const std::string& path, bool directory)
 
 std::string kindOf(mode_t mode)
 {
-    static const std::pair<mode_t, const char*> kinds[] = {{S_IFREG, ""},
-                                                           {S_IFDIR, "a directory"},
-                                                           {S_IFCHR, "a character device"},
-                                                           {S_IFBLK, "a block device"},
-                                                           {S_IFIFO, "a FIFO"},
-                                                           {S_IFSOCK, "a socket"}};
+    static const std::pair<mode_t, const char*> kinds[] = {
+        {S_IFREG, ""},       {S_IFDIR, "a directory"}, {S_IFCHR, "a character device"}, {S_IFBLK, "a block device"},
+        {S_IFIFO, "a FIFO"}, {S_IFSOCK, "a socket"}};
     for (const auto& [type, name] : kinds)
         if ((mode & S_IFMT) == type)
             return name;
@@ -94,21 +94,25 @@ AtomicFile::AtomicFile(std::string target) : mTarget(std::move(target))
     mResolved = followSymlinks(mTarget);
     const std::string kind = nonRegularKind(mResolved);
     if (!kind.empty())
-        throw InputError("cannot write " + inQuotes(mTarget) + ": it is " + kind + " (nimbus only replaces regular files)");
+        throw InputError("cannot write " + inQuotes(mTarget) + ": it is " + kind +
+                         " (nimbus only replaces regular files)");
     const fs::path path(mResolved);
     std::error_code ec;
     const fs::path parent = path.parent_path();
     if (!parent.empty() && !fs::is_directory(parent, ec)) {
         fs::create_directories(parent, ec);
         if (ec)
-            throw Error("cannot write " + inQuotes(mTarget) + ": cannot create directory " +
-                        inQuotes(parent.string()) + ": " + ec.message());
+            throw Error("cannot write " + inQuotes(mTarget) + ": cannot create directory " + inQuotes(parent.string()) +
+                        ": " + ec.message());
     }
     mTemp = (parent / ("." + path.filename().string() + uniqueSuffix())).string();
     mSlot = registerTempFile(mTemp.c_str());
 }
 
-AtomicFile::~AtomicFile() { discard(); }
+AtomicFile::~AtomicFile()
+{
+    discard();
+}
 
 std::FILE* AtomicFile::stream()
 {

@@ -39,7 +39,10 @@ std::string oneLine(std::string text)
 
 constexpr float kHalfMax = 65504.0f;
 
-OIIO::TypeDesc typeOf(const Aov& aov) { return aov.isData ? OIIO::TypeDesc::FLOAT : OIIO::TypeDesc::HALF; }
+OIIO::TypeDesc typeOf(const Aov& aov)
+{
+    return aov.isData ? OIIO::TypeDesc::FLOAT : OIIO::TypeDesc::HALF;
+}
 
 std::vector<ChannelSource> channelLayout(const Film& film, const std::string& path)
 {
@@ -159,7 +162,7 @@ void writeExr(const Film& film, const std::string& path)
     // Half holds up to 65504; a larger finite value would become inf in the file. It is written
     // as +-65504 instead, and the pixels this happened to are counted per AOV for one warning.
     std::vector<std::pair<const Aov*, size_t>> clipped;  // AOV, pixels
-    std::vector<const Aov*> clippedHere;                  // the AOVs clipped in this pixel
+    std::vector<const Aov*> clippedHere;                 // the AOVs clipped in this pixel
     for (int yBegin = y0; yBegin < y1; yBegin += rowsPerBlock) {
         const int yEnd = std::min(y1, yBegin + rowsPerBlock);
         unsigned char* dst = block.data();
@@ -168,7 +171,8 @@ void writeExr(const Film& film, const std::string& path)
                 clippedHere.clear();
                 for (const ChannelSource& channel : channels) {
                     const size_t index = size_t(y) * film.width + x;
-                    float v = channel.aov ? channel.aov->pixels[index * channel.aov->channels + channel.component] : 1.0f;
+                    float v =
+                        channel.aov ? channel.aov->pixels[index * channel.aov->channels + channel.component] : 1.0f;
                     if (channel.type == OIIO::TypeDesc::HALF) {
                         if (std::fabs(v) > kHalfMax && std::isfinite(v)) {
                             v = std::copysign(kHalfMax, v);

@@ -77,8 +77,8 @@ OCIO::ConstCPUProcessorRcPtr displayProcessor(const PreviewOptions& options)
     for (int i = 0; i < config->getNumViews(display.c_str()); ++i)
         views.push_back(config->getView(display.c_str(), i));
     if (std::find(views.begin(), views.end(), view) == views.end())
-        throw Error("view '" + view + "' of display '" + display + "' is not in " + where + " (views: " +
-                    listOf(views) + ")");
+        throw Error("view '" + view + "' of display '" + display + "' is not in " + where +
+                    " (views: " + listOf(views) + ")");
 
     try {
         OCIO::DisplayViewTransformRcPtr transform = OCIO::DisplayViewTransform::Create();

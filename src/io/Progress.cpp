@@ -29,7 +29,10 @@ std::string formatSeconds(double seconds)
 
 }  // namespace
 
-void Progress::setQuiet(bool quiet) { gQuiet.store(quiet); }
+void Progress::setQuiet(bool quiet)
+{
+    gQuiet.store(quiet);
+}
 
 Progress::Progress(std::string label, size_t total, ProgressOptions options)
     : mLabel(std::move(label)), mTotal(total), mCallback(std::move(options.callback)),
@@ -58,8 +61,7 @@ bool Progress::advance(size_t n)
         return false;
     const int decile = mTotal == 0 ? 10 : int(std::min<size_t>(10, done * 10 / mTotal));
     const bool newDecile = decile >= mNextDecile.load(std::memory_order_relaxed);
-    const long long nowNs =
-        std::chrono::duration_cast<std::chrono::nanoseconds>(Clock::now() - mStart).count();
+    const long long nowNs = std::chrono::duration_cast<std::chrono::nanoseconds>(Clock::now() - mStart).count();
     if (!newDecile && nowNs < mNextUpdateNs.load(std::memory_order_relaxed))
         return true;
     // A 10% step must be reported, so wait for the lock (ten times a render); a timed redraw is

@@ -67,8 +67,8 @@ private:
 
     std::mutex mDrawMutex;
     bool mFinished = false;
-    bool mBarOpen = false;       // a bar is on screen without its newline
-    size_t mBarLength = 0;       // characters of the last bar, to blank a shorter redraw
+    bool mBarOpen = false;  // a bar is on screen without its newline
+    size_t mBarLength = 0;  // characters of the last bar, to blank a shorter redraw
 };
 
 }  // namespace nimbus

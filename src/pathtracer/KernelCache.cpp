@@ -148,8 +148,7 @@ ProgramBuild buildProgram(const ocl::Context& ctx, const std::string& file, cons
 
     const std::string dirText = dir.string();
     const bool quote = dirText.find(' ') != std::string::npos;
-    const std::string fullOptions =
-        "-cl-std=CL1.2 -I " + (quote ? "\"" + dirText + "\"" : dirText) + " " + options;
+    const std::string fullOptions = "-cl-std=CL1.2 -I " + (quote ? "\"" + dirText + "\"" : dirText) + " " + options;
     const ocl::DeviceInfo& dev = ctx.device();
 
     Hasher h;
@@ -176,7 +175,8 @@ ProgramBuild buildProgram(const ocl::Context& ctx, const std::string& file, cons
 
     ProgramBuild out;
     const std::string cacheDir = kernelCacheDirectory();
-    const fs::path cacheFile = cacheDir.empty() ? fs::path() : fs::path(cacheDir) / (fs::path(file).stem().string() + "-" + h.hex() + ".bin");
+    const fs::path cacheFile =
+        cacheDir.empty() ? fs::path() : fs::path(cacheDir) / (fs::path(file).stem().string() + "-" + h.hex() + ".bin");
     cl_device_id device = dev.device;
 
     // Cached binary first.
@@ -208,8 +208,8 @@ ProgramBuild buildProgram(const ocl::Context& ctx, const std::string& file, cons
         err = clBuildProgram(p, 1, &device, fullOptions.c_str(), nullptr, nullptr);
         if (err != CL_SUCCESS) {
             std::string log = buildLog(p, device);
-            throw Error("OpenCL: building " + path.filename().string() + " for " + dev.name + " failed: " +
-                        firstErrorLine(log, path.filename().string()));
+            throw Error("OpenCL: building " + path.filename().string() + " for " + dev.name +
+                        " failed: " + firstErrorLine(log, path.filename().string()));
         }
         out.program = std::move(prog);
         if (!cacheFile.empty()) {

@@ -138,8 +138,8 @@ void check(cl_int err, const char* what)
 std::string DeviceInfo::describe() const
 {
     std::ostringstream o;
-    o << index << ": " << name << " [" << type << ", " << computeUnits << " compute units, "
-      << (globalMemBytes >> 20) << " MiB] on " << platformName << " (" << version << ", driver " << driverVersion << ")";
+    o << index << ": " << name << " [" << type << ", " << computeUnits << " compute units, " << (globalMemBytes >> 20)
+      << " MiB] on " << platformName << " (" << version << ", driver " << driverVersion << ")";
     return o.str();
 }
 
@@ -173,9 +173,10 @@ std::vector<DeviceInfo> enumerateDevices()
             info.driverVersion = deviceString(d, CL_DRIVER_VERSION);
             cl_device_type type = 0;
             clGetDeviceInfo(d, CL_DEVICE_TYPE, sizeof type, &type, nullptr);
-            info.type = (type & CL_DEVICE_TYPE_GPU) ? "GPU" : (type & CL_DEVICE_TYPE_CPU) ? "CPU"
-                        : (type & CL_DEVICE_TYPE_ACCELERATOR)                      ? "accelerator"
-                                                                                    : "other";
+            info.type = (type & CL_DEVICE_TYPE_GPU)           ? "GPU"
+                        : (type & CL_DEVICE_TYPE_CPU)         ? "CPU"
+                        : (type & CL_DEVICE_TYPE_ACCELERATOR) ? "accelerator"
+                                                              : "other";
             cl_uint cu = 0;
             clGetDeviceInfo(d, CL_DEVICE_MAX_COMPUTE_UNITS, sizeof cu, &cu, nullptr);
             info.computeUnits = int(cu);
@@ -249,7 +250,8 @@ namespace {
 void checkAllocation(const DeviceInfo& device, size_t bytes)
 {
     cl_ulong maxAlloc = 0;
-    if (clGetDeviceInfo(device.device, CL_DEVICE_MAX_MEM_ALLOC_SIZE, sizeof maxAlloc, &maxAlloc, nullptr) == CL_SUCCESS &&
+    if (clGetDeviceInfo(device.device, CL_DEVICE_MAX_MEM_ALLOC_SIZE, sizeof maxAlloc, &maxAlloc, nullptr) ==
+            CL_SUCCESS &&
         maxAlloc > 0 && bytes > maxAlloc)
         throw Error("OpenCL: a " + std::to_string(bytes >> 20) + " MiB buffer exceeds the largest allocation " +
                     std::to_string(maxAlloc >> 20) + " MiB on " + device.name +

@@ -90,7 +90,10 @@ public:
     Mem upload(const void* data, size_t bytes) const;
     Mem allocate(size_t bytes) const;  // read-write, zero-filled
     template <class T, class A>
-    Mem upload(const std::vector<T, A>& v) const { return upload(v.data(), v.size() * sizeof(T)); }
+    Mem upload(const std::vector<T, A>& v) const
+    {
+        return upload(v.data(), v.size() * sizeof(T));
+    }
     void read(const Mem& m, void* dst, size_t bytes) const;  // blocking
     void write(const Mem& m, const void* src, size_t bytes) const;
 

@@ -44,7 +44,10 @@ NbGridDesc appendGrid(const BrickGrid& g, PathtraceScene& s)
     return d;
 }
 
-bool isGrey(Rgb c) { return c.x == c.y && c.y == c.z; }
+bool isGrey(Rgb c)
+{
+    return c.x == c.y && c.y == c.z;
+}
 
 }  // namespace
 

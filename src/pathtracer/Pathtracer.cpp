@@ -20,7 +20,10 @@ namespace {
 
 using Clock = std::chrono::steady_clock;
 
-double secondsBetween(Clock::time_point a, Clock::time_point b) { return std::chrono::duration<double>(b - a).count(); }
+double secondsBetween(Clock::time_point a, Clock::time_point b)
+{
+    return std::chrono::duration<double>(b - a).count();
+}
 
 // Russian roulette starts after this many scattering events (Skanberg sec. 6.8 uses 3).
 constexpr int kRussianRouletteDepth = 3;
@@ -74,7 +77,8 @@ void resolve(const std::vector<float>& acc, int stride, long long n, const Patht
             if (alpha)
                 *film.pixel(*alpha, x, y) = al;
             if (depth)
-                *film.pixel(*depth, x, y) = a[NB_ACC_DEPTH_HITS] > 0 ? a[NB_ACC_DEPTH_SUM] / a[NB_ACC_DEPTH_HITS] : 0.0f;
+                *film.pixel(*depth, x, y) =
+                    a[NB_ACC_DEPTH_HITS] > 0 ? a[NB_ACC_DEPTH_SUM] / a[NB_ACC_DEPTH_HITS] : 0.0f;
             if (variance)
                 *film.pixel(*variance, x, y) = float(double(a[NB_ACC_M2_Y]) * varianceScale);
             for (size_t i = 0; i < lightAov.size(); ++i)
@@ -121,7 +125,8 @@ LaunchSize launchSize(cl_kernel kernel, const ocl::DeviceInfo& device, size_t it
     clGetDeviceInfo(device.device, CL_DEVICE_MAX_WORK_GROUP_SIZE, sizeof d.deviceMaxWorkGroupSize,
                     &d.deviceMaxWorkGroupSize, nullptr);
     size_t itemSizes[3] = {0, 0, 0};
-    if (clGetDeviceInfo(device.device, CL_DEVICE_MAX_WORK_ITEM_SIZES, sizeof itemSizes, itemSizes, nullptr) == CL_SUCCESS)
+    if (clGetDeviceInfo(device.device, CL_DEVICE_MAX_WORK_ITEM_SIZES, sizeof itemSizes, itemSizes, nullptr) ==
+        CL_SUCCESS)
         d.deviceMaxWorkItemSize = itemSizes[0];
     if (requestedLocal == 0)
         return chooseLaunchSize(items, d);
@@ -208,8 +213,8 @@ void renderPathtrace(const RenderContext& ctx, Film& film, const RenderControl& 
     ocl::Mem majorantBuf = cl.upload(ps.majorants);
     ocl::Mem accBuf = cl.allocate(size_t(pixelCount) * stride * sizeof(float));
     ocl::Mem counterBuf = cl.allocate(NB_COUNTER_COUNT * sizeof(cl_int));
-    const cl_mem args[] = {paramBuf.get(), lightBuf.get(), volumeBuf.get(), tableBuf.get(),
-                           poolBuf.get(),  majorantBuf.get(), accBuf.get(), counterBuf.get()};
+    const cl_mem args[] = {paramBuf.get(), lightBuf.get(),    volumeBuf.get(), tableBuf.get(),
+                           poolBuf.get(),  majorantBuf.get(), accBuf.get(),    counterBuf.get()};
     for (cl_uint i = 0; i < sizeof args / sizeof args[0]; ++i)
         ocl::check(clSetKernelArg(kernel.get(), i, sizeof(cl_mem), &args[i]), "clSetKernelArg");
 
@@ -251,8 +256,8 @@ void renderPathtrace(const RenderContext& ctx, Film& film, const RenderControl& 
         params.samples = n;
         cl.write(paramBuf, &params, sizeof params);
         const auto passStart = Clock::now();
-        ocl::check(clEnqueueNDRangeKernel(cl.queue(), kernel.get(), 1, nullptr, &global, local > 0 ? &local : nullptr, 0,
-                                          nullptr, nullptr),
+        ocl::check(clEnqueueNDRangeKernel(cl.queue(), kernel.get(), 1, nullptr, &global, local > 0 ? &local : nullptr,
+                                          0, nullptr, nullptr),
                    "clEnqueueNDRangeKernel(nbPathtrace)");
         ocl::check(clFinish(cl.queue()), "clFinish");
         const auto now = Clock::now();
@@ -283,8 +288,8 @@ void renderPathtrace(const RenderContext& ctx, Film& film, const RenderControl& 
             throw Cancelled();
         if (converged || (timeLimit > 0 && elapsed >= timeLimit))
             break;
-        if (pt.checkpointSeconds > 0 && pt.onCheckpoint && secondsBetween(lastCheckpoint, now) >= pt.checkpointSeconds &&
-            !(sppTarget > 0 && done >= sppTarget)) {
+        if (pt.checkpointSeconds > 0 && pt.onCheckpoint &&
+            secondsBetween(lastCheckpoint, now) >= pt.checkpointSeconds && !(sppTarget > 0 && done >= sppTarget)) {
             readBack(done);
             pt.onCheckpoint(film);
             lastCheckpoint = Clock::now();

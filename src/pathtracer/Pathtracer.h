@@ -43,13 +43,12 @@ struct PathtraceOptions {
     // checkpointSeconds (after the launch that crosses the interval). The CLI writes its EXR.
     double checkpointSeconds = 0;
     std::function<void(const Film&)> onCheckpoint;
-    size_t localSize = 0;        // OpenCL work-group size; 0: chosen from the device (LaunchSize.h)
+    size_t localSize = 0;               // OpenCL work-group size; 0: chosen from the device (LaunchSize.h)
     bool runtimeWorkGroupSize = false;  // benchmarks: a null local size, the runtime's choice
-    int samplesPerPass = 0;      // samples per pixel per launch; 0: adaptive, ~0.5 s launches
-    bool globalMajorant = false; // one majorant per volume instead of per brick (benchmarks)
+    int samplesPerPass = 0;             // samples per pixel per launch; 0: adaptive, ~0.5 s launches
+    bool globalMajorant = false;        // one majorant per volume instead of per brick (benchmarks)
     PathtraceStats* stats = nullptr;
 };
-
 
 // Renders ctx's scene into `film`. The film's AOVs are filled by name (beauty, L0, L1, L2plus,
 // alpha, depth, variance, light_<name>); a film with no AOVs gets all of them, sized from the
@@ -67,9 +66,14 @@ IntegratorTraits pathtraceTraits();
 // renderPathtrace behind the engine's interface.
 class PathtraceIntegrator final : public Integrator {
 public:
-    PathtraceIntegrator(const RenderContext& ctx, PathtraceOptions options) : mCtx(&ctx), mOptions(std::move(options)) {}
+    PathtraceIntegrator(const RenderContext& ctx, PathtraceOptions options) : mCtx(&ctx), mOptions(std::move(options))
+    {
+    }
     Drive drive() const override { return Drive::WholeImage; }
-    void renderImage(Film& film, const RenderControl& control) override { renderPathtrace(*mCtx, film, control, mOptions); }
+    void renderImage(Film& film, const RenderControl& control) override
+    {
+        renderPathtrace(*mCtx, film, control, mOptions);
+    }
 
 private:
     const RenderContext* mCtx;

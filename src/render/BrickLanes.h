@@ -14,15 +14,18 @@
 
 namespace nimbus::lanes {
 
-inline bool none(__m256 mask) { return _mm256_movemask_ps(mask) == 0; }
+inline bool none(__m256 mask)
+{
+    return _mm256_movemask_ps(mask) == 0;
+}
 
 // The occupied brick under eight index-space points, and the points' cells (index / 8, floored).
 struct BrickTable {
     explicit BrickTable(const BrickGrid& grid)
-        : occupied(grid.occupiedTable().data()),
-          loX(_mm256_set1_epi32(grid.brickLo().x)), loY(_mm256_set1_epi32(grid.brickLo().y)),
-          loZ(_mm256_set1_epi32(grid.brickLo().z)), dimX(_mm256_set1_epi32(grid.dims().x)),
-          dimY(_mm256_set1_epi32(grid.dims().y)), dimZ(_mm256_set1_epi32(grid.dims().z))
+        : occupied(grid.occupiedTable().data()), loX(_mm256_set1_epi32(grid.brickLo().x)),
+          loY(_mm256_set1_epi32(grid.brickLo().y)), loZ(_mm256_set1_epi32(grid.brickLo().z)),
+          dimX(_mm256_set1_epi32(grid.dims().x)), dimY(_mm256_set1_epi32(grid.dims().y)),
+          dimZ(_mm256_set1_epi32(grid.dims().z))
     {
     }
     // The brick index where `alive` and the point's brick is occupied, else -1 (outside the
@@ -40,10 +43,12 @@ struct BrickTable {
         auto within = [&](__m256i v, __m256i dim) {
             return _mm256_andnot_si256(_mm256_cmpgt_epi32(zero, v), _mm256_cmpgt_epi32(dim, v));
         };
-        const __m256i inTable = _mm256_and_si256(
-            _mm256_castps_si256(alive), _mm256_and_si256(within(bx, dimX), _mm256_and_si256(within(by, dimY), within(bz, dimZ))));
+        const __m256i inTable =
+            _mm256_and_si256(_mm256_castps_si256(alive),
+                             _mm256_and_si256(within(bx, dimX), _mm256_and_si256(within(by, dimY), within(bz, dimZ))));
         const __m256i slot = _mm256_and_si256(
-            inTable, _mm256_add_epi32(_mm256_mullo_epi32(_mm256_add_epi32(_mm256_mullo_epi32(bz, dimY), by), dimX), bx));
+            inTable,
+            _mm256_add_epi32(_mm256_mullo_epi32(_mm256_add_epi32(_mm256_mullo_epi32(bz, dimY), by), dimX), bx));
         return _mm256_mask_i32gather_epi32(_mm256_set1_epi32(-1), occupied, slot, inTable, 4);
     }
 
@@ -72,10 +77,11 @@ inline Stencil8 stencilAt(__m256i brick, __m256 inBrick, __m256 qx, __m256 qy, _
     const __m256 fx = _mm256_floor_ps(lx), fy = _mm256_floor_ps(ly), fz = _mm256_floor_ps(lz);
     const __m256i stored = _mm256_set1_epi32(BrickGrid::kStored);
     const __m256i corner = _mm256_add_epi32(
-        _mm256_mullo_epi32(_mm256_add_epi32(_mm256_mullo_epi32(_mm256_cvttps_epi32(fz), stored), _mm256_cvttps_epi32(fy)),
-                           stored),
+        _mm256_mullo_epi32(
+            _mm256_add_epi32(_mm256_mullo_epi32(_mm256_cvttps_epi32(fz), stored), _mm256_cvttps_epi32(fy)), stored),
         _mm256_cvttps_epi32(fx));
-    const __m256i index = _mm256_add_epi32(_mm256_mullo_epi32(brick, _mm256_set1_epi32(BrickGrid::kBrickValues)), corner);
+    const __m256i index =
+        _mm256_add_epi32(_mm256_mullo_epi32(brick, _mm256_set1_epi32(BrickGrid::kBrickValues)), corner);
     return {_mm256_and_si256(_mm256_castps_si256(inBrick), index), _mm256_sub_ps(lx, fx), _mm256_sub_ps(ly, fy),
             _mm256_sub_ps(lz, fz)};
 }

@@ -12,8 +12,8 @@ struct CameraSample {
     Rgb L1 = splat(0.0f);      // single scattering (eqs. 31-33)
     Rgb L2plus = splat(0.0f);  // multiple scattering (wkb only)
     Rgb transmittance = splat(1.0f);
-    float depth = 0.0f;        // opacity-weighted mean distance along the ray, metres; 0 if empty
-    float opacity = 0.0f;      // the ray's opacity summed step by step: the depth's weight in a pixel
+    float depth = 0.0f;    // opacity-weighted mean distance along the ray, metres; 0 if empty
+    float opacity = 0.0f;  // the ray's opacity summed step by step: the depth's weight in a pixel
 };
 
 }  // namespace nimbus

@@ -65,15 +65,17 @@ DeepShadowMap DeepShadowMap::build(const NbLight& light, const VolumeSet& volume
     std::vector<std::vector<uint32_t>> rowCounts(rows.size());
     // An orthographic map over one grey volume marches a row's texel rays together, eight at a
     // time where the build can (MarchParallelRays.h): parallel rays on one depth lattice.
-    const bool byRow = m.mProjection == Projection::Orthographic && m.mGrey && vols.size() == 1 &&
-                       vols[0]->density.channels() == 1;
+    const bool byRow =
+        m.mProjection == Projection::Orthographic && m.mGrey && vols.size() == 1 && vols[0]->density.channels() == 1;
     tbb::parallel_for(tbb::blocked_range<size_t>(0, rows.size()), [&](const tbb::blocked_range<size_t>& r) {
         std::vector<Vertex> texel;
         std::vector<std::vector<Vertex>> rowRaw(byRow ? size_t(res) : 0);
         std::vector<int> toMarch;
         for (size_t row = r.begin(); row != r.end(); ++row) {
             int face = int(row / res), iy = int(row % res);
-            auto meets = [&](int ix) { return texelMeetsBricks.empty() || texelMeetsBricks[row * size_t(res) + size_t(ix)]; };
+            auto meets = [&](int ix) {
+                return texelMeetsBricks.empty() || texelMeetsBricks[row * size_t(res) + size_t(ix)];
+            };
             if (byRow) {
                 toMarch.clear();
                 for (int ix = 0; ix < res; ++ix)
@@ -167,8 +169,10 @@ std::vector<char> DeepShadowMap::texelsMeetingBricks(const VolumeSet& volumes) c
                 const float fx = dot(q, f.right) * scale - 0.5f, fy = dot(q, f.up) * scale - 0.5f;
                 xLo = std::min(xLo, fx), xHi = std::max(xHi, fx), yLo = std::min(yLo, fy), yHi = std::max(yHi, fy);
             }
-            const int x0 = std::max(0, int(std::ceil(xLo - 0.5f))), x1 = std::min(mRes - 1, int(std::floor(xHi + 0.5f)));
-            const int y0 = std::max(0, int(std::ceil(yLo - 0.5f))), y1 = std::min(mRes - 1, int(std::floor(yHi + 0.5f)));
+            const int x0 = std::max(0, int(std::ceil(xLo - 0.5f))),
+                      x1 = std::min(mRes - 1, int(std::floor(xHi + 0.5f)));
+            const int y0 = std::max(0, int(std::ceil(yLo - 0.5f))),
+                      y1 = std::min(mRes - 1, int(std::floor(yHi + 0.5f)));
             if (x0 > x1)
                 return true;  // beside the map (cannot happen: the footprint covers the bounds)
             for (int y = y0; y <= y1; ++y)
@@ -193,15 +197,19 @@ void DeepShadowMap::marchRay(const VolumeSet& volumes, float3 o, float3 d, float
         const Rgb kT = vol.sigmaT();
         const float dt = stepFraction * vol.voxelSize;
         int last = -2;
-        walkVolume(vol, o, d, dt, 0.5f, [&](int k, float t, const BrickGrid::Stencil& st) {
-            if (k != last + 1)
-                raw.push_back({t - 0.5f * dt, {tau[0], tau[1], tau[2]}});
-            last = k;
-            const float rho = std::max(BrickGrid::trilinear<1>(density.brickData(st.brick) + st.corner, st.tx, st.ty, st.tz), 0.0f);
-            tau[0] += kT.x * rho * dt, tau[1] += kT.y * rho * dt, tau[2] += kT.z * rho * dt;
-            raw.push_back({t + 0.5f * dt, {tau[0], tau[1], tau[2]}});
-            return true;
-        }, Lattice::FromOrigin);
+        walkVolume(
+            vol, o, d, dt, 0.5f,
+            [&](int k, float t, const BrickGrid::Stencil& st) {
+                if (k != last + 1)
+                    raw.push_back({t - 0.5f * dt, {tau[0], tau[1], tau[2]}});
+                last = k;
+                const float rho = std::max(
+                    BrickGrid::trilinear<1>(density.brickData(st.brick) + st.corner, st.tx, st.ty, st.tz), 0.0f);
+                tau[0] += kT.x * rho * dt, tau[1] += kT.y * rho * dt, tau[2] += kT.z * rho * dt;
+                raw.push_back({t + 0.5f * dt, {tau[0], tau[1], tau[2]}});
+                return true;
+            },
+            Lattice::FromOrigin);
         return;
     }
     thread_local std::vector<Span> spanList;

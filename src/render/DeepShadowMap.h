@@ -147,9 +147,9 @@ public:
 
 private:
     struct Face {
-        float3 origin;    // orthographic: a corner of the footprint plane; perspective: apex
+        float3 origin;  // orthographic: a corner of the footprint plane; perspective: apex
         float3 right, up, forward;
-        float extent;     // orthographic: footprint side, metres; perspective: tan(half angle)
+        float extent;  // orthographic: footprint side, metres; perspective: tan(half angle)
     };
 
 #if defined(__AVX2__) && defined(__FMA__)
@@ -166,8 +166,8 @@ private:
     // No initialisers: buildTexel writes every field, from the parallel build, so the index is
     // first touched there (BulkVector).
     struct TexelSamples {
-        int32_t k0;               // the first sample's depth, k0 dz
-        uint32_t first, count;    // where in the row, how many (depths (k0 + i) dz)
+        int32_t k0;             // the first sample's depth, k0 dz
+        uint32_t first, count;  // where in the row, how many (depths (k0 + i) dz)
     };
     static constexpr uint32_t kEmptyTexel = ~0u;  // TexelSamples::first of a ray that meets nothing
     // Orthographic maps: per texel, whether its ray can meet an occupied brick of some volume

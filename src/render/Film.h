@@ -15,8 +15,8 @@ namespace nimbus {
 
 struct Aov {
     std::string name;
-    int channels = 3;     // 1 (data) or 3 (RGB); beauty is 4 (RGBA)
-    bool isData = false;  // written as float rather than half
+    int channels = 3;          // 1 (data) or 3 (RGB); beauty is 4 (RGBA)
+    bool isData = false;       // written as float rather than half
     BulkVector<float> pixels;  // row-major from the top-left, channels interleaved
 };
 

@@ -70,7 +70,8 @@ bool marchEightParallelRays(const VolumeData& vol, const float3* o, int n, float
         const __m256 alive = _mm256_and_ps(_mm256_cmp_ps(K, KFirst, _CMP_GE_OQ), _mm256_cmp_ps(tk, TOut, _CMP_LT_OQ));
         uint8_t mask = 0;
         if (!lanes::none(alive)) {
-            const __m256 qx = _mm256_fmadd_ps(Dx, tk, Ox), qy = _mm256_fmadd_ps(Dy, tk, Oy), qz = _mm256_fmadd_ps(Dz, tk, Oz);
+            const __m256 qx = _mm256_fmadd_ps(Dx, tk, Ox), qy = _mm256_fmadd_ps(Dy, tk, Oy),
+                         qz = _mm256_fmadd_ps(Dz, tk, Oz);
             __m256 cellX, cellY, cellZ;
             const __m256i brick = table.brickAt(qx, qy, qz, alive, cellX, cellY, cellZ);
             const __m256 occ = _mm256_castsi256_ps(_mm256_cmpgt_epi32(brick, _mm256_set1_epi32(-1)));

@@ -31,7 +31,7 @@ struct RenderContext {
     const Scene* scene = nullptr;
     VolumeSet volumes;
     std::vector<LightEntry> lights;  // index-aligned with scene.lights
-    Rgb background = splat(0.0f);  // radiance seen where rays leave the volumes
+    Rgb background = splat(0.0f);    // radiance seen where rays leave the volumes
 
     // The context for `plan` (made by planScene over the same volumes): the lights in kernel
     // form, used and shadow-mapped as the plan says; no shadow map built yet.

@@ -9,7 +9,10 @@
 namespace nimbus {
 
 namespace {
-std::string bytes(size_t b) { return formatBytes(b); }
+std::string bytes(size_t b)
+{
+    return formatBytes(b);
+}
 }  // namespace
 
 std::string RenderPlan::describe() const
@@ -29,8 +32,8 @@ std::string RenderPlan::describe() const
             s << (i ? ", " : "") << v.gridsRead[i];
         s << "], " << v.bricks << " bricks (" << bytes(v.memoryBytes) << "), voxel " << v.voxelSize << " m, bounds "
           << v.bounds << "\n";
-        s << "      optical depth: up to " << v.maxOpticalDepthPerVoxel << " per voxel, up to "
-          << v.opticalDepthAcross << " across; emission " << (v.emission ? "on" : "off (no emission grid)");
+        s << "      optical depth: up to " << v.maxOpticalDepthPerVoxel << " per voxel, up to " << v.opticalDepthAcross
+          << " across; emission " << (v.emission ? "on" : "off (no emission grid)");
         if (v.clampedVoxels)
             s << "; " << v.clampedVoxels << " bad voxel values clamped";
         s << "\n";

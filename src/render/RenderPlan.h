@@ -14,13 +14,13 @@
 namespace nimbus {
 
 struct LightPlan {
-    std::string name;       // AOV suffix
+    std::string name;  // AOV suffix
     std::string type;
-    bool used = true;       // false: skipped, with `reason`
-    bool shadowMap = false; // transmittance from a deep shadow map (delta lights)
-    bool sampled = false;   // transmittance by shadow rays (area, sphere, environment, soft sun)
-    std::string projection; // orthographic / perspective / cube
-    int resolution = 0;     // the most texels per side; the build may use fewer (RenderStats)
+    bool used = true;        // false: skipped, with `reason`
+    bool shadowMap = false;  // transmittance from a deep shadow map (delta lights)
+    bool sampled = false;    // transmittance by shadow rays (area, sphere, environment, soft sun)
+    std::string projection;  // orthographic / perspective / cube
+    int resolution = 0;      // the most texels per side; the build may use fewer (RenderStats)
     std::string reason;
     // wkb: how this light feeds L2+ (empty for other methods), e.g. "E = weight * T from the
     // deep shadow map" or "SH order 2 (27 channels)" or "skipped: <why>".
@@ -35,27 +35,27 @@ struct VolumePlan {
     size_t memoryBytes = 0;
     float voxelSize = 0;
     float maxOpticalDepthPerVoxel = 0;  // max sigma_t * voxel size over channels
-    float opticalDepthAcross = 0;        // max sigma_t * (bounding-box diagonal), an upper bound
+    float opticalDepthAcross = 0;       // max sigma_t * (bounding-box diagonal), an upper bound
     size_t clampedVoxels = 0;
     std::string bounds;
     // wkb light pyramid (docs/wkb.md "render plan"):
-    bool l2plus = false;         // light channels built for this volume
-    double l2plusBound = 0;      // bound on this volume's share of L2+, in units of E / (4 pi)
-    int lightVoxelFactor = 0;    // light-grid voxel = this many density voxels per axis
-    int mipLevels = 0;           // estimated (the build's count is in RenderStats)
-    std::string lightGrid;       // level-0 size, e.g. "20 x 14 x 18 voxels, 24 bricks"
-    size_t pyramidBytes = 0;     // estimated
+    bool l2plus = false;       // light channels built for this volume
+    double l2plusBound = 0;    // bound on this volume's share of L2+, in units of E / (4 pi)
+    int lightVoxelFactor = 0;  // light-grid voxel = this many density voxels per axis
+    int mipLevels = 0;         // estimated (the build's count is in RenderStats)
+    std::string lightGrid;     // level-0 size, e.g. "20 x 14 x 18 voxels, 24 bricks"
+    size_t pyramidBytes = 0;   // estimated
 };
 
 // The multiple-scattering term's choices (method wkb).
 struct WkbPlan {
-    bool enabled = false;      // method wkb
-    bool l2plus = false;       // false: L2+ skipped for the whole scene (its bound is below tolerance)
-    double l2plusBound = 0;    // bound on L2+ in units of the brightest source's E / (4 pi)
+    bool enabled = false;    // method wkb
+    bool l2plus = false;     // false: L2+ skipped for the whole scene (its bound is below tolerance)
+    double l2plusBound = 0;  // bound on L2+ in units of the brightest source's E / (4 pi)
     std::string kernel, source;
     float blurK = 0, lStep = 0;
     int orderCap = 0;
-    int channels = 0;          // per light-grid voxel: density + 3 per delta source + 3 (J+1)^2 per SH source
+    int channels = 0;  // per light-grid voxel: density + 3 per delta source + 3 (J+1)^2 per SH source
     size_t pyramidBytes = 0, densityBytes = 0;  // estimated light pyramids; the density grids
     float memoryBudget = 0;
 };
@@ -68,11 +68,11 @@ struct IntegratorPlan {
 
 struct RenderPlan {
     Method method = Method::Single;
-    std::vector<std::string> aovs;   // what the integrator writes, in output order (FilmLayout.h)
-    std::vector<LightPlan> lights;   // index-aligned with scene.lights
-    std::vector<VolumePlan> volumes; // index-aligned with the loaded (non-empty) volumes
+    std::vector<std::string> aovs;    // what the integrator writes, in output order (FilmLayout.h)
+    std::vector<LightPlan> lights;    // index-aligned with scene.lights
+    std::vector<VolumePlan> volumes;  // index-aligned with the loaded (non-empty) volumes
     WkbPlan wkb;
-    std::vector<std::string> notes;  // other omissions and decisions, one line each
+    std::vector<std::string> notes;                    // other omissions and decisions, one line each
     std::shared_ptr<const IntegratorPlan> integrator;  // null for integrators with no decisions of their own
 
     std::string describe() const;  // multi-line, human readable

@@ -13,9 +13,9 @@ namespace {
 // might reach a volume is kept.
 std::string unreachableReason(const Light& l, const NbLight& k, const Bbox& bounds)
 {
-    Rgb c = l.type == LightType::Distant ? l.irradiance
+    Rgb c = l.type == LightType::Distant                                ? l.irradiance
             : (l.type == LightType::Point || l.type == LightType::Spot) ? l.intensity
-                                                                          : l.radiance;
+                                                                        : l.radiance;
     if (nbMaxComponent(c) <= 0.0f)
         return "zero power";
     if (bounds.empty())
@@ -96,12 +96,13 @@ RenderPlan planScene(const Scene& scene, const VolumeSet& volumes)
         } else if (nbLightIsDelta(k) || sunSharperThanAVoxel(l, volumes)) {
             lp.shadowMap = true;
             if (!nbLightIsDelta(k))
-                plan.notes.push_back("light " + lp.name + ": its " + std::to_string(l.angle) +
-                                     " deg disc casts penumbrae under one voxel here: shadow-mapped as a point on the sky");
+                plan.notes.push_back(
+                    "light " + lp.name + ": its " + std::to_string(l.angle) +
+                    " deg disc casts penumbrae under one voxel here: shadow-mapped as a point on the sky");
             lp.resolution = scene.render.shadowMapResolution;
-            lp.projection = l.type == LightType::Distant ? "orthographic"
+            lp.projection = l.type == LightType::Distant                           ? "orthographic"
                             : (l.type == LightType::Spot && l.coneAngle <= 120.0f) ? "perspective"
-                                                                                    : "cube";
+                                                                                   : "cube";
         } else {
             lp.sampled = true;
             lp.reason = std::to_string(scene.render.lightSamples) + " sample(s) per step";

@@ -26,8 +26,8 @@ std::string RenderStats::describe(const RenderPlan& plan) const
         s << "  light " << plan.lights[i].name << ":";
         if (l.shadowMapBytes) {
             s << " deep shadow map " << l.resolution << "^2 texels, " << formatBytes(l.shadowMapBytes) << ", built in "
-              << l.shadowMapSeconds << " s; baked on the voxels, " << formatBytes(l.cacheBytes) << ", " << l.cacheSeconds
-              << " s";
+              << l.shadowMapSeconds << " s; baked on the voxels, " << formatBytes(l.cacheBytes) << ", "
+              << l.cacheSeconds << " s";
             if (l.marchSampleBytes > 0)
                 s << " (from the map's uncompressed march, " << formatBytes(l.marchSampleBytes) << ", freed after)";
         }
@@ -37,8 +37,8 @@ std::string RenderStats::describe(const RenderPlan& plan) const
     }
     for (size_t v = 0; v < volumes.size() && v < plan.volumes.size(); ++v)
         if (volumes[v].pyramidBytes)
-            s << "  volume " << plan.volumes[v].name << ": L2+ light pyramid " << volumes[v].mipLevels << " mip levels, "
-              << formatBytes(volumes[v].pyramidBytes) << "\n";
+            s << "  volume " << plan.volumes[v].name << ": L2+ light pyramid " << volumes[v].mipLevels
+              << " mip levels, " << formatBytes(volumes[v].pyramidBytes) << "\n";
     if (pyramidBytes)
         s << "  light pyramids in all: " << formatBytes(pyramidBytes) << "\n";
     if (!stageSeconds.empty()) {

@@ -13,17 +13,17 @@
 namespace nimbus {
 
 struct LightStats {
-    int resolution = 0;           // the deep shadow map as built (texels per side)
+    int resolution = 0;  // the deep shadow map as built (texels per side)
     size_t shadowMapBytes = 0;
     double shadowMapSeconds = 0;
-    size_t cacheBytes = 0;        // the shadow map baked on the voxels (LightCache)
+    size_t cacheBytes = 0;  // the shadow map baked on the voxels (LightCache)
     double cacheSeconds = 0;
-    size_t marchSampleBytes = 0;  // the map's march samples the bake read (freed after), or 0
+    size_t marchSampleBytes = 0;      // the map's march samples the bake read (freed after), or 0
     size_t l2plusShadowMapBytes = 0;  // wkb: a shadow map of its own for the light volumes
 };
 
 struct VolumeStats {
-    int mipLevels = 0;        // wkb light pyramid as built
+    int mipLevels = 0;  // wkb light pyramid as built
     size_t pyramidBytes = 0;
 };
 

@@ -36,8 +36,8 @@ namespace {
 
 // Appends the spans of non-empty brick slots of one grid along an index-space ray (3D DDA,
 // Amanatides & Woo 1987). tIn/tOut bound the ray inside the grid's active bounds.
-void gridSpans(const BrickGrid& grid, const BrickGrid* emission, float3 o, float3 d, float tIn, float tOut,
-               float step, std::vector<Span>& out)
+void gridSpans(const BrickGrid& grid, const BrickGrid* emission, float3 o, float3 d, float tIn, float tOut, float step,
+               std::vector<Span>& out)
 {
     const float B = float(BrickGrid::kBrick);
     BrickDda dda;
@@ -82,8 +82,8 @@ void VolumeSet::spans(float3 o, float3 d, float tmin, float tmax, float stepFrac
         float s0, s1;
         if (!ib.intersect(oi, safeInverse(di), t0, t1, s0, s1))
             continue;
-        gridSpans(v->density, v->hasEmission() ? &v->emission : nullptr, oi, di, s0, s1,
-                  stepFraction * v->voxelSize, local);
+        gridSpans(v->density, v->hasEmission() ? &v->emission : nullptr, oi, di, s0, s1, stepFraction * v->voxelSize,
+                  local);
     }
     if (local.empty())
         return;

@@ -20,9 +20,9 @@ struct Span {
 
 // Coefficients at a point, summed over volumes (Tessendorf sec. 2: b, a, c = a + b).
 struct MediumSample {
-    Rgb sigma_t = splat(0.0f);  // 1/m
-    Rgb sigma_s = splat(0.0f);  // 1/m
-    Rgb emission = splat(0.0f); // W/(m^3 sr)
+    Rgb sigma_t = splat(0.0f);   // 1/m
+    Rgb sigma_s = splat(0.0f);   // 1/m
+    Rgb emission = splat(0.0f);  // W/(m^3 sr)
 };
 
 class VolumeSet {

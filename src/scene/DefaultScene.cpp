@@ -45,7 +45,7 @@ Scene defaultScene()
     // Optical depth about 10 through the centre at density 1: thick enough for the key light
     // to shadow the far side, thin enough that single scattering still reads as a cloud.
     cloud.medium.sigma_s = splat(2.5f);
-    cloud.medium.sigma_a = splat(0.025f);  // albedo 0.99, as for water droplets
+    cloud.medium.sigma_a = splat(0.025f);           // albedo 0.99, as for water droplets
     cloud.medium.phase = {0.6f, 0.0f, 0.0f, 0.0f};  // forward scattering, a silver lining
     s.volumes.push_back(cloud);
 

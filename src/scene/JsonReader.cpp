@@ -27,8 +27,8 @@ namespace {
 // Where the parser is: one frame per open object or array, for the key set and the key path.
 struct ParseFrame {
     bool array = false;
-    size_t index = 0;     // array: the element being parsed
-    std::string key;      // object: the key whose value is being parsed
+    size_t index = 0;  // array: the element being parsed
+    std::string key;   // object: the key whose value is being parsed
     std::set<std::string> keys;
 };
 
@@ -36,8 +36,8 @@ std::string framePath(const std::vector<ParseFrame>& frames, const std::string& 
 {
     std::string path;
     for (size_t i = 0; i + 1 < frames.size(); ++i)
-        path += frames[i].array ? "[" + std::to_string(frames[i].index) + "]"
-                                : (path.empty() ? "" : ".") + frames[i].key;
+        path +=
+            frames[i].array ? "[" + std::to_string(frames[i].index) + "]" : (path.empty() ? "" : ".") + frames[i].key;
     return path + (path.empty() ? "" : ".") + last;
 }
 
@@ -60,7 +60,8 @@ json parseJsonRejectingDuplicateKeys(const std::string& text, const std::string&
             ParseFrame& top = frames.back();
             top.key = parsed.get<std::string>();
             if (!top.keys.insert(top.key).second)
-                throwSceneError(file, framePath(frames, top.key), "duplicate key (each key may appear once in an object)");
+                throwSceneError(file, framePath(frames, top.key),
+                                "duplicate key (each key may appear once in an object)");
             break;
         }
         case json::parse_event_t::object_end:
@@ -68,16 +69,17 @@ json parseJsonRejectingDuplicateKeys(const std::string& text, const std::string&
             frames.pop_back();
             elementDone();
             break;
-        case json::parse_event_t::value:
-            elementDone();
-            break;
+        case json::parse_event_t::value: elementDone(); break;
         }
         return true;
     };
     return json::parse(text, callback);
 }
 
-void JsonValue::fail(const std::string& what) const { throwSceneError(file, path, what); }
+void JsonValue::fail(const std::string& what) const
+{
+    throwSceneError(file, path, what);
+}
 
 void JsonValue::typeError(const std::string& expected) const
 {
@@ -207,7 +209,7 @@ void JsonReader::field(const std::string& key, int& out)
 {
     if (const json* v = find(key))
         out = int(JsonValue{*v, keyPath(key), mFile}.integer(std::numeric_limits<int>::min(),
-                                                                std::numeric_limits<int>::max()));
+                                                             std::numeric_limits<int>::max()));
 }
 
 void JsonReader::field(const std::string& key, uint32_t& out)

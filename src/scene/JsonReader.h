@@ -31,8 +31,8 @@ struct JsonValue {
     float toFloat() const;  // finite and representable as a float
     int64_t integer(int64_t lo, int64_t hi) const;
     std::string string() const;
-    float3 vec3() const;  // array of 3 numbers
-    Rgb rgb() const;      // array of 3 numbers, or one number for grey
+    float3 vec3() const;                   // array of 3 numbers
+    Rgb rgb() const;                       // array of 3 numbers, or one number for grey
     void floats(float* out, int n) const;  // array of exactly n numbers
 };
 

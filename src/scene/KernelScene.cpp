@@ -11,7 +11,10 @@ void store(float* dst, float3 v, float w = 0.0f)
     dst[0] = v.x, dst[1] = v.y, dst[2] = v.z, dst[3] = w;
 }
 
-float cosDegrees(double deg) { return float(std::cos(deg * M_PI / 180.0)); }
+float cosDegrees(double deg)
+{
+    return float(std::cos(deg * M_PI / 180.0));
+}
 
 void frame(float3 from, float3 to, float3 up, float* origin, float* forward, float* right)
 {

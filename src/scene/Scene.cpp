@@ -35,8 +35,14 @@ const char* pixelFilterName(PixelFilter f)
     return "gaussian";
 }
 
-const char* wkbKernelName(WkbKernel k) { return k == WkbKernel::Exact ? "exact" : "gaussian"; }
+const char* wkbKernelName(WkbKernel k)
+{
+    return k == WkbKernel::Exact ? "exact" : "gaussian";
+}
 
-const char* wkbSourceName(WkbSource s) { return s == WkbSource::RandomWalk ? "random_walk" : "straight"; }
+const char* wkbSourceName(WkbSource s)
+{
+    return s == WkbSource::RandomWalk ? "random_walk" : "straight";
+}
 
 }  // namespace nimbus

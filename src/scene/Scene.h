@@ -7,9 +7,9 @@
 // Coefficients sigma_s, sigma_a in 1/m at density 1 (Tessendorf sec. 2: b = kappa_b rho).
 #pragma once
 
+#include "../../kernels/shared/phase.h"
 #include "../core/Transform.h"
 #include "../core/Vec.h"
-#include "../../kernels/shared/phase.h"
 
 #include <map>
 #include <string>
@@ -41,8 +41,8 @@ struct Light {
     LightType type = LightType::Distant;
     // distant
     float3 direction = make_float3(0, -1, 0);  // direction of travel (distant, spot axis)
-    Rgb irradiance = splat(1.0f);               // W/m^2
-    float angle = 0.0f;                         // apparent diameter, degrees
+    Rgb irradiance = splat(1.0f);              // W/m^2
+    float angle = 0.0f;                        // apparent diameter, degrees
     // point, spot, sphere
     float3 position = make_float3(0, 5, 0);
     Rgb intensity = splat(1.0f);  // W/sr (point, spot)
@@ -103,8 +103,8 @@ enum class PixelFilter { Box, Gaussian, BlackmanHarris };
 
 const char* methodName(Method m);
 const char* pixelFilterName(PixelFilter f);  // "box", "gaussian", "blackman_harris"
-const char* wkbKernelName(WkbKernel k);  // "gaussian", "exact"
-const char* wkbSourceName(WkbSource s);  // "straight", "random_walk"
+const char* wkbKernelName(WkbKernel k);      // "gaussian", "exact"
+const char* wkbSourceName(WkbSource s);      // "straight", "random_walk"
 
 // Samples per pixel of single and wkb when `spp` is 0 (the default).
 constexpr int kDefaultMarchSpp = 4;
@@ -112,36 +112,36 @@ constexpr int kDefaultMarchSpp = 4;
 struct RenderSettings {
     Method method = Method::Single;
     uint32_t seed = 1;
-    int threads = 0;   // 0: all cores
+    int threads = 0;  // 0: all cores
     // Camera samples per pixel (single, wkb); path samples per pixel (pathtrace). 0: the method's
     // default, kDefaultMarchSpp for single and wkb, and for pathtrace no sample count (it renders
     // until noiseTarget or timeLimit).
     int spp = 0;
     PixelFilter pixelFilter = PixelFilter::Gaussian;
     float filterWidth = 2.0f;  // the filter's full support, pixels (radius width / 2)
-    float step = 0.5f; // primary march step as a fraction of the smallest voxel
+    float step = 0.5f;         // primary march step as a fraction of the smallest voxel
     int shadowMapResolution = 256;
-    float tolerance = 0.002f;  // deep-shadow-map transmittance error, and term cut-offs
-    float shadowStep = 1.0f;   // light-ray march step for shadow maps and light sampling, voxels
-    int lightSamples = 1;      // area, sphere and environment light samples per march step
-    int maxDepth = 0;          // pathtrace: the most scattering events; 0 = unbounded, 1 = single scattering
-    double timeLimit = 0.0;    // pathtrace: seconds, 0 = none
-    double noiseTarget = 1e-4; // pathtrace with spp 0: stop at this beauty relMSE (from the variance AOV); 0 = none
+    float tolerance = 0.002f;   // deep-shadow-map transmittance error, and term cut-offs
+    float shadowStep = 1.0f;    // light-ray march step for shadow maps and light sampling, voxels
+    int lightSamples = 1;       // area, sphere and environment light samples per march step
+    int maxDepth = 0;           // pathtrace: the most scattering events; 0 = unbounded, 1 = single scattering
+    double timeLimit = 0.0;     // pathtrace: seconds, 0 = none
+    double noiseTarget = 1e-4;  // pathtrace with spp 0: stop at this beauty relMSE (from the variance AOV); 0 = none
     // wkb (docs/wkb.md has the derivation of each):
     WkbKernel wkbKernel = WkbKernel::Gaussian;
     WkbSource wkbSource = WkbSource::Straight;
-    float wkbBlurK = 24.0f;          // K in the blur width s sqrt(K mu l), Tessendorf eq. 79
-    float wkbLStep = 0.25f;          // l-march step, scattering lengths; grows as l_step * l past l = 1
-    int wkbOrderMax = 128;           // cap on the Legendre order j of the angular sum (eq. 88)
-    int wkbShOrderMax = 2;           // cap on the SH order of area, environment and emission light volumes
-    int lightVolumeResolution = 0;   // light-grid voxels across a volume's largest extent; 0: the plan picks
-    float wkbMemoryBudget = 1.0f;    // all light pyramids / all density grids, bytes (automatic resolution)
+    float wkbBlurK = 24.0f;         // K in the blur width s sqrt(K mu l), Tessendorf eq. 79
+    float wkbLStep = 0.25f;         // l-march step, scattering lengths; grows as l_step * l past l = 1
+    int wkbOrderMax = 128;          // cap on the Legendre order j of the angular sum (eq. 88)
+    int wkbShOrderMax = 2;          // cap on the SH order of area, environment and emission light volumes
+    int lightVolumeResolution = 0;  // light-grid voxels across a volume's largest extent; 0: the plan picks
+    float wkbMemoryBudget = 1.0f;   // all light pyramids / all density grids, bytes (automatic resolution)
 };
 
 struct OutputSettings {
     std::string file = "out/render.exr";
-    std::string preview;             // PNG through the OCIO view; empty: none
-    std::vector<std::string> aovs;   // empty: all the method produces
+    std::string preview;            // PNG through the OCIO view; empty: none
+    std::vector<std::string> aovs;  // empty: all the method produces
 };
 
 struct Scene {

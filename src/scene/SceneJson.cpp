@@ -111,7 +111,8 @@ public:
 
 private:
     template <class E>
-    void named(const std::string& key, E& out, std::initializer_list<E> values, const char* (*name)(E), const char* what)
+    void named(const std::string& key, E& out, std::initializer_list<E> values, const char* (*name)(E),
+               const char* what)
     {
         const nlohmann::json* v = find(key);
         if (!v)
@@ -136,7 +137,10 @@ const json& requireList(const JsonValue& v)
     return v.value;
 }
 
-std::string indexed(const std::string& path, size_t i) { return path + "[" + std::to_string(i) + "]"; }
+std::string indexed(const std::string& path, size_t i)
+{
+    return path + "[" + std::to_string(i) + "]";
+}
 
 // ---- render, output ------------------------------------------------------------------------
 
@@ -230,8 +234,8 @@ json writeCamera(const Camera& c)
     }
     if (c.hasMotion)
         w.doc()["motion"] = {{"from", JsonWriter::array(c.fromClose)},
-                              {"to", JsonWriter::array(c.toClose)},
-                              {"up", JsonWriter::array(c.upClose)}};
+                             {"to", JsonWriter::array(c.toClose)},
+                             {"up", JsonWriter::array(c.upClose)}};
     return w.doc();
 }
 
@@ -274,9 +278,7 @@ void visitLight(V& v, L& l)
         v.field("radius", l.radius);
         v.rgb("radiance", l.radiance);
         break;
-    case LightType::Environment:
-        v.rgb("radiance", l.radiance);
-        break;
+    case LightType::Environment: v.rgb("radiance", l.radiance); break;
     }
 }
 
@@ -462,7 +464,9 @@ json writePhase(const NbPhase& p)
 {
     if (p.g2 == 0.0f && p.blend == 0.0f)
         return {{"type", "hg"}, {"g", shortestDecimal(p.g)}};
-    return {{"type", "hg2"}, {"g", shortestDecimal(p.g)}, {"g2", shortestDecimal(p.g2)},
+    return {{"type", "hg2"},
+            {"g", shortestDecimal(p.g)},
+            {"g2", shortestDecimal(p.g2)},
             {"blend", shortestDecimal(p.blend)}};
 }
 

@@ -34,8 +34,7 @@ nlohmann::json readJsonFile(const std::string& path);
 // [320,180], true) and taken as a string otherwise (wkb, out/a.exr). A malformed assignment
 // throws InputError "<sourcePath>: --set '<assignment>': <what>". Values are not checked here:
 // sceneFromJson checks them like any other value in the file.
-void applyOverrides(nlohmann::json& scene, const std::vector<std::string>& overrides,
-                    const std::string& sourcePath);
+void applyOverrides(nlohmann::json& scene, const std::vector<std::string>& overrides, const std::string& sourcePath);
 
 // Builds and validates a Scene from a parsed document. sourcePath names the file in messages
 // and anchors relative vdb "file" paths (resolved against its directory); empty: a document

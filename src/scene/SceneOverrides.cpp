@@ -40,8 +40,7 @@ std::string describe(const json& node)
 
 class Override {
 public:
-    Override(const std::string& assignment, const std::string& sourcePath)
-        : mText(assignment), mSourcePath(sourcePath)
+    Override(const std::string& assignment, const std::string& sourcePath) : mText(assignment), mSourcePath(sourcePath)
     {
     }
 

@@ -31,7 +31,10 @@ std::string num(double v)
     return buf;
 }
 
-std::string vec(float3 v) { return "[" + num(v.x) + ", " + num(v.y) + ", " + num(v.z) + "]"; }
+std::string vec(float3 v)
+{
+    return "[" + num(v.x) + ", " + num(v.y) + ", " + num(v.z) + "]";
+}
 
 bool isNameChar(char c)
 {
@@ -124,8 +127,8 @@ void checkPose(const Checker& c, const std::string& prefix, float3 from, float3 
     c.direction(prefix + "up", up);
     float3 view = to - from;
     if (view.x == 0 && view.y == 0 && view.z == 0)
-        c.fail(prefix + "to", "must differ from " + prefix + "from (a camera cannot look at its own position), got " +
-                                  vec(to));
+        c.fail(prefix + "to",
+               "must differ from " + prefix + "from (a camera cannot look at its own position), got " + vec(to));
     c.notParallel(prefix + "up", up, view, "the view direction (to - from)");
 }
 
@@ -138,8 +141,8 @@ void checkCamera(const Checker& c, const Camera& cam)
     if (cam.fov < kMinFov)
         c.fail("camera.fov", "must be at least " + num(kMinFov) + " degrees, got " + num(cam.fov));
     if (cam.width < 1 || cam.height < 1 || cam.width > 65536 || cam.height > 65536)
-        c.fail("camera.resolution", "must be two positive integers <= 65536, got [" + std::to_string(cam.width) +
-                                        ", " + std::to_string(cam.height) + "]");
+        c.fail("camera.resolution", "must be two positive integers <= 65536, got [" + std::to_string(cam.width) + ", " +
+                                        std::to_string(cam.height) + "]");
     const float* k = cam.crop;
     bool inUnit = true;
     for (int i = 0; i < 4; ++i)
@@ -187,11 +190,8 @@ void checkLight(const Checker& c, const Light& l, const std::string& p)
         c.range(p + "radius", l.radius, kPositive);
         c.nonNegative(p + "radiance", l.radiance);
         break;
-    case LightType::Environment:
-        c.nonNegative(p + "radiance", l.radiance);
-        break;
-    default:
-        c.fail(p + "type", "unknown light type " + std::to_string(int(l.type)));
+    case LightType::Environment: c.nonNegative(p + "radiance", l.radiance); break;
+    default: c.fail(p + "type", "unknown light type " + std::to_string(int(l.type)));
     }
 }
 
@@ -242,8 +242,7 @@ void checkSource(const Checker& c, const VolumeSource& s, const std::string& p)
         if (s.pluginPath.empty())
             c.fail(p + "path", "a plugin source needs the path of its shared library");
         break;
-    default:
-        c.fail(p + "type", "unknown source type " + std::to_string(int(s.type)));
+    default: c.fail(p + "type", "unknown source type " + std::to_string(int(s.type)));
     }
 }
 
@@ -326,8 +325,10 @@ void checkRender(const Checker& c, const RenderSettings& r)
     c.range("render.wkb_order_max", r.wkbOrderMax, Range{0, 4096, false, false, ""});
     c.range("render.wkb_sh_order_max", r.wkbShOrderMax, Range{0, 8, false, false, ""});
     if (r.lightVolumeResolution != 0)
-        c.range("render.light_volume_resolution", r.lightVolumeResolution, Range{4, 4096, false, false, "voxels (0: automatic)"});
-    c.range("render.wkb_memory_budget", r.wkbMemoryBudget, Range{0, 100, true, false, "times the density grids' memory"});
+        c.range("render.light_volume_resolution", r.lightVolumeResolution,
+                Range{4, 4096, false, false, "voxels (0: automatic)"});
+    c.range("render.wkb_memory_budget", r.wkbMemoryBudget,
+            Range{0, 100, true, false, "times the density grids' memory"});
 }
 
 void checkOutput(const Checker& c, const OutputSettings& o)

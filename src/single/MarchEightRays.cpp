@@ -93,7 +93,8 @@ bool marchGreyDistantEight(const RenderContext& ctx, const VolumeData& vol, cons
         alive = _mm256_and_ps(alive, _mm256_cmp_ps(tk, TOut, _CMP_LT_OQ));
         if (lanes::none(alive))
             break;
-        const __m256 qx = _mm256_fmadd_ps(Dx, tk, Ox), qy = _mm256_fmadd_ps(Dy, tk, Oy), qz = _mm256_fmadd_ps(Dz, tk, Oz);
+        const __m256 qx = _mm256_fmadd_ps(Dx, tk, Ox), qy = _mm256_fmadd_ps(Dy, tk, Oy),
+                     qz = _mm256_fmadd_ps(Dz, tk, Oz);
         __m256 cellX, cellY, cellZ;
         const __m256i brick = table.brickAt(qx, qy, qz, alive, cellX, cellY, cellZ);
         const __m256 occ = _mm256_castsi256_ps(_mm256_cmpgt_epi32(brick, _mm256_set1_epi32(-1)));
@@ -153,7 +154,8 @@ bool marchGreyDistantEight(const RenderContext& ctx, const VolumeData& vol, cons
         for (int l = 0; l < lightCount; ++l) {
             const LightEntry& e = *lights[l];
             // Light travels along its direction, then toward the camera (along -d).
-            const Rgb weight = nbLoad3(e.light.color) * nbPhaseEval(vol.medium.phase, -dot(nbLoad3(e.light.direction), d[i]));
+            const Rgb weight =
+                nbLoad3(e.light.color) * nbPhaseEval(vol.medium.phase, -dot(nbLoad3(e.light.direction), d[i]));
             const Rgb l1 = sigmaS * weight * L1s[l][i];
             out[i].L1 += l1;
             float* pl = perLight + perLightStride * size_t(i) + 3 * size_t(&e - ctx.lights.data());

@@ -41,8 +41,8 @@ inline void stepTerms(float sigma, float dt, float& transmit, float& weight)
 // OneDistant: the only used light is distant (a key light), so its weight and cache pointer
 // live in registers for the whole ray.
 template <bool Grey, bool OneDistant>
-void marchOneVolume(const RenderContext& ctx, const VolumeData& vol, float3 o, float3 d, float jitter, CameraSample& out,
-                    float* perLight)
+void marchOneVolume(const RenderContext& ctx, const VolumeData& vol, float3 o, float3 d, float jitter,
+                    CameraSample& out, float* perLight)
 {
     const size_t nLights = ctx.lights.size();
     const BrickGrid& density = vol.density;
@@ -97,7 +97,7 @@ void marchOneVolume(const RenderContext& ctx, const VolumeData& vol, float3 o, f
             } else {
                 float3 wi;
                 Rgb weight = ctx.deltaWeight(size_t(a.index), o + d * t, wi);  // sets wi first
-                Li = weight * nbPhaseEval(phase, dot(wi, d));  // travel -wi, then -d
+                Li = weight * nbPhaseEval(phase, dot(wi, d));                  // travel -wi, then -d
             }
             const float* tau = a.cache->brickData(st.brick) + st.corner * C;
             Rgb Tl;
@@ -155,7 +155,7 @@ void marchGreyKeyLight(const RenderContext& ctx, const VolumeData& vol, const Li
         float stepT, w;
         stepTerms(kT * rho, dt, stepT, w);
         const float tauLight = BrickGrid::trilinear<1>(cache.brickData(st.brick) + st.corner, st.tx, st.ty, st.tz);
-        L1 += T * w * rho * expNeg(tauLight);  // eq. 31 per step, over sigma_s / rho and L_i p
+        L1 += T * w * rho * expNeg(tauLight);    // eq. 31 per step, over sigma_s / rho and L_i p
         const float opacity = T * w * kT * rho;  // stepOpacity
         opacitySum += opacity;
         depthSum += opacity * t;
@@ -206,7 +206,9 @@ FastMarch fastMarchOf(const RenderContext& ctx, const LightEntry** key, bool* al
     if (allDistant)
         *allDistant = used > 0 && distant == used;
     return grey && oneDistant ? FastMarch::GreyKeyLight
-                              : grey ? FastMarch::Grey : oneDistant ? FastMarch::OneDistant : FastMarch::Chromatic;
+           : grey             ? FastMarch::Grey
+           : oneDistant       ? FastMarch::OneDistant
+                              : FastMarch::Chromatic;
 }
 
 bool marchSingleFast(const RenderContext& ctx, float3 o, float3 d, float jitter, CameraSample& out, float* perLight)

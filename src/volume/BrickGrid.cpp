@@ -11,7 +11,10 @@
 namespace nimbus {
 
 namespace {
-inline int floorDiv(int a, int b) { return a >= 0 ? a / b : -((-a + b - 1) / b); }
+inline int floorDiv(int a, int b)
+{
+    return a >= 0 ? a / b : -((-a + b - 1) / b);
+}
 }  // namespace
 
 void BrickGrid::reset(Int3 brickLo, Int3 dims, int channels)
@@ -134,7 +137,6 @@ void BrickGrid::pruneZeroBricks()
     setMajorants(brickMax);
 }
 
-
 size_t BrickGrid::memoryBytes() const
 {
     return mPool.size() * sizeof(float) + mTable.size() * (sizeof(int32_t) + sizeof(float));
@@ -150,7 +152,8 @@ void BrickGrid::updateActiveBounds()
                 int32_t brick = mTable[(size_t(z) * mDims.y + y) * mDims.x + x];
                 if (brick < 0)
                     continue;
-                mBrickOrigins[brick] = {(mBrickLo.x + x) * kBrick, (mBrickLo.y + y) * kBrick, (mBrickLo.z + z) * kBrick};
+                mBrickOrigins[brick] = {(mBrickLo.x + x) * kBrick, (mBrickLo.y + y) * kBrick,
+                                        (mBrickLo.z + z) * kBrick};
                 float3 lo = make_float3(float((mBrickLo.x + x) * kBrick), float((mBrickLo.y + y) * kBrick),
                                         float((mBrickLo.z + z) * kBrick));
                 b.expand(lo);
@@ -178,7 +181,10 @@ float BrickGrid::voxel(int i, int j, int k, int c) const
     return v[((lk * kStored + lj) * kStored + li) * mChannels + c];
 }
 
-float BrickGrid::sample(float3 p, int c) const { return interpolate(stencil(p), c); }
+float BrickGrid::sample(float3 p, int c) const
+{
+    return interpolate(stencil(p), c);
+}
 
 BrickGrid BrickGrid::sameTopologyUnfilled(int channels) const
 {

@@ -26,7 +26,7 @@ class BrickGrid {
 public:
     static constexpr int kBrickLog2 = 3;
     static constexpr int kBrick = 1 << kBrickLog2;  // cells per brick side
-    static constexpr int kStored = kBrick + 1;       // values per side including the apron
+    static constexpr int kStored = kBrick + 1;      // values per side including the apron
     static constexpr int kBrickValues = kStored * kStored * kStored;
 
     BrickGrid() = default;
@@ -67,8 +67,8 @@ public:
     // through the same stencil, so several quantities on one lattice cost one address
     // computation (density and baked light transmittance in the single-scattering march).
     struct Stencil {
-        int32_t brick = -1;   // -1: outside every allocated brick, all grids read 0
-        int32_t corner = 0;   // index of the cell's lower corner among the brick's 9^3 values
+        int32_t brick = -1;  // -1: outside every allocated brick, all grids read 0
+        int32_t corner = 0;  // index of the cell's lower corner among the brick's 9^3 values
         float tx = 0, ty = 0, tz = 0;
     };
     Stencil stencil(float3 p) const
@@ -78,7 +78,8 @@ public:
             return s;
         int i = floorToInt(p.x), j = floorToInt(p.y), k = floorToInt(p.z);
         float fx = float(i), fy = float(j), fz = float(k);
-        int bx = (i >> kBrickLog2) - mBrickLo.x, by = (j >> kBrickLog2) - mBrickLo.y, bz = (k >> kBrickLog2) - mBrickLo.z;
+        int bx = (i >> kBrickLog2) - mBrickLo.x, by = (j >> kBrickLog2) - mBrickLo.y,
+            bz = (k >> kBrickLog2) - mBrickLo.z;
         if (unsigned(bx) >= unsigned(mDims.x) || unsigned(by) >= unsigned(mDims.y) || unsigned(bz) >= unsigned(mDims.z))
             return s;
         s.brick = mTable[(size_t(bz) * mDims.y + by) * mDims.x + bx];
@@ -165,9 +166,9 @@ private:
 
     Int3 mBrickLo, mDims;
     int mChannels = 1;
-    std::vector<int32_t> mTable;   // slot -> brick index or -1
-    BulkVector<float> mPool;       // brick values
-    std::vector<float> mMajorant;  // slot -> max over channels of the brick's values
+    std::vector<int32_t> mTable;     // slot -> brick index or -1
+    BulkVector<float> mPool;         // brick values
+    std::vector<float> mMajorant;    // slot -> max over channels of the brick's values
     std::vector<int32_t> mOccupied;  // slot -> brick index where the majorant is positive, else -1
     size_t mBrickCount = 0;
     float mMaxValue = 0.0f;

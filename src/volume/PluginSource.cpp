@@ -43,7 +43,10 @@ constexpr double kMaxVoxels = 2e8;
 constexpr size_t kErrorSize = 1024;
 constexpr int kBlock = 8;  // one OpenVDB leaf
 
-std::string fileName(const std::string& path) { return fs::path(path).filename().string(); }
+std::string fileName(const std::string& path)
+{
+    return fs::path(path).filename().string();
+}
 
 class Library {
 public:
@@ -135,7 +138,10 @@ std::string message(const char* buffer, const char* fallback)
     return s.empty() ? std::string(fallback) : s;
 }
 
-bool finite3(const double* v) { return std::isfinite(v[0]) && std::isfinite(v[1]) && std::isfinite(v[2]); }
+bool finite3(const double* v)
+{
+    return std::isfinite(v[0]) && std::isfinite(v[1]) && std::isfinite(v[2]);
+}
 
 }  // namespace
 

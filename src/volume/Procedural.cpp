@@ -62,8 +62,8 @@ public:
                 std::string list;
                 for (const char* k : known)
                     list += (list.empty() ? "" : ", ") + std::string(k);
-                throw InputError(key(name) + ": unknown parameter of generator '" + source.generator +
-                                 "' (expected " + list + ")");
+                throw InputError(key(name) + ": unknown parameter of generator '" + source.generator + "' (expected " +
+                                 list + ")");
             }
             if (!std::isfinite(value))
                 throw InputError(key(name) + ": must be finite, got " + formatNumber(value));
@@ -306,7 +306,8 @@ FloatGrid::Ptr makeBox(const Params& p)
     Vec3d edge(sx / n.x(), sy / n.y(), sz / n.z());
     auto xform = openvdb::math::Transform::createLinearTransform(1.0);
     xform->preScale(edge);
-    xform->postTranslate(Vec3d(-0.5 * (n.x() - 1) * edge.x(), -0.5 * (n.y() - 1) * edge.y(), -0.5 * (n.z() - 1) * edge.z()));
+    xform->postTranslate(
+        Vec3d(-0.5 * (n.x() - 1) * edge.x(), -0.5 * (n.y() - 1) * edge.y(), -0.5 * (n.z() - 1) * edge.z()));
     FloatGrid::Ptr grid = FloatGrid::create(0.0f);
     grid->setTransform(xform);
     if (d > 0.0)
@@ -323,16 +324,11 @@ FloatGrid::Ptr makeBox(const Params& p)
 class CloudShape {
 public:
     explicit CloudShape(const Params& p)
-        : mRadius(p.positive("radius", 2.0)),
-          mVoxel(p.positive("voxel_size", mRadius / 64.0)),
-          mDensity(float(p.number("density", 1.0, 0.0, 1e30))),
-          mOctaves(p.integer("octaves", 5, 1, 12)),
-          mFrequency(p.positive("frequency", 2.5) / mRadius),
-          mAmplitude(p.number("detail", 0.5, 0.0, 2.0) * mRadius),
-          mSoftness(p.positive("softness", 0.05) * mRadius),
-          mBase(p.number("base", -0.35, -10.0, 1.0) * mRadius),
-          mSeed(uint32_t(p.integer("seed", 1, 0, 2147483647))),
-          mNoise(mix32(mSeed + 0x5bd1e995u))
+        : mRadius(p.positive("radius", 2.0)), mVoxel(p.positive("voxel_size", mRadius / 64.0)),
+          mDensity(float(p.number("density", 1.0, 0.0, 1e30))), mOctaves(p.integer("octaves", 5, 1, 12)),
+          mFrequency(p.positive("frequency", 2.5) / mRadius), mAmplitude(p.number("detail", 0.5, 0.0, 2.0) * mRadius),
+          mSoftness(p.positive("softness", 0.05) * mRadius), mBase(p.number("base", -0.35, -10.0, 1.0) * mRadius),
+          mSeed(uint32_t(p.integer("seed", 1, 0, 2147483647))), mNoise(mix32(mSeed + 0x5bd1e995u))
     {
         const int puffs = p.integer("puffs", 6, 0, 64);
         // The body: a wide core and two shoulders, in units of the radius.
@@ -352,8 +348,8 @@ public:
         }
         mBlend = 0.25 * mRadius;
         for (int o = 0; o < mOctaves; ++o)
-            mOffsets.push_back(Vec3d(uniform(mSeed, 1000 + 3 * o), uniform(mSeed, 1001 + 3 * o),
-                                     uniform(mSeed, 1002 + 3 * o)) * 97.0);
+            mOffsets.push_back(
+                Vec3d(uniform(mSeed, 1000 + 3 * o), uniform(mSeed, 1001 + 3 * o), uniform(mSeed, 1002 + 3 * o)) * 97.0);
     }
 
     double voxelSize() const { return mVoxel; }
@@ -465,8 +461,9 @@ std::shared_ptr<VdbFloatGrid> makeProceduralGrid(const VolumeSource& source, con
 {
     FloatGrid::Ptr grid;
     if (source.generator == "cloud")
-        grid = makeCloud(Params(source, keyPath, {"radius", "voxel_size", "density", "seed", "octaves", "frequency",
-                                                  "detail", "softness", "puffs", "base"}));
+        grid = makeCloud(Params(source, keyPath,
+                                {"radius", "voxel_size", "density", "seed", "octaves", "frequency", "detail",
+                                 "softness", "puffs", "base"}));
     else if (source.generator == "sphere")
         grid = makeSphere(Params(source, keyPath, {"radius", "voxel_size", "density", "falloff"}));
     else if (source.generator == "box")

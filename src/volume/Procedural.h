@@ -23,12 +23,17 @@ namespace openvdb {
 OPENVDB_USE_VERSION_NAMESPACE
 namespace OPENVDB_VERSION_NAME {
 namespace tree {
-template <typename T, uint32_t Log2Dim> class LeafNode;
-template <typename ChildT, uint32_t Log2Dim> class InternalNode;
-template <typename ChildT> class RootNode;
-template <typename RootT> class Tree;
+template <typename T, uint32_t Log2Dim>
+class LeafNode;
+template <typename ChildT, uint32_t Log2Dim>
+class InternalNode;
+template <typename ChildT>
+class RootNode;
+template <typename RootT>
+class Tree;
 }  // namespace tree
-template <typename TreeT> class Grid;
+template <typename TreeT>
+class Grid;
 }  // namespace OPENVDB_VERSION_NAME
 }  // namespace openvdb
 

@@ -6,8 +6,8 @@
 // density and emission grids to bricks. Placement, roles, clamping: docs/volumes.md. This file
 // reads the files and puts the steps together; the clamping is in VoxelClamp.h, the conversion
 // in VdbToBricks.h.
-#include "VolumeData.h"
 #include "InputFiles.h"
+#include "VolumeData.h"
 
 #include "../core/DataFiles.h"
 #include "../core/Error.h"
@@ -69,7 +69,7 @@ Transform fromVdb(const openvdb::math::Transform& xform)
 // The grids of a VDB file for one volume, by role.
 struct RoleGrids {
     std::vector<std::pair<std::string, GridBase::Ptr>> grids;  // role -> grid, density first
-    std::vector<std::string> names;                             // file grid names, for gridsRead
+    std::vector<std::string> names;                            // file grid names, for gridsRead
 };
 
 // A file's transform that is singular, non-finite or otherwise unusable is bad input (exit 2):
@@ -133,7 +133,9 @@ RoleGrids readVdb(const VolumeSource& source, const std::string& path, bool allR
     } catch (const std::exception& e) {
         throw InputError(fileKey + ": cannot open '" + path + "': " + e.what());
     }
-    auto has = [&](const std::string& n) { return std::find(available.begin(), available.end(), n) != available.end(); };
+    auto has = [&](const std::string& n) {
+        return std::find(available.begin(), available.end(), n) != available.end();
+    };
     auto listed = [&]() {
         std::string s;
         for (const auto& n : available)
@@ -284,8 +286,8 @@ std::shared_ptr<VolumeData> buildVolume(const Scene& scene, size_t index, const 
 
     data->clampedVoxels = clamped.warn(label);
 
-    const std::string densityKey = volume.source.type == SourceType::Vdb ? where.key(".source.grids.density")
-                                                                         : where.key(".source");
+    const std::string densityKey =
+        volume.source.type == SourceType::Vdb ? where.key(".source.grids.density") : where.key(".source");
     data->density = toBricks(*density, 1, densityKey);
     // Extinction overflow (docs/volumes.md, "Extinction range"): the densest voxel times the
     // medium's coefficients, which validateScene bounded at density 1.

@@ -23,12 +23,27 @@ using openvdb::CoordBBox;
 constexpr uint64_t kMaxTableSlots = uint64_t(1) << 27;
 constexpr uint64_t kMaxBricks = uint64_t(1) << 21;
 
-inline float channel(float v, int) { return v; }
-inline float channel(const openvdb::Vec3s& v, int c) { return v[c]; }
-inline bool isZero(float v) { return v == 0.0f; }
-inline bool isZero(const openvdb::Vec3s& v) { return v[0] == 0.0f && v[1] == 0.0f && v[2] == 0.0f; }
+inline float channel(float v, int)
+{
+    return v;
+}
+inline float channel(const openvdb::Vec3s& v, int c)
+{
+    return v[c];
+}
+inline bool isZero(float v)
+{
+    return v == 0.0f;
+}
+inline bool isZero(const openvdb::Vec3s& v)
+{
+    return v[0] == 0.0f && v[1] == 0.0f && v[2] == 0.0f;
+}
 
-inline int floorDiv8(int v) { return v >> BrickGrid::kBrickLog2; }  // arithmetic shift: floor
+inline int floorDiv8(int v)
+{
+    return v >> BrickGrid::kBrickLog2;
+}  // arithmetic shift: floor
 
 }  // namespace
 

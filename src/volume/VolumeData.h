@@ -20,8 +20,8 @@ struct VolumeData {
     BrickGrid emission;
     Transform worldFromIndex;  // the volume's "transform" after the grid's index-to-world
     Transform indexFromWorld;
-    Bbox worldBounds;          // bound of the active bricks in world space
-    float voxelSize = 1.0f;    // smallest world-space voxel edge, metres
+    Bbox worldBounds;        // bound of the active bricks in world space
+    float voxelSize = 1.0f;  // smallest world-space voxel edge, metres
     Medium medium;
     std::vector<std::string> gridsRead;  // for the render plan
     size_t clampedVoxels = 0;            // negative / NaN / inf values clamped on load

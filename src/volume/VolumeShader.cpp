@@ -37,7 +37,10 @@ namespace {
 const char* const kFloatRoles[] = {"density", "temperature", "flame"};
 const char* const kVectorRoles[] = {"Cd", "vel"};
 
-std::string builtinShaderDir() { return dataPath(DataFile::Shaders); }
+std::string builtinShaderDir()
+{
+    return dataPath(DataFile::Shaders);
+}
 
 bool sameFile(const fs::path& a, const fs::path& b)
 {
@@ -153,9 +156,18 @@ VolumeShader::VolumeShader(const std::string& path, const std::string& where) : 
 
 VolumeShader::~VolumeShader() = default;
 
-const std::string& VolumeShader::path() const { return mImpl->path; }
-bool VolumeShader::writesEmission() const { return mImpl->writesEmission; }
-double VolumeShader::compileSeconds() const { return mImpl->compileSeconds; }
+const std::string& VolumeShader::path() const
+{
+    return mImpl->path;
+}
+bool VolumeShader::writesEmission() const
+{
+    return mImpl->writesEmission;
+}
+double VolumeShader::compileSeconds() const
+{
+    return mImpl->compileSeconds;
+}
 
 std::shared_ptr<openvdb::GridBase> VolumeShader::run(std::vector<std::shared_ptr<openvdb::GridBase>>& grids,
                                                      const std::string& where) const

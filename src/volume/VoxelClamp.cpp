@@ -13,8 +13,14 @@ namespace nimbus {
 namespace {
 
 // Non-negative and finite: what a fog volume's values may be.
-inline bool isClean(float v) { return v >= 0.0f && v <= std::numeric_limits<float>::max(); }
-inline bool isClean(const openvdb::Vec3s& v) { return isClean(v[0]) && isClean(v[1]) && isClean(v[2]); }
+inline bool isClean(float v)
+{
+    return v >= 0.0f && v <= std::numeric_limits<float>::max();
+}
+inline bool isClean(const openvdb::Vec3s& v)
+{
+    return isClean(v[0]) && isClean(v[1]) && isClean(v[2]);
+}
 
 // Sets a bad value to 0 and counts it `weight` times (the voxels a tile stands for); true if
 // the value changed.

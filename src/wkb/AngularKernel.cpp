@@ -22,7 +22,10 @@ double lOverOneMinusExp(double l)
     return l / -std::expm1(-l);
 }
 
-double gaussianA(int j, double mu, double l) { return std::exp(-0.5 * muL(mu, l) * double(j) * double(j + 1)); }
+double gaussianA(int j, double mu, double l)
+{
+    return std::exp(-0.5 * muL(mu, l) * double(j) * double(j + 1));
+}
 
 double exactRatio(double p, double l)
 {
@@ -46,7 +49,10 @@ double weight(double l, double omega0)
     return std::exp(-l * alpha) * -std::expm1(-l);
 }
 
-double gaussianFactor(int j, double mu, double l, double omega0) { return weight(l, omega0) * gaussianA(j, mu, l); }
+double gaussianFactor(int j, double mu, double l, double omega0)
+{
+    return weight(l, omega0) * gaussianA(j, mu, l);
+}
 
 double exactFactor(double p, double l, double omega0)
 {

@@ -42,7 +42,10 @@ double gaussianMu(double p1);
 double lOverOneMinusExp(double l);
 
 // mu_l = mu l / (1 - e^-l), eq. 64.
-inline double muL(double mu, double l) { return mu * lOverOneMinusExp(l); }
+inline double muL(double mu, double l)
+{
+    return mu * lOverOneMinusExp(l);
+}
 
 // A_j(l) = exp(-mu_l j (j+1) / 2), eq. 63/70.
 double gaussianA(int j, double mu, double l);

@@ -19,10 +19,19 @@ constexpr float kTap[5] = {1.0f / 16, 4.0f / 16, 6.0f / 16, 4.0f / 16, 1.0f / 16
 // A level-k brick B needs level-(k-1) voxels [16B - 2, 16B + 18]: 21 per axis.
 constexpr int kRegion = 2 * B + 5;
 
-inline int floorDiv(int a, int b) { return a >= 0 ? a / b : -((-a + b - 1) / b); }
+inline int floorDiv(int a, int b)
+{
+    return a >= 0 ? a / b : -((-a + b - 1) / b);
+}
 
-bool lessInt3(const Int3& a, const Int3& b) { return std::tie(a.z, a.y, a.x) < std::tie(b.z, b.y, b.x); }
-bool equalInt3(const Int3& a, const Int3& b) { return a.x == b.x && a.y == b.y && a.z == b.z; }
+bool lessInt3(const Int3& a, const Int3& b)
+{
+    return std::tie(a.z, a.y, a.x) < std::tie(b.z, b.y, b.x);
+}
+bool equalInt3(const Int3& a, const Int3& b)
+{
+    return a.x == b.x && a.y == b.y && a.z == b.z;
+}
 
 // Allocates `grid` over the given absolute brick coordinates; returns the value pointers in the
 // order of `bricks` (sorted and unique on return).
@@ -83,7 +92,10 @@ float LightPyramid::levelForSigma(float sigma)
     return float(std::log(3.0 * double(sigma) * double(sigma) + 1.0) / std::log(4.0));
 }
 
-float LightPyramid::sigmaOfLevel(float k) { return float(std::sqrt((std::pow(4.0, double(k)) - 1.0) / 3.0)); }
+float LightPyramid::sigmaOfLevel(float k)
+{
+    return float(std::sqrt((std::pow(4.0, double(k)) - 1.0) / 3.0));
+}
 
 void LightPyramid::buildLevels(float maxSigma, int maxLevels)
 {
@@ -229,9 +241,9 @@ void LightPyramid::fetchLevel(int k, float3 p0, int c0, int n, float weight, flo
     const float* base =
         g.pool().data() + (size_t(brick) * BrickGrid::kBrickValues + size_t((lk * S + lj) * S + li)) * C + c0;
     const size_t sx = C, sy = size_t(S) * C, sz = size_t(S) * S * C;
-    const float w[8] = {(1 - wx) * (1 - wy) * (1 - wz), wx * (1 - wy) * (1 - wz), (1 - wx) * wy * (1 - wz),
-                        wx * wy * (1 - wz),             (1 - wx) * (1 - wy) * wz, wx * (1 - wy) * wz,
-                        (1 - wx) * wy * wz,             wx * wy * wz};
+    const float w[8] = {
+        (1 - wx) * (1 - wy) * (1 - wz), wx * (1 - wy) * (1 - wz), (1 - wx) * wy * (1 - wz), wx * wy * (1 - wz),
+        (1 - wx) * (1 - wy) * wz,       wx * (1 - wy) * wz,       (1 - wx) * wy * wz,       wx * wy * wz};
     const size_t off[8] = {0, sx, sy, sx + sy, sz, sz + sx, sz + sy, sz + sy + sx};
     // Channel outermost: eight loads summed in a register per channel, one store (out may alias
     // nothing, but the compiler cannot know that across the corner loop).

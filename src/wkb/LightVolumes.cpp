@@ -27,7 +27,10 @@ double secondsSince(std::chrono::steady_clock::time_point t)
     return std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count();
 }
 
-float fract(float x) { return x - std::floor(x); }
+float fract(float x)
+{
+    return x - std::floor(x);
+}
 
 // Emitted radiance arriving at x from direction u (i.e. travelling along -u): the integral of
 // T * emission along x + t u (Tessendorf eq. 26, the source term), midpoint steps.
@@ -192,8 +195,9 @@ void LightVolumes::fillLevel0(const RenderContext& ctx, const WkbSetup& setup, s
                         float rho[8];
                         double rhoSum = 0.0;
                         for (int s = 0; s < 8; ++s) {
-                            pos[s] = centre + make_float3(s & 1 ? 0.25f * f : -0.25f * f, s & 2 ? 0.25f * f : -0.25f * f,
-                                                          s & 4 ? 0.25f * f : -0.25f * f);
+                            pos[s] =
+                                centre + make_float3(s & 1 ? 0.25f * f : -0.25f * f, s & 2 ? 0.25f * f : -0.25f * f,
+                                                     s & 4 ? 0.25f * f : -0.25f * f);
                             rho[s] = std::max(0.0f, vol.density.sample(pos[s]));
                             rhoSum += rho[s];
                         }
@@ -206,7 +210,8 @@ void LightVolumes::fillLevel0(const RenderContext& ctx, const WkbSetup& setup, s
                             continue;
                         std::fill(acc.begin(), acc.end(), 0.0);
                         const float3 wc = vol.worldFromIndex.point(centre);
-                        const nb_uint voxelKey = nb_uint(qi * 73856093) ^ nb_uint(qj * 19349663) ^ nb_uint(qk * 83492791);
+                        const nb_uint voxelKey =
+                            nb_uint(qi * 73856093) ^ nb_uint(qj * 19349663) ^ nb_uint(qk * 83492791);
                         for (size_t si = 0; si < setup.sources.size(); ++si) {
                             const SourcePlan& sp = setup.sources[si];
                             if (sp.mode == SourceMode::Delta) {
@@ -243,8 +248,8 @@ void LightVolumes::fillLevel0(const RenderContext& ctx, const WkbSetup& setup, s
                                         NbLightSample ls = nbLightSample(sp.light, wc, u0, u1);
                                         if (nbMaxComponent(ls.weight) <= 0.0f)
                                             continue;
-                                        Rgb tau = ctx.volumes.opticalDepth(wc, ls.wi, 0.0f, std::min(ls.distance, 1e30f),
-                                                                           shadowStep);
+                                        Rgb tau = ctx.volumes.opticalDepth(wc, ls.wi, 0.0f,
+                                                                           std::min(ls.distance, 1e30f), shadowStep);
                                         L = ls.weight * exp(-tau);  // L_i / pdf
                                         travel = -ls.wi;
                                     }

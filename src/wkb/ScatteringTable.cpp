@@ -79,8 +79,8 @@ TableEntry ScatteringTable::at(double s) const
         return mEntries.front();
     if (s >= mEntries.back().s)
         return mEntries.back();
-    auto it = std::upper_bound(mEntries.begin(), mEntries.end(), s,
-                               [](double v, const TableEntry& e) { return v < e.s; });
+    auto it =
+        std::upper_bound(mEntries.begin(), mEntries.end(), s, [](double v, const TableEntry& e) { return v < e.s; });
     const TableEntry& f = *it;
     const TableEntry& e = *(it - 1);
     return advance(e, f, s - e.s);

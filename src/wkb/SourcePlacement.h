@@ -33,11 +33,11 @@ struct SourceRead {
 
 struct PlacementInput {
     const ScatteringTable* table = nullptr;
-    TableEntry at;          // the table's state at the quadrature point (scattering length at.lhat)
-    double sEntry = 0.0;    // where the ray's scattering length starts to grow
-    double mu = 0.0;        // squared angular width of the phase function's forward peak
-    double g = 0.0;         // mean cosine of the phase function
-    double blurK = 24.0;    // K of eq. 79
+    TableEntry at;        // the table's state at the quadrature point (scattering length at.lhat)
+    double sEntry = 0.0;  // where the ray's scattering length starts to grow
+    double mu = 0.0;      // squared angular width of the phase function's forward peak
+    double g = 0.0;       // mean cosine of the phase function
+    double blurK = 24.0;  // K of eq. 79
 };
 
 SourceRead placeSource(PlacementModel model, const PlacementInput& in);

@@ -16,8 +16,14 @@
 
 namespace nimbus::wkb {
 
-inline int shCount(int order) { return (order + 1) * (order + 1); }
-inline int shIndex(int j, int m) { return j * j + j + m; }
+inline int shCount(int order)
+{
+    return (order + 1) * (order + 1);
+}
+inline int shIndex(int j, int m)
+{
+    return j * j + j + m;
+}
 
 // Writes y_jm(dir) for j = 0..order into out[shCount(order)]; dir unit length. order <= 16.
 inline void shEvaluate(int order, float3 dir, double* out)

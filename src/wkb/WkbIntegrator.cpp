@@ -204,8 +204,8 @@ bool WkbIntegrator::readSources(float3 x, double sigma, float* out) const
     return out[0] > 1e-30f;
 }
 
-void WkbIntegrator::evaluateNode(Scratch& sc, float3 o, float3 d, const TableEntry& e0, const TableEntry& e1,
-                                 double* L, double& remaining) const
+void WkbIntegrator::evaluateNode(Scratch& sc, float3 o, float3 d, const TableEntry& e0, const TableEntry& e1, double* L,
+                                 double& remaining) const
 {
     const ScatteringTable& table = sc.table;
     // The node's quadrature point: the centroid in l of its weight, not its midpoint. Near l = 0
@@ -314,8 +314,9 @@ void WkbIntegrator::evaluateNode(Scratch& sc, float3 o, float3 d, const TableEnt
     // Where a light voxel is optically thin (the node's mean extinction times its size under
     // kExactDepth) E varies little across it and level 0 already holds it: no lookup is spent.
     const double nodeLength = std::max(e1.s - e0.s, 1e-30);
-    const double nodeDepth = (e1.lhat - e0.lhat + (e1.tauA[0] + e1.tauA[1] + e1.tauA[2] - e0.tauA[0] - e0.tauA[1] -
-                                                   e0.tauA[2]) / 3.0) / nodeLength * double(mMinLightVoxel);
+    const double nodeDepth =
+        (e1.lhat - e0.lhat + (e1.tauA[0] + e1.tauA[1] + e1.tauA[2] - e0.tauA[0] - e0.tauA[1] - e0.tauA[2]) / 3.0) /
+        nodeLength * double(mMinLightVoxel);
     const double exactWeight =
         nodeDepth < kExactDepth ? 0.0 : std::max(0.0, 1.0 - src.sigma / (0.5 * double(mMinLightVoxel)));
     if (!blurred && !(exactWeight > 0.0))
@@ -353,7 +354,8 @@ void WkbIntegrator::evaluateNode(Scratch& sc, float3 o, float3 d, const TableEnt
                 for (int mm = -j; mm <= j; ++mm) {
                     const int jm = shIndex(j, mm);
                     for (int c = 0; c < 3; ++c)
-                        S[c] += sc.coef[size_t(c) * (J + 1) + j] * sc.shY[jm] * double(ch[sp.offset + 3 * jm + c]) * inv;
+                        S[c] +=
+                            sc.coef[size_t(c) * (J + 1) + j] * sc.shY[jm] * double(ch[sp.offset + 3 * jm + c]) * inv;
                 }
         }
         // A truncated order sum can ring below zero where the true angular distribution is small;

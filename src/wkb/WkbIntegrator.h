@@ -67,7 +67,7 @@ private:
     PlacementModel mModel = PlacementModel::Straight;
     float mMinLightVoxel = 1.0f;
     std::vector<Rgb> mSigmaS, mSigmaA;  // per volume, 1/m at density 1 (density scale included)
-    std::vector<NbPhase> mPhase;       // per volume
+    std::vector<NbPhase> mPhase;        // per volume
     int mMaxShOrder = -1;
 };
 

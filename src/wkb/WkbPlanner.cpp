@@ -70,7 +70,8 @@ size_t estimatePyramidBytes(const BrickGrid& density, int factor, int channels, 
     std::vector<Int3> bricks = lightGridBricks(density, factor);
     size_t bytes = LightPyramid::levelBytes(bricks, channels);
     int k = 1;
-    for (; k < LightPyramid::kMaxLevels && LightPyramid::sigmaOfLevel(float(k - 1)) < maxSigma && !bricks.empty(); ++k) {
+    for (; k < LightPyramid::kMaxLevels && LightPyramid::sigmaOfLevel(float(k - 1)) < maxSigma && !bricks.empty();
+         ++k) {
         bricks = LightPyramid::coarserBricks(bricks);
         bytes += LightPyramid::levelBytes(bricks, channels);
     }
@@ -92,7 +93,8 @@ WkbSetup planWkb(const RenderContext& ctx, RenderPlan& plan)
 
     WkbPlan& wp = plan.wkb;
     wp.enabled = true;
-    wp.kernel = setup.kernel == KernelType::Gaussian ? "gaussian phase (e^l - 1) A_j(l)" : "exact infinite medium e^{l p_j} - 1";
+    wp.kernel = setup.kernel == KernelType::Gaussian ? "gaussian phase (e^l - 1) A_j(l)"
+                                                     : "exact infinite medium e^{l p_j} - 1";
     wp.source = setup.randomWalk ? "random walk (mean displacement, walk variance)" : "straight line (sec. 6.3.6)";
     wp.blurK = setup.blurK;
     wp.lStep = setup.lStep;
@@ -132,8 +134,9 @@ WkbSetup planWkb(const RenderContext& ctx, RenderPlan& plan)
         setup.volumes[v].l2plus = setup.volumes[v].bound >= setup.tolerance;
     }
     if (bound < setup.tolerance) {
-        plan.notes.push_back(fmt("wkb: L2+ skipped: optically thin (scattering depth <= %.3g, bound %.2g E/4pi < tolerance %.2g)",
-                                 lTotal, bound, setup.tolerance));
+        plan.notes.push_back(
+            fmt("wkb: L2+ skipped: optically thin (scattering depth <= %.3g, bound %.2g E/4pi < tolerance %.2g)",
+                lTotal, bound, setup.tolerance));
         for (size_t v = 0; v < vols.size() && v < plan.volumes.size(); ++v) {
             plan.volumes[v].l2plus = false;
             plan.volumes[v].l2plusBound = setup.volumes[v].bound;
@@ -151,10 +154,11 @@ WkbSetup planWkb(const RenderContext& ctx, RenderPlan& plan)
         Truncation first =
             truncateOrders(setup.kernel, 0.5 * setup.lStep, gaussianMu(p1max), gmax, setup.tolerance, setup.orderCap);
         if (first.capped)
-            plan.notes.push_back(fmt("wkb: the order sum is capped at j = %.0f at the first step (l = %.3g); the neglected "
-                                     "terms are bounded by %.2g E/4pi there",
-                                     first.order, 0.5 * setup.lStep, first.tailBound * 4.0 * kPi) +
-                                 fmt(" (max |g| %.3g)", gmax));
+            plan.notes.push_back(
+                fmt("wkb: the order sum is capped at j = %.0f at the first step (l = %.3g); the neglected "
+                    "terms are bounded by %.2g E/4pi there",
+                    first.order, 0.5 * setup.lStep, first.tailBound * 4.0 * kPi) +
+                fmt(" (max |g| %.3g)", gmax));
     }
     const Bbox& vb = ctx.volumes.worldBounds();
     const float3 vc = vb.center();
@@ -177,8 +181,9 @@ WkbSetup planWkb(const RenderContext& ctx, RenderPlan& plan)
             sp.mode = SourceMode::Delta;
             sp.directional = true;
             sp.needsOwnShadowMap = true;
-            sp.description = fmt("delta source: a %.3g deg sun as its centre (L2+ blurs wider than its penumbra), own shadow map",
-                                 l.angle);
+            sp.description =
+                fmt("delta source: a %.3g deg sun as its centre (L2+ blurs wider than its penumbra), own shadow map",
+                    l.angle);
         } else if (l.type == LightType::Rect || l.type == LightType::Sphere) {
             float3 c = l.type == LightType::Rect ? l.center : l.position;
             double rl = l.type == LightType::Rect ? 0.5 * std::hypot(l.size[0], l.size[1]) : l.radius;
@@ -277,7 +282,8 @@ WkbSetup planWkb(const RenderContext& ctx, RenderPlan& plan)
     if (double(wp.pyramidBytes) > budget)
         plan.notes.push_back(fmt("wkb: light pyramids %.3g x the density memory, over the budget of %.3g: the coarsest "
                                  "useful light grid is still larger",
-                                 double(wp.pyramidBytes) / std::max<double>(1.0, double(densityBytes)), rs.wkbMemoryBudget));
+                                 double(wp.pyramidBytes) / std::max<double>(1.0, double(densityBytes)),
+                                 rs.wkbMemoryBudget));
 
     for (size_t v = 0; v < vols.size() && v < plan.volumes.size(); ++v) {
         const VolumeSetup& vs = setup.volumes[v];

@@ -21,29 +21,29 @@ enum class SourceMode { Skip, Delta, Sh };
 // One source of the light volumes: a scene light, or the volumes' own emission.
 struct SourcePlan {
     SourceMode mode = SourceMode::Skip;
-    int lightIndex = -1;         // in RenderContext::lights; -1 for emission
+    int lightIndex = -1;  // in RenderContext::lights; -1 for emission
     bool emission = false;
-    int order = 0;               // SH order (mode Sh)
-    int offset = 0;              // first channel in the light volumes
-    int channelCount = 0;        // 3 (delta) or 3 (order+1)^2 (SH)
-    NbLight light{};             // as evaluated for E(y): may stand in for a small area light
-    bool directional = false;    // delta source whose direction N is the same everywhere
+    int order = 0;                   // SH order (mode Sh)
+    int offset = 0;                  // first channel in the light volumes
+    int channelCount = 0;            // 3 (delta) or 3 (order+1)^2 (SH)
+    NbLight light{};                 // as evaluated for E(y): may stand in for a small area light
+    bool directional = false;        // delta source whose direction N is the same everywhere
     bool needsOwnShadowMap = false;  // delta source without a map in RenderContext
     std::string description;
 };
 
 struct VolumeSetup {
-    bool l2plus = false;   // light channels built (else only the density channel, for the march)
-    int factor = 2;        // light voxel = factor density voxels per axis
+    bool l2plus = false;  // light channels built (else only the density channel, for the march)
+    int factor = 2;       // light voxel = factor density voxels per axis
     // Light-grid voxel q sits at density index position origin + factor * q, origin the corner of
     // the density's brick table: the light grid's bricks then start where the active region does,
     // and its coarse levels merge into one brick instead of straddling index 0.
     float3 origin = make_float3(0, 0, 0);
     float lightVoxel = 0;  // world size of a level-0 light voxel, metres
     int channels = 1;
-    int levels = 0;        // estimated, as bytes
-    float maxSigma = 0;    // blur (level-0 voxels) at which the pyramid stops
-    size_t bytes = 0;      // estimated (the build's figure is in RenderStats)
+    int levels = 0;      // estimated, as bytes
+    float maxSigma = 0;  // blur (level-0 voxels) at which the pyramid stops
+    size_t bytes = 0;    // estimated (the build's figure is in RenderStats)
     double bound = 0;
 };
 
@@ -72,7 +72,8 @@ std::vector<Int3> lightGridBricks(const BrickGrid& density, int factor);
 inline float3 lightGridOrigin(const BrickGrid& density)
 {
     const Int3 lo = density.brickLo();
-    return make_float3(float(lo.x * BrickGrid::kBrick), float(lo.y * BrickGrid::kBrick), float(lo.z * BrickGrid::kBrick));
+    return make_float3(float(lo.x * BrickGrid::kBrick), float(lo.y * BrickGrid::kBrick),
+                       float(lo.z * BrickGrid::kBrick));
 }
 
 // Estimated memory of the pyramid of a volume with light-voxel factor `factor` and `channels`

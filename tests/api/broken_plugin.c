@@ -4,7 +4,10 @@
 
 #include <stdlib.h>
 
-NIMBUS_VOLUME_PLUGIN_EXPORT int nimbus_volume_plugin_version(void) { return NIMBUS_VOLUME_PLUGIN_VERSION; }
+NIMBUS_VOLUME_PLUGIN_EXPORT int nimbus_volume_plugin_version(void)
+{
+    return NIMBUS_VOLUME_PLUGIN_VERSION;
+}
 
 NIMBUS_VOLUME_PLUGIN_EXPORT void* nimbus_volume_init(const NimbusVolumeParam* params, size_t count, char* error,
                                                      size_t errorSize)
@@ -23,4 +26,7 @@ NIMBUS_VOLUME_PLUGIN_EXPORT int nimbus_volume_bounds(void* state, NimbusVolumeBo
     return 0;
 }
 
-NIMBUS_VOLUME_PLUGIN_EXPORT void nimbus_volume_cleanup(void* state) { free(state); }
+NIMBUS_VOLUME_PLUGIN_EXPORT void nimbus_volume_cleanup(void* state)
+{
+    free(state);
+}

@@ -46,7 +46,7 @@ static void testHandles(void)
     CHECK_STATUS(nimbus_retain((NimbusHandle)12345), NIMBUS_ERROR_INVALID_HANDLE);
     CHECK_STATUS(nimbus_release(~(NimbusHandle)0), NIMBUS_ERROR_INVALID_HANDLE);
     forged = (light & ~((NimbusHandle)0xFF << 48)) | ((NimbusHandle)NIMBUS_TYPE_SCENE << 48);
-    CHECK_STATUS(nimbus_commit(forged), NIMBUS_ERROR_INVALID_HANDLE); /* the type bits lie */
+    CHECK_STATUS(nimbus_commit(forged), NIMBUS_ERROR_INVALID_HANDLE);                          /* the type bits lie */
     CHECK_STATUS(nimbus_retain(light + ((NimbusHandle)1 << 24)), NIMBUS_ERROR_INVALID_HANDLE); /* generation */
 
     /* Wrong handle types. */
@@ -126,8 +126,8 @@ static void testParameters(void)
     CHECK_STATUS(nimbus_set_float(sun, "irradiance", -1), NIMBUS_ERROR_BAD_INPUT);
     CHECK_STATUS(nimbus_set_string(scene, "render.method", "raytrace"), NIMBUS_ERROR_BAD_INPUT);
     CHECK_STATUS(nimbus_set_float(camera, "fov", NAN), NIMBUS_ERROR_BAD_INPUT); /* NaN */
-    CHECK_STATUS(nimbus_unset(sun, "type"), NIMBUS_ERROR_BAD_INPUT);                 /* required */
-    OK(nimbus_unset(sun, "angle"));                                                   /* absent: fine */
+    CHECK_STATUS(nimbus_unset(sun, "type"), NIMBUS_ERROR_BAD_INPUT);            /* required */
+    OK(nimbus_unset(sun, "angle"));                                             /* absent: fine */
     OK(nimbus_commit(camera));
     OK(nimbus_commit(sun));
     CHECK_STATUS(nimbus_light_create("laser", &sun), NIMBUS_ERROR_BAD_INPUT);
@@ -215,9 +215,9 @@ static void testNotCommitted(void)
 /* A callback that holds the render at its first tile until the test lets it go, so that the
  * busy checks below run while a render is certainly in progress, whatever the machine speed. */
 typedef struct Gate {
-    int entered;  /* set by the callback (atomics: GCC builtins, C99 has no <stdatomic.h>) */
-    int open;     /* set by the test */
-    int proceed;  /* what the callback returns once open */
+    int entered; /* set by the callback (atomics: GCC builtins, C99 has no <stdatomic.h>) */
+    int open;    /* set by the test */
+    int proceed; /* what the callback returns once open */
     int calls;
     NimbusSession self;
     NimbusStatus selfRelease; /* nimbus_release(self) from inside the callback */

@@ -90,7 +90,8 @@ std::shared_ptr<VolumeData> makeCloud(int n)
         for (int j = 0; j <= n; ++j)
             for (int i = 0; i <= n; ++i)
                 field[(size_t(k) * (n + 1) + j) * (n + 1) + i] =
-                    (i < n && j < n && k < n) ? cloud(make_float3((i + 0.5f) / n, (j + 0.5f) / n, (k + 0.5f) / n)) : 0.0f;
+                    (i < n && j < n && k < n) ? cloud(make_float3((i + 0.5f) / n, (j + 0.5f) / n, (k + 0.5f) / n))
+                                              : 0.0f;
     for (int bz = 0; bz < nb; ++bz)
         for (int by = 0; by < nb; ++by)
             for (int bx = 0; bx < nb; ++bx) {
@@ -110,8 +111,9 @@ std::shared_ptr<VolumeData> makeCloud(int n)
     v->medium.sigma_s = splat(gWispy ? 60.0f : 12.0f);  // ~20 optical depths across the core
     v->medium.sigma_a = splat(0.05f);
     v->medium.phase = NbPhase{0.8f, 0, 0, 0};
-    std::printf("%s cloud: %d^3 voxels, %zu of %d bricks allocated (%.0f%%), %.1f MiB\n", gWispy ? "wispy" : "dense", n, v->density.brickCount(),
-                nb * nb * nb, 100.0 * v->density.brickCount() / (nb * nb * nb), v->density.memoryBytes() / 1048576.0);
+    std::printf("%s cloud: %d^3 voxels, %zu of %d bricks allocated (%.0f%%), %.1f MiB\n", gWispy ? "wispy" : "dense", n,
+                v->density.brickCount(), nb * nb * nb, 100.0 * v->density.brickCount() / (nb * nb * nb),
+                v->density.memoryBytes() / 1048576.0);
     return v;
 }
 
@@ -246,7 +248,8 @@ int main(int argc, char** argv)
             rate[mode] = stats.pathsPerSecond();
             std::printf("%-16s %8.0f path samples/s  (%lld spp, %dx%d, %.2f s, build %.2f s%s)  mean beauty %.5f\n",
                         mode ? "global majorant" : "majorant grid", rate[mode], stats.samplesPerPixel, film.width,
-                        film.height, stats.renderSeconds, stats.buildSeconds, stats.kernelFromCache ? " cached" : "", mean);
+                        film.height, stats.renderSeconds, stats.buildSeconds, stats.kernelFromCache ? " cached" : "",
+                        mean);
             if (mode == 0)
                 std::printf("device: %s\n", stats.device.c_str());
         }

@@ -57,22 +57,28 @@ namespace {
 struct BenchScene {
     int width = 200, height = 150;
     double from[3] = {3.0, 1.1, 4.2}, to[3] = {0.0, 0.15, 0.0}, up[3] = {0.0, 1.0, 0.0};
-    double fov = 25.0;                                // vertical, degrees
-    double sunDirection[3] = {0.6, -0.6, -0.3};       // of travel
-    double irradiance = 3.0;                          // W/m^2
+    double fov = 25.0;                                  // vertical, degrees
+    double sunDirection[3] = {0.6, -0.6, -0.3};         // of travel
+    double irradiance = 3.0;                            // W/m^2
     double densityScale = 8.0, albedo = 0.95, g = 0.5;  // sigma_t = 8/m at density 1
-    int maxDepth = 16;                                // scattering events per path
-    double cloudRadius = 1.0;                         // m; ~145 voxels across
+    int maxDepth = 16;                                  // scattering events per path
+    double cloudRadius = 1.0;                           // m; ~145 voxels across
 };
 
-json vec3(const double (&v)[3]) { return json::array({v[0], v[1], v[2]}); }
+json vec3(const double (&v)[3])
+{
+    return json::array({v[0], v[1], v[2]});
+}
 
 json nimbusScene(const BenchScene& s, const std::string& vdb, const std::string& out, int seed, double timeLimit,
                  int threads)
 {
     const double a = s.albedo;
     return {{"camera",
-             {{"from", vec3(s.from)}, {"to", vec3(s.to)}, {"up", vec3(s.up)}, {"fov", s.fov},
+             {{"from", vec3(s.from)},
+              {"to", vec3(s.to)},
+              {"up", vec3(s.up)},
+              {"fov", s.fov},
               {"resolution", {s.width, s.height}}}},
             {"lights",
              {{{"name", "sun"},
@@ -103,7 +109,10 @@ json cyclesSpec(const BenchScene& s, const std::string& vdb, const std::string& 
 {
     return {{"vdb", vdb},
             {"camera",
-             {{"from", vec3(s.from)}, {"to", vec3(s.to)}, {"up", vec3(s.up)}, {"fov", s.fov},
+             {{"from", vec3(s.from)},
+              {"to", vec3(s.to)},
+              {"up", vec3(s.up)},
+              {"fov", s.fov},
               {"resolution", {s.width, s.height}}}},
             {"sun", {{"direction", vec3(s.sunDirection)}, {"irradiance", s.irradiance}}},
             {"medium", {{"density_scale", s.densityScale}, {"albedo", s.albedo}, {"g", s.g}}},
@@ -138,7 +147,10 @@ std::string hex(uint64_t v)
     return b;
 }
 
-std::string quote(const std::string& s) { return "'" + s + "'"; }  // paths here hold no quotes
+std::string quote(const std::string& s)
+{
+    return "'" + s + "'";
+}  // paths here hold no quotes
 
 double runCommand(const std::string& cmd, const std::string& log)
 {
@@ -416,8 +428,8 @@ int main(int argc, char** argv)
             const fs::path specPath = dir / ("cycles_" + tag + ".json");
             const fs::path resultPath = dir / ("cycles_" + tag + "_result.json");
             fs::remove(resultPath);
-            std::ofstream(specPath) << cyclesSpec(scene, vdb, r.exr, resultPath.string(), seed, timeLimit, threads)
-                                           .dump(1);
+            std::ofstream(specPath)
+                << cyclesSpec(scene, vdb, r.exr, resultPath.string(), seed, timeLimit, threads).dump(1);
             const std::string log = (dir / ("cycles_" + tag + ".log")).string();
             r.processSeconds =
                 runCommand(quote(blender) + " -b --factory-startup -noaudio --python-exit-code 1 --python " +
@@ -433,8 +445,8 @@ int main(int argc, char** argv)
         // and the Blender script.
         const char* kernelDir = std::getenv("NIMBUS_KERNEL_DIR");
         std::string kernels;
-        for (const auto& e : fs::recursive_directory_iterator(kernelDir && *kernelDir ? fs::path(kernelDir)
-                                                                                      : source / "kernels"))
+        for (const auto& e :
+             fs::recursive_directory_iterator(kernelDir && *kernelDir ? fs::path(kernelDir) : source / "kernels"))
             if (e.is_regular_file())
                 kernels += e.path().string() + readFile(e.path());
         // OpenVDB writes a random file UUID, 36 characters after the 21 bytes of magic and versions:
@@ -460,10 +472,10 @@ int main(int argc, char** argv)
             Run r = render("ref", 1000, referenceSeconds);
             fs::rename(r.exr, exr);
             r.exr = exr.string();
-            std::ofstream(meta) << json{{"render_seconds", r.renderSeconds},
-                                        {"process_seconds", r.processSeconds},
-                                        {"spp", r.spp}}
-                                       .dump();
+            std::ofstream(meta) << json{
+                {"render_seconds", r.renderSeconds},
+                {"process_seconds", r.processSeconds},
+                {"spp", r.spp}}.dump();
             return r;
         };
 
@@ -539,8 +551,8 @@ int main(int argc, char** argv)
                 nm[c] += nRefImg.rgb[size_t(p) * 3 + c] / pixels, cm[c] += cRefImg.rgb[size_t(p) * 3 + c] / pixels;
 
         std::ostringstream md;
-        md << "nimbus `pathtrace` (" << nimbusVersion << ", OpenCL on PoCL, " << threads
-           << " CPU threads) against " << blenderVersion << "'s Cycles (CPU, " << threads
+        md << "nimbus `pathtrace` (" << nimbusVersion << ", OpenCL on PoCL, " << threads << " CPU threads) against "
+           << blenderVersion << "'s Cycles (CPU, " << threads
            << " threads), the same VDB cloud (nimbus's `cloud` generator, radius " << scene.cloudRadius
            << " m, ~145 voxels across, written to a .vdb), one sun (irradiance " << scene.irradiance
            << " W/m^2), a grey medium (sigma_t " << scene.densityScale << "/m at density 1, albedo " << scene.albedo
@@ -565,8 +577,7 @@ int main(int argc, char** argv)
            << " s budget " << num("%.1f", 100 * stat(rows.back().nSpp).mean / double(nRef.spp)) << "% for nimbus, "
            << num("%.1f", 100 * stat(rows.back().cSpp).mean / double(cRef.spp)) << "% for Cycles. Mean of " << seeds
            << " seeds +- standard error. Reference means (RGB): nimbus " << num("%.5f", nm[0]) << ", Cycles "
-           << num("%.5f", cm[0]) << " (Cycles/nimbus " << num("%.3f", cm[0] / nm[0])
-           << "): the same image.\n\n";
+           << num("%.5f", cm[0]) << " (Cycles/nimbus " << num("%.3f", cm[0] / nm[0]) << "): the same image.\n\n";
         md << "| budget (s) | renderer | render call (s) | process (s) | spp reached | relMSE | nimbus/Cycles relMSE | "
               "time-normalised |\n|---|---|---|---|---|---|---|---|\n";
         bool met = true;
@@ -612,8 +623,7 @@ int main(int argc, char** argv)
         md << "Where the difference comes from. Sampling speed at the " << num("%g", rows.back().budget)
            << " s budget (spp x pixels / render call): nimbus " << num("%.0f", pn[0]) << " path samples/s, Cycles "
            << num("%.0f", pc[0]) << " (nimbus/Cycles " << num("%.1f", pn[0] / pc[0])
-           << "); at equal budget nimbus reached "
-           << num("%.1f", sppAtEqualTime)
+           << "); at equal budget nimbus reached " << num("%.1f", sppAtEqualTime)
            << "x Cycles' spp. Noise of one sample per pixel (v in relMSE = v (1/spp + 1/spp_ref)): nimbus "
            << num("%.3g", pn[1]) << ", Cycles " << num("%.3g", pc[1]) << " (nimbus/Cycles "
            << num("%.2f", pn[1] / pc[1])

@@ -123,7 +123,8 @@ int main(int argc, char** argv)
    "medium": {"sigma_s": [1.5, 1.5, 1.5], "sigma_a": [0.1, 0.1, 0.1], "phase": {"type": "hg", "g": 0}}}],
  "render": {"method": "single", "spp": 1, "step": )"
               << step << R"(, "shadow_step": 3, "shadow_map_resolution": 256},
- "output": {"file": ")" << out << R"(", "aovs": ["beauty"]}})";
+ "output": {"file": ")"
+              << out << R"(", "aovs": ["beauty"]}})";
             std::string path = (dir / ("scene_" + std::to_string(step) + ".json")).string();
             std::ofstream(path) << j.str();
             return path;
@@ -191,7 +192,8 @@ int main(int argc, char** argv)
         for (int r = 0; r < repeats; ++r)
             for (Run& run : runs) {
                 run.wall.push_back(timeCommand(run.cmd));
-                run.render.push_back(run.renderer == "vdb_render" ? vdbRenderSeconds(run.cmd) : nimbusRenderSeconds(run.out));
+                run.render.push_back(run.renderer == "vdb_render" ? vdbRenderSeconds(run.cmd)
+                                                                  : nimbusRenderSeconds(run.out));
             }
         auto [nRefCmd, nRefOut] = nimbusCmd(0.125);
         auto [vRefCmd, vRefOut] = vdbCmd(0.125);
@@ -247,8 +249,10 @@ int main(int argc, char** argv)
                               v.step, v.error, n->step, n->error, median(v.render) / median(n->render),
                               median(v.wall) / median(n->wall));
             } else {
-                std::snprintf(line, sizeof line, "At or below vdb_render's error at %.3g voxels (%.4f): no nimbus step "
-                              "measured reaches it.  \n", v.step, v.error);
+                std::snprintf(line, sizeof line,
+                              "At or below vdb_render's error at %.3g voxels (%.4f): no nimbus step "
+                              "measured reaches it.  \n",
+                              v.step, v.error);
             }
             md << line;
         }

@@ -131,10 +131,12 @@ int main(int argc, char** argv)
 
     std::ostringstream md;
     md << "Procedural cloud (radius 1 m, voxel " << voxel << " m), HG g = 0.8, albedo 0.99, two distant lights, " << W
-       << "x" << H << " pixels, " << 2 << " spp, best of " << repeats << ". \"single\" and \"wkb\" are CPU seconds of whole "
+       << "x" << H << " pixels, " << 2 << " spp, best of " << repeats
+       << ". \"single\" and \"wkb\" are CPU seconds of whole "
        << "renders (volumes, shadow maps, light volumes, pyramids, march); \"march\" is the camera-ray stage alone, "
        << "wall seconds.\n\n";
-    md << "| cloud | sigma_s (1/m) | optical depth across (bound) | single CPU s | wkb CPU s | wkb/single | march single s | "
+    md << "| cloud | sigma_s (1/m) | optical depth across (bound) | single CPU s | wkb CPU s | wkb/single | march "
+          "single s | "
           "march wkb s | march ratio | pyramids MiB | density MiB | pyramids/density | mean L2+/L1 |\n";
     md << "|---|---|---|---|---|---|---|---|---|---|---|---|---|\n";
     for (const Cloud& c : clouds) {
@@ -143,7 +145,8 @@ int main(int argc, char** argv)
         Timing wkb = time(s, Method::Wkb, repeats);
         const RenderPlan& p = wkb.last.plan;
         char row[512];
-        std::snprintf(row, sizeof row, "| %s | %.3g | %.3g | %.2f | %.2f | %.2f | %.2f | %.2f | %.2f | %s | %s | %.2f | %.2f |\n",
+        std::snprintf(row, sizeof row,
+                      "| %s | %.3g | %.3g | %.2f | %.2f | %.2f | %.2f | %.2f | %.2f | %s | %s | %.2f | %.2f |\n",
                       c.name, c.sigma_s, p.volumes.empty() ? 0.0 : p.volumes[0].opticalDepthAcross, single.total,
                       wkb.total, wkb.total / single.total, single.march, wkb.march, wkb.march / single.march,
                       mib(wkb.last.stats.pyramidBytes).c_str(), mib(p.wkb.densityBytes).c_str(),

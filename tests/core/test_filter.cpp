@@ -19,8 +19,10 @@ struct Case {
     const char* name;
 };
 
-const Case kCases[] = {{NB_FILTER_BOX, 1.0f, "box 1"},           {NB_FILTER_BOX, 2.5f, "box 2.5"},
-                       {NB_FILTER_GAUSSIAN, 2.0f, "gaussian 2"}, {NB_FILTER_GAUSSIAN, 4.5f, "gaussian 4.5"},
+const Case kCases[] = {{NB_FILTER_BOX, 1.0f, "box 1"},
+                       {NB_FILTER_BOX, 2.5f, "box 2.5"},
+                       {NB_FILTER_GAUSSIAN, 2.0f, "gaussian 2"},
+                       {NB_FILTER_GAUSSIAN, 4.5f, "gaussian 4.5"},
                        {NB_FILTER_BLACKMAN_HARRIS, 3.0f, "blackman_harris 3"},
                        {NB_FILTER_BLACKMAN_HARRIS, 1.5f, "blackman_harris 1.5"}};
 
@@ -83,7 +85,8 @@ TEST(PixelFilter, ChiSquareOfTheSamplerAgainstTheProfile)
         int dof = -1;
         for (int b = 0; b < bins; ++b) {
             const double lo = -r + 2 * r * b / bins, hi = lo + 2 * r / bins;
-            expected[b] = n * (double(nbFilterCdf(c.type, c.width, float(hi))) - nbFilterCdf(c.type, c.width, float(lo)));
+            expected[b] =
+                n * (double(nbFilterCdf(c.type, c.width, float(hi))) - nbFilterCdf(c.type, c.width, float(lo)));
             if (expected[b] < 5)
                 continue;  // the Blackman-Harris window's far tails
             chi2 += (observed[b] - expected[b]) * (observed[b] - expected[b]) / expected[b];

@@ -21,15 +21,18 @@ double sphereIntegral(F f)
     double sum = 0;
     for (double side : {1.0, -1.0})
         for (int i = 0; i <= n; ++i) {
-            double t = double(i) / n;           // t in [0,1]
-            double mu = side * (1.0 - t * t);   // |dmu| = 2 t dt
+            double t = double(i) / n;          // t in [0,1]
+            double mu = side * (1.0 - t * t);  // |dmu| = 2 t dt
             double w = (i == 0 || i == n) ? 1 : (i % 2 ? 4 : 2);
             sum += w * f(mu) * 2.0 * t;
         }
     return 2.0 * M_PI * sum / (3.0 * n);
 }
 
-NbPhase hg(float g) { return NbPhase{g, 0, 0, 0}; }
+NbPhase hg(float g)
+{
+    return NbPhase{g, 0, 0, 0};
+}
 
 }  // namespace
 
@@ -52,8 +55,8 @@ TEST_P(PhaseG, LegendreMomentsAreGToTheJ)
     nb_moment pj[7] = {0, 0, 0, 0, 0, 0, 0};
     nbPhaseAddMoments(p, 1.0, 6, pj);
     for (int j = 0; j <= 6; ++j) {
-        double m = sphereIntegral(
-            [&](double mu) { return boost::math::legendre_p(j, mu) * nbPhaseEval(p, float(mu)); });
+        double m =
+            sphereIntegral([&](double mu) { return boost::math::legendre_p(j, mu) * nbPhaseEval(p, float(mu)); });
         EXPECT_NEAR(m, pj[j], 5e-4) << "g=" << g << " j=" << j;
     }
 }
@@ -117,7 +120,10 @@ TEST(Phase, TwoLobeIsMixture)
     nb_moment pj[9] = {0, 0, 0, 0, 0, 0, 0, 0, 0};
     nbPhaseAddMoments(p, 2.0, 8, pj);
     for (int j = 0; j <= 8; ++j)
-        EXPECT_NEAR(pj[j], 2.0 * ((1.0 - double(0.3f)) * std::pow(double(0.8f), j) + double(0.3f) * std::pow(double(-0.4f), j)), 1e-14) << j;
+        EXPECT_NEAR(
+            pj[j], 2.0 * ((1.0 - double(0.3f)) * std::pow(double(0.8f), j) + double(0.3f) * std::pow(double(-0.4f), j)),
+            1e-14)
+            << j;
     EXPECT_EQ(nbPhaseMomentBound(p), double(0.8f));
     EXPECT_EQ(nbPhaseMomentBound(NbPhase{0.2f, -0.9f, 0.0f, 0}), double(0.2f));  // one lobe: g2 unused
 }

@@ -217,5 +217,6 @@ TEST(MotionBlur, SidewaysMoveSmearsAndKeepsEnergy)
     // 16 random shutter times per pixel: the image sum's relative noise is ~1/sqrt(16 * pixels
     // covered), about 0.3%; 1% is three of those.
     EXPECT_NEAR(eBlur / eMean, 1.0, 0.01);
-    std::printf("motion blur: %d -> %d columns (move %.1f px), energy vs still %.4f\n", wStill, wBlur, movePixels, eBlur / eStill);
+    std::printf("motion blur: %d -> %d columns (move %.1f px), energy vs still %.4f\n", wStill, wBlur, movePixels,
+                eBlur / eStill);
 }

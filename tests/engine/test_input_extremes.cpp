@@ -23,7 +23,10 @@ namespace {
 
 const char* const kMethods[] = {"single", "wkb"};
 
-Method methodOf(const std::string& name) { return name == "wkb" ? Method::Wkb : Method::Single; }
+Method methodOf(const std::string& name)
+{
+    return name == "wkb" ? Method::Wkb : Method::Single;
+}
 
 // A small lit cloud with the given medium scale.
 Scene cloudScene(Method method, float densityScale)

@@ -6,8 +6,8 @@
 // separable profile). The slab's trilinear face blurs the edge by under half a voxel (0.004 m
 // against a 0.45 m pixel: 0.009 pixel, under 0.008 in any pixel's value), within the bound used. Only the two middle
 // rows are rendered (a crop), pixels 10-21 of them tested.
-#include "../render/SceneBuilders.h"
 #include "../../kernels/shared/filter.h"
+#include "../render/SceneBuilders.h"
 #include "engine/Renderer.h"
 #include "scene/KernelScene.h"
 
@@ -70,7 +70,7 @@ TEST_P(FilterEdge, PixelsAreTheFiltersCdfAcrossTheEdge)
             for (int y = 3; y <= 4; ++y) {
                 const float v = beauty->pixels[(size_t(y) * 32 + p) * 4];
                 EXPECT_NEAR(v, expected, 4 * sd + 0.01) << pixelFilterName(c.filter) << " " << c.width << " pixel " << p
-                                                       << "," << y << " (" << methodName(GetParam()) << ")";
+                                                        << "," << y << " (" << methodName(GetParam()) << ")";
                 inside += expected > 0.02 && expected < 0.98;
             }
         }

@@ -172,8 +172,8 @@ TEST(TileCulling, TilesLeftUnmarkedHaveNoRayThroughAnOccupiedBrick)
                 } else {
                     EXPECT_FALSE(hit) << "trial " << trial << ": unmarked tile " << tx << "," << ty
                                       << " has a ray through an occupied brick";
-                    unmarkedInBox += !tileMissesBox(cam, c.width, c.height, x0, y0, x1, y1, place.box(g.activeIndexBounds()),
-                                                    filterMargin(kFilterWidth));
+                    unmarkedInBox += !tileMissesBox(cam, c.width, c.height, x0, y0, x1, y1,
+                                                    place.box(g.activeIndexBounds()), filterMargin(kFilterWidth));
                 }
             }
     }

@@ -8,11 +8,11 @@
 #include <iterator>
 #include <string>
 
+#include <csignal>
+#include <functional>
 #include <sys/mount.h>
 #include <sys/resource.h>
 #include <sys/wait.h>
-#include <csignal>
-#include <functional>
 #include <unistd.h>
 
 namespace nimbus::test {

@@ -24,7 +24,10 @@ using nimbus::test::writeBytes;
 namespace {
 
 // A value unique to (AOV, pixel, component), in the range half stores with 11 significant bits.
-float valueAt(int aovIndex, int x, int y, int c) { return 0.5f * aovIndex + 0.03125f * x + 0.25f * y + 0.1f * c + 0.01f; }
+float valueAt(int aovIndex, int x, int y, int c)
+{
+    return 0.5f * aovIndex + 0.03125f * x + 0.25f * y + 0.1f * c + 0.01f;
+}
 
 Film makeFilm()
 {
@@ -49,7 +52,10 @@ Film makeFilm()
     }
     // A depth beyond half's range (65504) shows that data AOVs really are float.
     film.pixel(*film.find("depth"), 3, 3)[0] = 1.0e6f;
-    film.metadata = {{"version", "0.1.0"}, {"method", "wkb"}, {"seed", "42"}, {"render_time", "12.5"},
+    film.metadata = {{"version", "0.1.0"},
+                     {"method", "wkb"},
+                     {"seed", "42"},
+                     {"render_time", "12.5"},
                      {"settings", "{\"spp\": 64}"}};
     return film;
 }
@@ -88,7 +94,10 @@ ReadBack readExr(const std::string& path)
 }
 
 // Half keeps 11 significant bits: round-to-nearest is off by at most 2^-11 relative.
-float halfTolerance(float v) { return std::ldexp(std::fabs(v), -11); }
+float halfTolerance(float v)
+{
+    return std::ldexp(std::fabs(v), -11);
+}
 
 }  // namespace
 
@@ -104,9 +113,10 @@ TEST(ExrWriter, LayersChannelsFormatsWindowsAndMetadata)
     std::set<std::string> names;
     for (const auto& [name, c] : r.index)
         names.insert(name);
-    const std::set<std::string> expected = {
-        "R", "G", "B", "A", "beauty.R", "beauty.G", "beauty.B", "beauty.A", "L0.R", "L0.G", "L0.B",
-        "alpha.R", "alpha.G", "alpha.B", "depth.R", "depth.G", "depth.B", "light_key.R", "light_key.G", "light_key.B"};
+    const std::set<std::string> expected = {"R",        "G",        "B",           "A",           "beauty.R",
+                                            "beauty.G", "beauty.B", "beauty.A",    "L0.R",        "L0.G",
+                                            "L0.B",     "alpha.R",  "alpha.G",     "alpha.B",     "depth.R",
+                                            "depth.G",  "depth.B",  "light_key.R", "light_key.G", "light_key.B"};
     EXPECT_EQ(names, expected);
     EXPECT_EQ(r.spec.nchannels, int(expected.size()));
 
@@ -148,7 +158,8 @@ TEST(ExrWriter, ValuesRoundTrip)
                 const Aov& aov = film.aovs[a];
                 const int count = aov.channels == 4 ? 4 : 3;
                 for (int c = 0; c < count; ++c) {
-                    const float want = aov.pixels[(size_t(y) * film.width + x) * aov.channels + (aov.channels == 1 ? 0 : c)];
+                    const float want =
+                        aov.pixels[(size_t(y) * film.width + x) * aov.channels + (aov.channels == 1 ? 0 : c)];
                     const std::string name = aov.name + "." + rgba[c];
                     const float got = r.at(name, x, y);
                     if (aov.isData)
@@ -311,9 +322,9 @@ TEST(ExrWriter, FullDiskKeepsTheEarlierFile)
         EXPECT_NE(std::string(e.what()).find(path), std::string::npos) << e.what();
     }
     EXPECT_EQ(readBytes(path), bytes);
-    EXPECT_EQ(std::distance(std::filesystem::directory_iterator(dir.path() / "disk"),
-                            std::filesystem::directory_iterator()),
-              1);
+    EXPECT_EQ(
+        std::distance(std::filesystem::directory_iterator(dir.path() / "disk"), std::filesystem::directory_iterator()),
+        1);
 }
 
 // Failure 8 of issue 18: values above 65504 became inf in half channels without a word. They

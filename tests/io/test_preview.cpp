@@ -253,9 +253,9 @@ TEST(Preview, FullDiskKeepsTheGoodPreview)
     if (!disk.mounted())
         GTEST_SKIP() << "cannot mount a tmpfs here (not root); FileSizeLimitKeepsTheGoodPreview covers the error path";
     EXPECT_EQ(fullDiskCheck(disk / "preview.png"), 0) << "1: no error; 2: error without the path; 3: file changed";
-    EXPECT_EQ(std::distance(std::filesystem::directory_iterator(dir.path() / "disk"),
-                            std::filesystem::directory_iterator()),
-              1)
+    EXPECT_EQ(
+        std::distance(std::filesystem::directory_iterator(dir.path() / "disk"), std::filesystem::directory_iterator()),
+        1)
         << "temporary file left on the full disk";
 }
 

@@ -61,7 +61,8 @@ inline std::shared_ptr<VolumeData> boxVolume(float3 lo, float3 hi, Int3 nb, Medi
             return component(emission(make_float3(i / n.x, j / n.y, k / n.z)), c);
         });
     float3 size = hi - lo;
-    v->worldFromIndex = Transform::translate(lo.x, lo.y, lo.z) * Transform::scale(size.x / n.x, size.y / n.y, size.z / n.z);
+    v->worldFromIndex =
+        Transform::translate(lo.x, lo.y, lo.z) * Transform::scale(size.x / n.x, size.y / n.y, size.z / n.z);
     v->indexFromWorld = v->worldFromIndex.inverse();
     Bbox b = v->density.activeIndexBounds();
     if (v->hasEmission())

@@ -59,7 +59,10 @@ inline double expint1(double x)
 }
 
 // E2(x) = e^{-x} - x E1(x); E2(0) = 1.
-inline double expint2(double x) { return x <= 0 ? 1.0 : std::exp(-x) - x * expint1(x); }
+inline double expint2(double x)
+{
+    return x <= 0 ? 1.0 : std::exp(-x) - x * expint1(x);
+}
 
 class SlabSolver {
 public:

@@ -2,8 +2,8 @@
  * chi-square test (test_pathtrace_device.cpp). Sample i uses the stream (seed 7, pixel 0,
  * sample i), exactly as the host test in tests/core/test_phase.cpp does. */
 #include "shared/compat.h"
-#include "shared/rng.h"
 #include "shared/phase.h"
+#include "shared/rng.h"
 
 __kernel void samplePhase(NbPhase p, float wx, float wy, float wz, __global float* cosines, __global float* directions)
 {

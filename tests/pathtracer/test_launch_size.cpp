@@ -38,7 +38,8 @@ void expectValid(size_t items, const LaunchLimits& d)
     // Every compute unit has a group wherever there are items enough.
     EXPECT_GE(s.groups(), std::min(items, d.computeUnits)) << what;
     // Several groups per unit wherever the preferred multiple leaves room for them.
-    const size_t multiple = std::clamp<size_t>(d.preferredMultiple, 1, std::min(maxWorkGroupSize(d), kMaxChosenWorkGroupSize));
+    const size_t multiple =
+        std::clamp<size_t>(d.preferredMultiple, 1, std::min(maxWorkGroupSize(d), kMaxChosenWorkGroupSize));
     if (items >= d.computeUnits * kWorkGroupsPerComputeUnit * multiple) {
         EXPECT_GE(s.groups(), d.computeUnits * kWorkGroupsPerComputeUnit) << what;
     }

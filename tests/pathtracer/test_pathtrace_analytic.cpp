@@ -114,14 +114,16 @@ TEST(PathtraceAnalytic, BeerLambertHomogeneousChromatic)
     useTestKernelCache("analytic");
     const Rgb sigma_a = make_float3(0.25f, 0.5f, 1.0f), bg = make_float3(1.0f, 1.0f, 1.0f);
     World w(8, 8);
-    w.volumes.push_back(boxVolume(make_float3(-1, -1, -1), make_float3(1, 1, 1), {1, 1, 1}, medium(splat(0.0f), sigma_a)));
+    w.volumes.push_back(
+        boxVolume(make_float3(-1, -1, -1), make_float3(1, 1, 1), {1, 1, 1}, medium(splat(0.0f), sigma_a)));
     w.scene.background = bg;
     lookAt(w.scene, make_float3(0, 0, 50), make_float3(0, 0, 0), 0.05f);
     w.scene.render.spp = 1024;
     Film f = w.render();
     for (int c = 0; c < 3; ++c) {
         PixelStats s = pixelStats(f, "beauty", c);
-        expectWithinNoise(s.mean, std::exp(-2.0 * component(sigma_a, c)), s.standardError, "beer-lambert homogeneous", c);
+        expectWithinNoise(s.mean, std::exp(-2.0 * component(sigma_a, c)), s.standardError, "beer-lambert homogeneous",
+                          c);
     }
 }
 
@@ -205,10 +207,9 @@ TEST(PathtraceAnalytic, EmissionInEmptySpace)
     const float sigma_a = 1.5f, depth = 3.0f;  // box z in [0, 3): 24 voxels of 0.125 m
     auto voxelDensity = [](int k) { return k >= 16 ? 1.0f : 0.0f; };
     World w(8, 8);
-    w.volumes.push_back(boxVolume(make_float3(-1, -1, 0), make_float3(1, 1, depth), {2, 2, 3},
-                                  medium(splat(0.0f), splat(sigma_a)),
-                                  [&](float3 u) { return voxelDensity(int(std::lround(u.z * 24))); },
-                                  [&](float3) { return j; }));
+    w.volumes.push_back(boxVolume(
+        make_float3(-1, -1, 0), make_float3(1, 1, depth), {2, 2, 3}, medium(splat(0.0f), splat(sigma_a)),
+        [&](float3 u) { return voxelDensity(int(std::lround(u.z * 24))); }, [&](float3) { return j; }));
     // The camera looks along -z from the empty end: z = 3 is the far side of the density.
     lookAt(w.scene, make_float3(0, 0, -50), make_float3(0, 0, 0), 0.05f);
     w.scene.render.spp = 4096;

@@ -23,11 +23,11 @@ namespace {
 World featureWorld(bool emission = true)
 {
     World w(16, 12);
-    w.volumes.push_back(boxVolume(make_float3(-1, -1, -1), make_float3(1, 1, 1), {2, 2, 2},
-                                  medium(make_float3(2, 3, 4), make_float3(0.2f, 0.1f, 0.3f), NbPhase{0.5f, 0, 0, 0}),
-                                  [](float3 u) { return 0.2f + u.x * u.y + 0.5f * u.z * u.z; },
-                                  emission ? std::function<Rgb(float3)>([](float3 u) { return make_float3(u.x, 0.2f, u.z); })
-                                           : nullptr));
+    w.volumes.push_back(boxVolume(
+        make_float3(-1, -1, -1), make_float3(1, 1, 1), {2, 2, 2},
+        medium(make_float3(2, 3, 4), make_float3(0.2f, 0.1f, 0.3f), NbPhase{0.5f, 0, 0, 0}),
+        [](float3 u) { return 0.2f + u.x * u.y + 0.5f * u.z * u.z; },
+        emission ? std::function<Rgb(float3)>([](float3 u) { return make_float3(u.x, 0.2f, u.z); }) : nullptr));
     w.volumes.push_back(boxVolume(make_float3(-0.2f, -1.2f, -0.5f), make_float3(1.4f, 0.4f, 1.1f), {1, 1, 1},
                                   medium(splat(1.5f), splat(0.5f), NbPhase{0.8f, -0.3f, 0.25f, 0}),
                                   [](float3 u) { return u.y; }));
@@ -106,7 +106,8 @@ TEST(PathtraceDeterminism, SameSeedSameBitsAnyWorkGroupSizeAndLaunchSplit)
             o.localSize = local;
             o.samplesPerPass = perPass;
             Film f = w.render(o);
-            std::string what = "local size " + std::to_string(local) + ", " + std::to_string(perPass) + " spp per launch";
+            std::string what =
+                "local size " + std::to_string(local) + ", " + std::to_string(perPass) + " spp per launch";
             expectIdentical(reference, f, what.c_str());
         }
     PathtraceOptions runtime;

@@ -121,7 +121,7 @@ TEST_P(DevicePhase, SamplerMatchesEvaluatorChiSquare)
         float u0 = nbRngNext(&r), u1 = nbRngNext(&r), u2 = nbRngNext(&r);
         float3 wo = nbPhaseSample(p, wi, u0, u1, u2);
         worst = std::max(worst, double(length(wo - make_float3(s.directions[3 * i], s.directions[3 * i + 1],
-                                                                    s.directions[3 * i + 2]))));
+                                                               s.directions[3 * i + 2]))));
     }
     std::printf("largest host/device direction difference: %.2e\n", worst);
     EXPECT_LT(worst, 2e-3);

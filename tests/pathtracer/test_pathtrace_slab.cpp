@@ -12,8 +12,8 @@
 // direction is one render of 8 x 8 pixels through a 0.01 degree field of view: the slab being
 // laterally uniform, every pixel estimates the same radiance independently. 64 pixels, so the
 // standard error estimated from their scatter is itself good to ~9%.
-#include "PtWorld.h"
 #include "DomSlabSolver.h"
+#include "PtWorld.h"
 #include "SlabSolver.h"
 
 #include <gtest/gtest.h>
@@ -40,9 +40,9 @@ PixelStats renderSlab(SlabCase c, double mu, bool fromAbove, int maxDepth, int s
                       PathtraceStats* stats = nullptr)
 {
     World w(8, 8);
-    w.volumes.push_back(boxVolume(make_float3(-kHalfWidth, 0, -kHalfWidth), make_float3(kHalfWidth, 1, kHalfWidth),
-                                  {1, 1, 1},
-                                  medium(splat(c.albedo * c.tau0), splat((1 - c.albedo) * c.tau0), NbPhase{c.g, 0, 0, 0})));
+    w.volumes.push_back(
+        boxVolume(make_float3(-kHalfWidth, 0, -kHalfWidth), make_float3(kHalfWidth, 1, kHalfWidth), {1, 1, 1},
+                  medium(splat(c.albedo * c.tau0), splat((1 - c.albedo) * c.tau0), NbPhase{c.g, 0, 0, 0})));
     w.addLight(distantLight(make_float3(0, -1, 0), splat(1.0f)));
     const double s = std::sqrt(std::max(0.0, 1 - mu * mu)), D = 2.0;
     const float3 target = make_float3(0, fromAbove ? 1.0f : 0.0f, 0);
@@ -124,8 +124,8 @@ TEST_P(SlabMultiple, RadianceAndFluxesMatchIndependentSolution)
             PixelStats s = renderSlab(c, mu[k], above, 100000, 256, 11 + uint32_t(k));
             double exact = above ? ref.top(mu[k]) : ref.bottom(mu[k]);
             double z = (s.mean - exact) / s.standardError;
-            std::printf("tau0 %.1f a %.2f g %.1f %s mu %.4f: pt %.5f solver %.5f se %.1e z %+.2f\n", c.tau0, c.albedo, c.g,
-                        above ? "reflected  " : "transmitted", mu[k], s.mean, exact, s.standardError, z);
+            std::printf("tau0 %.1f a %.2f g %.1f %s mu %.4f: pt %.5f solver %.5f se %.1e z %+.2f\n", c.tau0, c.albedo,
+                        c.g, above ? "reflected  " : "transmitted", mu[k], s.mean, exact, s.standardError, z);
             EXPECT_LT(std::fabs(z), kSigmas) << (above ? "reflected" : "transmitted") << " radiance at mu " << mu[k];
             double f = 2 * M_PI * weight[k] * mu[k];
             (above ? R : T) += f * s.mean;
@@ -135,10 +135,11 @@ TEST_P(SlabMultiple, RadianceAndFluxesMatchIndependentSolution)
     }
     // The 8-node quadrature of the solver's radiance against its exact flux: the quadrature
     // error (reported, not tested), then the path tracer's fluxes against the same quadrature.
-    std::printf("tau0 %.1f a %.2f g %.1f: R pt %.5f +- %.5f, quadrature of solver %.5f, solver %.6f (solver error %.1e)\n",
-                c.tau0, c.albedo, c.g, R, std::sqrt(varR), Rnodes, ref.R, solverError);
-    std::printf("tau0 %.1f a %.2f g %.1f: T pt %.5f +- %.5f, quadrature of solver %.5f, solver %.6f\n", c.tau0, c.albedo,
-                c.g, T, std::sqrt(varT), Tnodes, ref.T);
+    std::printf(
+        "tau0 %.1f a %.2f g %.1f: R pt %.5f +- %.5f, quadrature of solver %.5f, solver %.6f (solver error %.1e)\n",
+        c.tau0, c.albedo, c.g, R, std::sqrt(varR), Rnodes, ref.R, solverError);
+    std::printf("tau0 %.1f a %.2f g %.1f: T pt %.5f +- %.5f, quadrature of solver %.5f, solver %.6f\n", c.tau0,
+                c.albedo, c.g, T, std::sqrt(varT), Tnodes, ref.T);
     EXPECT_LT(std::fabs(R - Rnodes), kSigmas * std::sqrt(varR));
     EXPECT_LT(std::fabs(T - Tnodes), kSigmas * std::sqrt(varT));
 }
@@ -169,8 +170,8 @@ TEST(SlabSingle, HgReflectionAndTransmissionClosedForm)
             double exact = above ? c.albedo * p * (1 - std::exp(-c.tau0 * (1 + 1 / mu))) / (1 + mu)
                                  : c.albedo * p * (std::exp(-c.tau0) - std::exp(-c.tau0 / mu)) / (1 - mu);
             double z = (s.mean - exact) / s.standardError;
-            std::printf("HG single %s mu %.1f: pt %.6f exact %.6f se %.1e z %+.2f\n", above ? "reflected  " : "transmitted",
-                        mu, s.mean, exact, s.standardError, z);
+            std::printf("HG single %s mu %.1f: pt %.6f exact %.6f se %.1e z %+.2f\n",
+                        above ? "reflected  " : "transmitted", mu, s.mean, exact, s.standardError, z);
             EXPECT_LT(std::fabs(z), kSigmas);
         }
     }

@@ -40,8 +40,8 @@
 // Geometry as in test_pathtrace_slab.cpp: the slab y in [0, 1] m, 4 km wide, lit from above
 // by a distant light of unit irradiance; each radiance is one 8 x 8 render through a 0.01
 // degree field of view, every pixel an independent estimate of the same radiance.
-#include "PtWorld.h"
 #include "DomSlabSolver.h"
+#include "PtWorld.h"
 #include "SlabSolver.h"
 
 #include <gtest/gtest.h>
@@ -82,14 +82,17 @@ struct DisortCase {
 const DisortCase kDisort[] = {
     {"1a", 0.03125, 0.2, 0.0, 0.1, 7.99451E-02, 7.94108E-02, 1024},
     {"1b", 0.03125, 1.0, 0.0, 0.1, 4.22922E-01, 4.20233E-01, 1024},
-    {"1d", 32.0, 0.2, 0.0, 0.1, 2.59686E-01, 0.0, 1024},  // T below 1e-15: not rendered
+    {"1d", 32.0, 0.2, 0.0, 0.1, 2.59686E-01, 0.0, 1024},         // T below 1e-15: not rendered
     {"1e", 32.0, 1.0, 0.0, 0.1, 3.07390E+00, 6.76954E-02, 128},  // long conservative walks
     {"3a", 1.0, 1.0, 0.75, 1.0, 2.47374E-01, 1.73849E+00, 1024},
     {"3b", 8.0, 1.0, 0.75, 1.0, 1.59096E+00, 1.54958E+00, 512},
 };
 
 // gtest prints a case by name (ctest's test list shows it), not as bytes.
-void PrintTo(const DisortCase& c, std::ostream* os) { *os << "DISORT problem " << c.name; }
+void PrintTo(const DisortCase& c, std::ostream* os)
+{
+    *os << "DISORT problem " << c.name;
+}
 
 // Half a unit in the last of the six significant digits DISORT prints, over pi.
 double disortHalfUnit(double printed)
@@ -102,7 +105,8 @@ double disortHalfUnit(double printed)
 // Radiance of the slab y in [0, 1] m under a distant light of unit irradiance travelling at
 // cosine mu0 below the horizontal plane (azimuth along +z), seen at cosine mu from above
 // (reflection) or below (transmission), the camera in the x-y plane. Mean and standard error.
-PixelStats renderSlab(double tau0, double albedo, double g, double mu0, double mu, bool fromAbove, int spp, uint32_t seed)
+PixelStats renderSlab(double tau0, double albedo, double g, double mu0, double mu, bool fromAbove, int spp,
+                      uint32_t seed)
 {
     World w(8, 8);
     const float ft = float(tau0), fa = float(albedo);
@@ -141,8 +145,8 @@ TEST(SlabPublishedSolvers, MilneEquationReproducesVanDeHulstTable12)
         SlabSolver fine(kVdhTau, kVdhAlbedo, 2000, row.mu0), coarse(kVdhTau, kVdhAlbedo, 1000, row.mu0);
         const double k = M_PI / row.mu0;  // R = pi I / (mu0 E)
         const double R = k * fine.top(kVdhMu), errR = k * std::fabs(fine.top(kVdhMu) - coarse.top(kVdhMu));
-        std::printf("VH1 Table 12 a 0.8 b 2 mu 0.5 mu0 %.1f: R table %.5f solver %.7f (diff %+.1e, solver error %.0e)", row.mu0,
-                    row.R, R, R - row.R, errR);
+        std::printf("VH1 Table 12 a 0.8 b 2 mu 0.5 mu0 %.1f: R table %.5f solver %.7f (diff %+.1e, solver error %.0e)",
+                    row.mu0, row.R, R, R - row.R, errR);
         EXPECT_LE(std::fabs(R - row.R), kVdhHalfUnit + errR) << "R at mu0 " << row.mu0;
         if (row.T >= 0) {
             const double T = k * fine.bottom(kVdhMu), errT = k * std::fabs(fine.bottom(kVdhMu) - coarse.bottom(kVdhMu));
@@ -172,9 +176,11 @@ TEST(SlabPublishedSolvers, DiscreteOrdinatesReproduceDisortHgFluxes)
         const double defect = std::fabs(R + T + std::exp(-c.tau0) - 1);
         const double errR = std::fabs(R - coarse.reflectance()) + defect;
         const double errT = std::fabs(T - coarse.diffuseTransmittance()) + defect;
-        std::printf("DISORT %s b %g g %.2f: R table %.6f solver %.6f (diff %+.1e, solver error %.1e); T table %.6f solver "
-                    "%.6f (diff %+.1e, solver error %.1e)\n",
-                    c.name, c.tau0, c.g, c.flup / M_PI, R, R - c.flup / M_PI, errR, c.rfldn / M_PI, T, T - c.rfldn / M_PI, errT);
+        std::printf(
+            "DISORT %s b %g g %.2f: R table %.6f solver %.6f (diff %+.1e, solver error %.1e); T table %.6f solver "
+            "%.6f (diff %+.1e, solver error %.1e)\n",
+            c.name, c.tau0, c.g, c.flup / M_PI, R, R - c.flup / M_PI, errR, c.rfldn / M_PI, T, T - c.rfldn / M_PI,
+            errT);
         EXPECT_LE(std::fabs(R - c.flup / M_PI), disortHalfUnit(c.flup) + errR) << c.name;
         EXPECT_LE(std::fabs(T - c.rfldn / M_PI), disortHalfUnit(c.rfldn) + errT) << c.name;
     }
@@ -197,8 +203,8 @@ TEST(SlabPublishedSolvers, SixteenNodeQuadratureRecoversFlux)
                 Rq += 2 * M_PI * weight[size_t(k)] * mu[size_t(k)] * s.top(mu[size_t(k)]) / c.mu0;
                 Tq += 2 * M_PI * weight[size_t(k)] * mu[size_t(k)] * s.bottom(mu[size_t(k)]) / c.mu0;
             }
-            std::printf("DISORT %s b %g a %.1f mu0 %.1f: R table %.6f Milne %.6f; T table %.6f Milne %.6f\n", c.name, c.tau0,
-                        c.albedo, c.mu0, c.flup / M_PI, R, c.rfldn / M_PI, T);
+            std::printf("DISORT %s b %g a %.1f mu0 %.1f: R table %.6f Milne %.6f; T table %.6f Milne %.6f\n", c.name,
+                        c.tau0, c.albedo, c.mu0, c.flup / M_PI, R, c.rfldn / M_PI, T);
         } else {
             const DomSlabSolver& s = domSolver(c, 1000);
             R = s.reflectance();
@@ -231,7 +237,8 @@ TEST(SlabPublished, RadianceMatchesVanDeHulstTable12)
             const double z = (value - table) / se;
             std::printf("VH1 Table 12 a 0.8 b 2 mu 0.5 mu0 %.1f %s: table %.5f nimbus %.5f se %.5f z %+.2f\n", row.mu0,
                         above ? "R" : "T", table, value, se, z);
-            EXPECT_LE(std::fabs(value - table), kSigmas * se + kVdhHalfUnit) << (above ? "R" : "T") << " at mu0 " << row.mu0;
+            EXPECT_LE(std::fabs(value - table), kSigmas * se + kVdhHalfUnit)
+                << (above ? "R" : "T") << " at mu0 " << row.mu0;
         }
     }
 }
@@ -251,18 +258,21 @@ TEST_P(SlabPublishedFlux, ReflectanceAndTransmittanceMatchDisort)
             continue;
         double flux = 0, variance = 0;
         for (int k = 0; k < kNodes; ++k) {
-            PixelStats s = renderSlab(c.tau0, c.albedo, c.g, c.mu0, mu[size_t(k)], above, c.spp, 1000 + 2 * uint32_t(k) + (above ? 0 : 1));
+            PixelStats s = renderSlab(c.tau0, c.albedo, c.g, c.mu0, mu[size_t(k)], above, c.spp,
+                                      1000 + 2 * uint32_t(k) + (above ? 0 : 1));
             const double f = 2 * M_PI * weight[size_t(k)] * mu[size_t(k)] / c.mu0;
             flux += f * s.mean;
             variance += f * f * s.standardError * s.standardError;
         }
         const double table = printed / M_PI, se = std::sqrt(variance), z = (flux - table) / se;
-        std::printf("DISORT %s b %g a %.1f g %.2f mu0 %.1f %s: table %.6f nimbus %.6f se %.6f z %+.2f\n", c.name, c.tau0, c.albedo,
-                    c.g, c.mu0, above ? "R" : "T", table, flux, se, z);
+        std::printf("DISORT %s b %g a %.1f g %.2f mu0 %.1f %s: table %.6f nimbus %.6f se %.6f z %+.2f\n", c.name,
+                    c.tau0, c.albedo, c.g, c.mu0, above ? "R" : "T", table, flux, se, z);
         EXPECT_LE(std::fabs(flux - table), kSigmas * se + disortHalfUnit(printed) + kQuadratureBias * table)
             << c.name << (above ? " R" : " T");
     }
 }
 
 INSTANTIATE_TEST_SUITE_P(Disort, SlabPublishedFlux, ::testing::ValuesIn(kDisort),
-                         [](const ::testing::TestParamInfo<DisortCase>& i) { return std::string("problem") + i.param.name; });
+                         [](const ::testing::TestParamInfo<DisortCase>& i) {
+                             return std::string("problem") + i.param.name;
+                         });

@@ -20,10 +20,13 @@ TEST(ShadowMap, CompressionStaysWithinTolerance)
     Medium m;
     m.sigma_s = make_float3(2.0f, 1.0f, 0.5f);
     m.sigma_a = make_float3(0.1f, 0.3f, 0.2f);
-    auto vol = handMadeVolume(40, 0.05f, make_float3(-1, -1, -1), [](int i, int j, int k) {
-        float v = 1.0f + std::sin(i * 0.4f) * std::cos(j * 0.3f) + 0.5f * std::sin(k * 0.7f + i * 0.1f);
-        return std::max(0.0f, v) * 4.0f;
-    }, m);
+    auto vol = handMadeVolume(
+        40, 0.05f, make_float3(-1, -1, -1),
+        [](int i, int j, int k) {
+            float v = 1.0f + std::sin(i * 0.4f) * std::cos(j * 0.3f) + 0.5f * std::sin(k * 0.7f + i * 0.1f);
+            return std::max(0.0f, v) * 4.0f;
+        },
+        m);
     VolumeSet volumes({vol}, 0.5f);
 
     for (LightType type : {LightType::Distant, LightType::Spot, LightType::Point}) {
@@ -69,8 +72,8 @@ TEST(ShadowMap, CompressionStaysWithinTolerance)
         // ~10 carry ~1e-6 relative rounding, 1e-5 in T / floor.
         EXPECT_LE(worst, s.tolerance + 1e-3 * s.tolerance + 1e-4) << lightTypeName(type);
         EXPECT_LT(dsm.vertexCount(), rawVertices) << "compression never adds vertices";
-        std::printf("%s: %zu of %zu vertices kept, worst |dT|/max(T, floor) %.5f (tolerance %.3f)\n", lightTypeName(type),
-                    dsm.vertexCount(), rawVertices, worst, s.tolerance);
+        std::printf("%s: %zu of %zu vertices kept, worst |dT|/max(T, floor) %.5f (tolerance %.3f)\n",
+                    lightTypeName(type), dsm.vertexCount(), rawVertices, worst, s.tolerance);
     }
 }
 
@@ -134,10 +137,13 @@ TEST(ShadowMap, BakeFromMarchSamplesIsTheMarch)
     Medium m;
     m.sigma_s = splat(3.0f);
     m.sigma_a = splat(0.2f);
-    auto vol = handMadeVolume(40, 0.05f, make_float3(-1, -1, -1), [](int i, int j, int k) {
-        float v = 1.0f + std::sin(i * 0.4f) * std::cos(j * 0.3f) + 0.5f * std::sin(k * 0.7f + i * 0.1f);
-        return std::max(0.0f, v) * 4.0f;
-    }, m);
+    auto vol = handMadeVolume(
+        40, 0.05f, make_float3(-1, -1, -1),
+        [](int i, int j, int k) {
+            float v = 1.0f + std::sin(i * 0.4f) * std::cos(j * 0.3f) + 0.5f * std::sin(k * 0.7f + i * 0.1f);
+            return std::max(0.0f, v) * 4.0f;
+        },
+        m);
     VolumeSet volumes({vol}, 0.5f);
     Light l;
     l.type = LightType::Distant;
@@ -245,11 +251,14 @@ TEST(ShadowMap, EightParallelRaysAreMarchRay)
     Medium m;
     m.sigma_s = splat(2.0f);
     m.sigma_a = splat(0.5f);
-    auto vol = handMadeVolume(48, 0.04f, make_float3(-1, -1, -1), [&](int i, int j, int k) {
-        if ((i / 8 + 2 * (j / 8) + 3 * (k / 8)) % 4 == 1)
-            return 0.0f;  // every fourth brick unallocated: runs of samples with gaps
-        return std::max(0.0f, 2.0f + std::sin(0.3f * i) + std::cos(0.5f * j + 0.2f * k));
-    }, m);
+    auto vol = handMadeVolume(
+        48, 0.04f, make_float3(-1, -1, -1),
+        [&](int i, int j, int k) {
+            if ((i / 8 + 2 * (j / 8) + 3 * (k / 8)) % 4 == 1)
+                return 0.0f;  // every fourth brick unallocated: runs of samples with gaps
+            return std::max(0.0f, 2.0f + std::sin(0.3f * i) + std::cos(0.5f * j + 0.2f * k));
+        },
+        m);
     vol->worldFromIndex = Transform::rotateDegrees(23.0, 0.2, 1.0, 0.4) * vol->worldFromIndex;
     vol->indexFromWorld = vol->worldFromIndex.inverse();
     vol->worldBounds = vol->worldFromIndex.box(vol->density.activeIndexBounds());

@@ -34,16 +34,22 @@ std::string errorOf(const std::string& text)
     return "";
 }
 
-#define EXPECT_ERROR(text, expected)                                               \
-    do {                                                                           \
-        std::string message_ = errorOf(text);                                      \
-        EXPECT_NE(message_.find(expected), std::string::npos) << message_;         \
+#define EXPECT_ERROR(text, expected)                                                                                   \
+    do {                                                                                                               \
+        std::string message_ = errorOf(text);                                                                          \
+        EXPECT_NE(message_.find(expected), std::string::npos) << message_;                                             \
     } while (0)
 
 const char* kSource = R"("source": {"type": "procedural"})";
 
-std::string volume(const std::string& body) { return R"({"volumes": [{)" + std::string(kSource) + body + "}]}"; }
-std::string light(const std::string& body) { return R"({"lights": [{)" + body + "}]}"; }
+std::string volume(const std::string& body)
+{
+    return R"({"volumes": [{)" + std::string(kSource) + body + "}]}";
+}
+std::string light(const std::string& body)
+{
+    return R"({"lights": [{)" + body + "}]}";
+}
 
 }  // namespace
 
@@ -140,8 +146,10 @@ TEST(SceneErrors, CameraRanges)
     EXPECT_ERROR(R"({"camera": {"up": [0, 0, 0]}})", "camera.up: must be a non-zero vector");
     EXPECT_ERROR(R"({"camera": {"crop": [0.5, 0.5, 0, 1]}})", "camera.crop: must be [x0, x1, y0, y1] within [0, 1]");
     EXPECT_ERROR(R"({"camera": {"crop": [0, 1, -0.1, 1]}})", "camera.crop: must be");
-    EXPECT_ERROR(R"({"camera": {"shutter": [1, 0]}})", "camera.shutter: must be finite [open, close] with open <= close");
-    EXPECT_ERROR(R"({"camera": {"motion": {"to": [0, 0, 5]}}})", "camera.motion.to: must differ from camera.motion.from");
+    EXPECT_ERROR(R"({"camera": {"shutter": [1, 0]}})",
+                 "camera.shutter: must be finite [open, close] with open <= close");
+    EXPECT_ERROR(R"({"camera": {"motion": {"to": [0, 0, 5]}}})",
+                 "camera.motion.to: must differ from camera.motion.from");
 }
 
 TEST(SceneErrors, LightRanges)
@@ -171,7 +179,8 @@ TEST(SceneErrors, MediumRanges)
 {
     EXPECT_ERROR(volume(R"(, "medium": {"sigma_s": -1})"), "volumes[0].medium.sigma_s: must be non-negative");
     EXPECT_ERROR(volume(R"(, "medium": {"sigma_a": [0, 0, -0.1]})"), "volumes[0].medium.sigma_a: must be non-negative");
-    EXPECT_ERROR(volume(R"(, "medium": {"density_scale": -1})"), "volumes[0].medium.density_scale: must be in [0, inf)");
+    EXPECT_ERROR(volume(R"(, "medium": {"density_scale": -1})"),
+                 "volumes[0].medium.density_scale: must be in [0, inf)");
     EXPECT_ERROR(volume(R"(, "medium": {"emission_scale": -1})"), "volumes[0].medium.emission_scale: must be in [0");
     EXPECT_ERROR(volume(R"(, "medium": {"phase": {"g": 1}})"),
                  "volumes[0].medium.phase.g: must be in [-0.999, 0.999], got 1");
@@ -250,9 +259,11 @@ TEST(SceneErrors, DuplicateKeysAreAnErrorNamingTheKeyPath)
     EXPECT_NE(duplicateError(R"({"volumes": [{"name": "a"}, {"medium": {"sigma_s": 1, "sigma_s": 2}}]})")
                   .find("scene.json: volumes[1].medium.sigma_s: duplicate key"),
               std::string::npos);
-    EXPECT_NE(duplicateError(R"({"lights": [[1, 2], {"a": 1}, {"b": [0, {"c": 1, "c": 2}]}]})").find("lights[2].b[1].c:"),
+    EXPECT_NE(
+        duplicateError(R"({"lights": [[1, 2], {"a": 1}, {"b": [0, {"c": 1, "c": 2}]}]})").find("lights[2].b[1].c:"),
+        std::string::npos);
+    EXPECT_NE(duplicateError(R"({"render": {}, "render": {}})").find("scene.json: render: duplicate key"),
               std::string::npos);
-    EXPECT_NE(duplicateError(R"({"render": {}, "render": {}})").find("scene.json: render: duplicate key"), std::string::npos);
     // The same key in different objects is fine, and the document parses as parse() would.
     EXPECT_EQ(duplicateError(R"({"a": {"x": 1}, "b": {"x": 1}, "c": [{"x": 1}, {"x": 2}]})"), "");
     EXPECT_EQ(parseJsonRejectingDuplicateKeys(R"({"a": [1, {"b": 2}]})", "f"), json::parse(R"({"a": [1, {"b": 2}]})"));

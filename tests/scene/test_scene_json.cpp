@@ -18,7 +18,10 @@ namespace {
 
 const std::string kData = std::string(NIMBUS_TEST_DIR) + "/data/";
 
-Scene parse(const char* text) { return sceneFromJson(json::parse(text), "scene.json"); }
+Scene parse(const char* text)
+{
+    return sceneFromJson(json::parse(text), "scene.json");
+}
 
 }  // namespace
 

@@ -87,8 +87,9 @@ TEST(SceneOverrides, MalformedOverridesNameThemselves)
 TEST(SceneOverrides, PlusAppendsToAList)
 {
     const size_t before = loadSceneFile(kFull).lights.size();
-    Scene s = loadSceneFile(kFull, {R"(lights[+]={"name": "extra", "type": "point", "position": [0, 2, 0], "intensity": 5})",
-                                    "lights[+].type=distant", "lights[+]={\"type\": \"distant\"}"});
+    Scene s =
+        loadSceneFile(kFull, {R"(lights[+]={"name": "extra", "type": "point", "position": [0, 2, 0], "intensity": 5})",
+                              "lights[+].type=distant", "lights[+]={\"type\": \"distant\"}"});
     ASSERT_EQ(s.lights.size(), before + 3);
     EXPECT_EQ(s.lights[before].name, "extra");
     EXPECT_EQ(s.lights[before].type, LightType::Point);

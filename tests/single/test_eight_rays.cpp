@@ -5,11 +5,11 @@
 // position falls in. Where one side of that face is an unallocated brick (density there reads
 // as zero), the sample counts in one march and not in the other. Such rays are rare (a sample
 // would have to land within ~1e-6 voxels of a face); the test counts them and bounds them.
-#include "ProbeRays.h"
 #include "../render/SceneBuilders.h"
+#include "ProbeRays.h"
 
-#include "single/MarchEightRays.h"
 #include "render/RenderContext.h"
+#include "single/MarchEightRays.h"
 #include "single/SingleScatter.h"
 
 #include <gtest/gtest.h>
@@ -34,7 +34,8 @@ Scene greyCloudKeyLight(float step)
 
 // Marches every ray once alone (marchSingle) and once in batches (marchSingleRays); returns
 // how many rays differ by more than `tolerance` relative in L1, transmittance or depth.
-int raysThatDiffer(const RenderContext& ctx, const std::vector<Ray>& rays, int batch, float tolerance, double* worstAgreeing)
+int raysThatDiffer(const RenderContext& ctx, const std::vector<Ray>& rays, int batch, float tolerance,
+                   double* worstAgreeing)
 {
     const size_t stride = 3 * ctx.lights.size();
     int differing = 0;
@@ -105,8 +106,8 @@ TEST(EightRays, KeyAndFillLanesAgreeWithTheScalarMarch)
     double worst = 0.0;
     const std::vector<Ray> rays = probeRays(3000, 4);
     const int differing = raysThatDiffer(*ctx, rays, 8, 1e-4f, &worst);
-    std::printf("key + fill: %d of %zu rays differ by > 1e-4; worst relative difference of the others %.2g\n", differing,
-                rays.size(), worst);
+    std::printf("key + fill: %d of %zu rays differ by > 1e-4; worst relative difference of the others %.2g\n",
+                differing, rays.size(), worst);
     EXPECT_LE(differing, int(rays.size() / 1000));
     EXPECT_LT(worst, 1e-5);  // float rounding, as above
 }

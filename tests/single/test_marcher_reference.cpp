@@ -20,8 +20,8 @@
 // (render.tolerance), where one march stops a sample earlier. At most 0.1% of rays may differ
 // for those; a loop that skips a sample, reads a wrong light or drops a term moves most rays by
 // far more than kRel and fails.
-#include "ProbeRays.h"
 #include "../render/SceneBuilders.h"
+#include "ProbeRays.h"
 
 #include "render/RenderContext.h"
 #include "single/SingleScatter.h"
@@ -73,14 +73,18 @@ void addBulb(Scene& s)
 // The quantities compared, per ray: L0, L1, transmittance (RGB each), depth, opacity, then 3 per light.
 std::vector<float> quantities(const CameraSample& c, const float* perLight, size_t stride)
 {
-    std::vector<float> q = {c.L0.x, c.L0.y, c.L0.z, c.L1.x, c.L1.y, c.L1.z, c.transmittance.x, c.transmittance.y,
-                            c.transmittance.z, c.depth, c.opacity};
+    std::vector<float> q = {
+        c.L0.x,  c.L0.y,   c.L0.z, c.L1.x, c.L1.y, c.L1.z, c.transmittance.x, c.transmittance.y, c.transmittance.z,
+        c.depth, c.opacity};
     q.insert(q.end(), perLight, perLight + stride);
     return q;
 }
 const char* kNames[] = {"L0.r", "L0.g", "L0.b", "L1.r", "L1.g", "L1.b", "T.r", "T.g", "T.b", "depth", "opacity"};
 
-std::string nameOf(size_t i) { return i < 11 ? kNames[i] : "light" + std::to_string((i - 11) / 3) + "." + "rgb"[(i - 11) % 3]; }
+std::string nameOf(size_t i)
+{
+    return i < 11 ? kNames[i] : "light" + std::to_string((i - 11) / 3) + "." + "rgb"[(i - 11) % 3];
+}
 
 // Marches every ray through the route under test (batches of 8 when `batch`) and through the
 // reference; returns how many rays differ beyond the rounding bound, printing the worst

@@ -3,10 +3,10 @@
 // deep-shadow-map transmittance against Beer-Lambert.
 #include "../render/SceneBuilders.h"
 
+#include "../../kernels/shared/rng.h"
+#include "engine/Renderer.h"
 #include "render/DeepShadowMap.h"
 #include "render/RenderContext.h"
-#include "engine/Renderer.h"
-#include "../../kernels/shared/rng.h"
 #include "scene/KernelScene.h"
 
 #include <boost/math/quadrature/gauss_kronrod.hpp>
@@ -19,7 +19,10 @@ using namespace nimbus::test;
 
 namespace {
 
-float channel(Rgb v, int c) { return c == 0 ? v.x : (c == 1 ? v.y : v.z); }
+float channel(Rgb v, int c)
+{
+    return c == 0 ? v.x : (c == 1 ? v.y : v.z);
+}
 
 // Ray o + s d against the box [-h, h]^3; false if it misses.
 bool boxInterval(float3 o, float3 d, float3 h, double& s0, double& s1)

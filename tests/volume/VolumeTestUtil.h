@@ -78,8 +78,14 @@ inline std::shared_ptr<VolumeData> buildOne(const Scene& scene)
     return volumes.at(0);
 }
 
-inline float densityAt(const VolumeData& v, float3 world) { return v.density.sample(v.indexFromWorld.point(world)); }
-inline float3 emissionAt(const VolumeData& v, float3 world) { return v.emission.sample3(v.indexFromWorld.point(world)); }
+inline float densityAt(const VolumeData& v, float3 world)
+{
+    return v.density.sample(v.indexFromWorld.point(world));
+}
+inline float3 emissionAt(const VolumeData& v, float3 world)
+{
+    return v.emission.sample3(v.indexFromWorld.point(world));
+}
 
 // The InputError message buildVolumes throws for `scene` ("" if none).
 inline std::string inputError(const Scene& scene)

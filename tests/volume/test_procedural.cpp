@@ -12,8 +12,8 @@ using namespace nimbus::test;
 TEST(Procedural, BoxIsExactHalfAVoxelInside)
 {
     // Anisotropic: 16 x 8 x 3 voxels (0.25 / 0.0625 = 4, 0.1875 / 0.0625 = 3).
-    auto v = buildOne(proceduralScene("box", {{"size_x", 1.0}, {"size_y", 0.5}, {"size_z", 0.1875},
-                                             {"voxel_size", 0.0625}, {"density", 3.5}}));
+    auto v = buildOne(proceduralScene(
+        "box", {{"size_x", 1.0}, {"size_y", 0.5}, {"size_z", 0.1875}, {"voxel_size", 0.0625}, {"density", 3.5}}));
     const float3 half = make_float3(0.5f, 0.25f, 0.09375f);
     const float h = 0.0625f;
     EXPECT_FLOAT_EQ(v->voxelSize, h);
@@ -105,8 +105,8 @@ TEST(Procedural, DefaultCloud)
     const float across = nbMaxComponent(v->worldBounds.extent()) / v->voxelSize;
     EXPECT_GE(across, 100.0f);
     EXPECT_LE(across, 250.0f);
-    EXPECT_FLOAT_EQ(v->density.maxValue(), 1.0f);                  // density ~1 inside
-    EXPECT_EQ(densityAt(*v, make_float3(0, 0, 0)), 1.0f);           // a solid core
+    EXPECT_FLOAT_EQ(v->density.maxValue(), 1.0f);          // density ~1 inside
+    EXPECT_EQ(densityAt(*v, make_float3(0, 0, 0)), 1.0f);  // a solid core
     EXPECT_EQ(densityAt(*v, v->worldBounds.hi + splat(0.1f)), 0.0f);
     EXPECT_FALSE(v->hasEmission());
     EXPECT_EQ(v->clampedVoxels, 0u);
@@ -173,7 +173,7 @@ TEST(Procedural, VolumeTransformPlacesIt)
     auto v = buildOne(scene);
     EXPECT_FLOAT_EQ(v->voxelSize, 0.1f);
     EXPECT_EQ(densityAt(*v, make_float3(3, 0, -1)), 1.0f);
-    EXPECT_EQ(densityAt(*v, make_float3(3.8f, 0, -1)), 1.0f);   // radius 1 after scaling
+    EXPECT_EQ(densityAt(*v, make_float3(3.8f, 0, -1)), 1.0f);  // radius 1 after scaling
     EXPECT_EQ(densityAt(*v, make_float3(3, 1.2f, -1)), 0.0f);
     EXPECT_NEAR(v->worldBounds.center().x, 3.0f, 0.4f);
 }

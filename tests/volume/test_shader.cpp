@@ -57,10 +57,9 @@ TEST(VolumeShader, ReadingAGridNobodySuppliedIsAnInputError)
 TEST(VolumeShader, CustomShaderMapsDensityAndEmission)
 {
     ScratchDir dir;
-    writeText(dir / "glow.ax",
-              "// a test shader\n"
-              "@density = 3.0f * @density;\n"
-              "v@emission = {0.5f, 0.25f, 0.0f} * @density;\n");
+    writeText(dir / "glow.ax", "// a test shader\n"
+                               "@density = 3.0f * @density;\n"
+                               "v@emission = {0.5f, 0.25f, 0.0f} * @density;\n");
     auto v = buildOne(boxWithShader(dir / "glow.ax"));
     EXPECT_EQ(densityAt(*v, make_float3(0.1f, 0.2f, -0.3f)), 6.0f);
     ASSERT_TRUE(v->hasEmission());

@@ -53,8 +53,8 @@ TEST(VdbLoad, ActiveTilesRenderLikeVoxels)
     tree.fill(CoordBBox(Coord(-20, -5, 3), Coord(40, 30, 50)), 1.25f, true);   // 8^3 tiles and partial leaves
     tree.fill(CoordBBox(Coord(64, 64, 64), Coord(71, 71, 71)), 2.0f, true);    // one isolated 8^3 tile
     for (int i = 0; i < 50; ++i)
-        tree.setValue(Coord(i, 2 * i - 10, 60 - i), 0.1f * (i % 7));           // voxels beside tiles
-    tree.fill(CoordBBox(Coord(100, 0, 0), Coord(107, 7, 7)), 9.0f, false);     // inactive: not density
+        tree.setValue(Coord(i, 2 * i - 10, 60 - i), 0.1f * (i % 7));        // voxels beside tiles
+    tree.fill(CoordBBox(Coord(100, 0, 0), Coord(107, 7, 7)), 9.0f, false);  // inactive: not density
     ASSERT_GT(tree.activeTileCount(), 0u);
     FloatGrid::Ptr voxels = tiles->deepCopy();
     voxels->tree().voxelizeActiveTiles();
@@ -84,7 +84,7 @@ TEST(VdbLoad, PlacementComposesGridAndVolumeTransforms)
 {
     ScratchDir dir;
     FloatGrid::Ptr g = floatGrid("density", 0.5);
-    g->transform().postTranslate(openvdb::Vec3d(1, 0, 0));  // the grid's own offset
+    g->transform().postTranslate(openvdb::Vec3d(1, 0, 0));      // the grid's own offset
     g->tree().fill(CoordBBox(Coord(0), Coord(3)), 1.0f, true);  // voxel centres at 1 + [0, 1.5]
     writeVdb(dir / "g.vdb", {g});
     Scene scene = vdbScene(dir / "g.vdb");
@@ -200,7 +200,8 @@ TEST(VdbLoad, BadValuesAreClampedAndCountedOnce)
     auto v = buildOne(vdbScene(dir / "bad.vdb"));
     EXPECT_EQ(v->clampedVoxels, 5u + 2u + 2u + 512u);
     ASSERT_EQ(log.warnings.size(), 1u);
-    EXPECT_EQ(log.warnings[0], "volume 'cloud': clamped 521 voxel values (517 negative, 2 NaN, 2 infinite) to 0 [density]");
+    EXPECT_EQ(log.warnings[0],
+              "volume 'cloud': clamped 521 voxel values (517 negative, 2 NaN, 2 infinite) to 0 [density]");
     EXPECT_EQ(v->density.voxel(2, 2, 2), 0.0f);
     EXPECT_EQ(v->density.voxel(4, 4, 4), 0.0f);
     EXPECT_EQ(v->density.voxel(6, 6, 6), 1.0f);
@@ -307,7 +308,8 @@ TEST(VdbLoad, InvalidTransformInTheFileIsAnInputError)
         ASSERT_NE(map, std::string::npos);
         const double scale = 0.125;
         for (size_t at = bytes.find(std::string(reinterpret_cast<const char*>(&scale), 8), map), n = 0;
-             at != std::string::npos && n < 3; at = bytes.find(std::string(reinterpret_cast<const char*>(&scale), 8), at + 8), ++n)
+             at != std::string::npos && n < 3;
+             at = bytes.find(std::string(reinterpret_cast<const char*>(&scale), 8), at + 8), ++n)
             std::memcpy(&bytes[at], &bad, 8);  // the three scale factors
         writeText(path, bytes);
         const std::string message = inputError(vdbScene(path));

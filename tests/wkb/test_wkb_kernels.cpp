@@ -114,8 +114,8 @@ TEST(WkbKernel, WeightIntegralMatchesQuadrature)
                         EXPECT_LE(ours, 1e-280) << la << " " << dl << " " << omega;
                         continue;
                     }
-                    EXPECT_NEAR(double(ours / ref), 1.0, 1e-9) << "la=" << la << " dl=" << dl << " omega=" << omega
-                                                               << " tauA=" << tauA;
+                    EXPECT_NEAR(double(ours / ref), 1.0, 1e-9)
+                        << "la=" << la << " dl=" << dl << " omega=" << omega << " tauA=" << tauA;
                 }
 }
 
@@ -294,7 +294,8 @@ TEST(WkbSh, RealBasisMatchesBoostAndAdditionTheorem)
     const int J = 6;
     std::vector<double> y(shCount(J)), y2(shCount(J));
     for (int s = 0; s < 50; ++s) {
-        double theta = std::acos(1.0 - 2.0 * std::fmod(s * 0.618034, 1.0)), phi = 2 * M_PI * std::fmod(s * 0.75488, 1.0);
+        double theta = std::acos(1.0 - 2.0 * std::fmod(s * 0.618034, 1.0)),
+               phi = 2 * M_PI * std::fmod(s * 0.75488, 1.0);
         float3 n = make_float3(float(std::sin(theta) * std::cos(phi)), float(std::sin(theta) * std::sin(phi)),
                                float(std::cos(theta)));
         shEvaluate(J, n, y.data());

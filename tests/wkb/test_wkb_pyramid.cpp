@@ -54,7 +54,8 @@ float at(const LightPyramid& p, int k, float3 p0, int c)
 // blur, which is why reads interpolate; the shape is checked on band-limited fields below.
 TEST(WkbPyramid, ImpulseResponseHasTheMomentsOfSigmaK)
 {
-    LightPyramid p = makePyramid(-8, 7, 1, [](int i, int j, int k, int) { return i == 0 && j == 0 && k == 0 ? 1.0f : 0.0f; });
+    LightPyramid p =
+        makePyramid(-8, 7, 1, [](int i, int j, int k, int) { return i == 0 && j == 0 && k == 0 ? 1.0f : 0.0f; });
     p.buildLevels(1e9f, 5);
     ASSERT_EQ(p.levels(), 5);
     for (int k = 1; k < 5; ++k) {
@@ -86,7 +87,9 @@ TEST(WkbPyramid, ImpulseResponseHasTheMomentsOfSigmaK)
 TEST(WkbPyramid, BlurMatchesExplicitGaussianConvolution)
 {
     const double kx = 2 * M_PI / 40.0, ky = 2 * M_PI / 24.0, kz = 2 * M_PI / 12.0;
-    auto field = [&](double i, double j, double k) { return 1.0 + 0.5 * std::cos(kx * i) * std::cos(ky * j + 0.3) * std::cos(kz * k); };
+    auto field = [&](double i, double j, double k) {
+        return 1.0 + 0.5 * std::cos(kx * i) * std::cos(ky * j + 0.3) * std::cos(kz * k);
+    };
     LightPyramid p = makePyramid(-10, 9, 1, [&](int i, int j, int k, int) { return float(field(i, j, k)); });
     p.buildLevels(1e9f, 3);
     for (int k = 1; k < 3; ++k) {
@@ -111,8 +114,8 @@ TEST(WkbPyramid, BlurMatchesExplicitGaussianConvolution)
             const double pyramid = at(p, k, q, 0);
             const double predicted = 1.0 + 0.5 * cascade * (field(q.x, q.y, q.z) - 1.0) / 0.5;
             EXPECT_NEAR(pyramid, predicted, 1e-5) << "level " << k;
-            EXPECT_NEAR(pyramid, num / den, tolerance) << "level " << k << " (cascade vs Gaussian transfer "
-                                                        << cascade << " vs " << gauss << ")";
+            EXPECT_NEAR(pyramid, num / den, tolerance)
+                << "level " << k << " (cascade vs Gaussian transfer " << cascade << " vs " << gauss << ")";
         }
     }
 }
@@ -134,8 +137,11 @@ TEST(WkbPyramid, LookupInterpolatesAcrossLevels)
 // back the constant everywhere, at every blur, also where the blur reaches past the bricks.
 TEST(WkbPyramid, NormalisedReadIgnoresTheZeroOutside)
 {
-    auto rho = [](int i, int j, int k) { return i * i + j * j + k * k < 100 ? 1.0f + 0.1f * float((i + 2 * j) % 5) : 0.0f; };
-    LightPyramid p = makePyramid(-2, 1, 2, [&](int i, int j, int k, int c) { return (c ? 3.5f : 1.0f) * rho(i, j, k); });
+    auto rho = [](int i, int j, int k) {
+        return i * i + j * j + k * k < 100 ? 1.0f + 0.1f * float((i + 2 * j) % 5) : 0.0f;
+    };
+    LightPyramid p =
+        makePyramid(-2, 1, 2, [&](int i, int j, int k, int c) { return (c ? 3.5f : 1.0f) * rho(i, j, k); });
     p.buildLevels(1e9f, 6);
     for (float sigma : {0.0f, 1.0f, 3.0f, 10.0f, 40.0f})
         for (float3 q : {make_float3(0, 0, 0), make_float3(9, 1, 0), make_float3(-7, 6, 2)}) {

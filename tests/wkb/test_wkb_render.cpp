@@ -180,7 +180,8 @@ std::vector<Rgb> marchL2plus(const RenderContext& ctx, const wkb::WkbIntegrator&
 TEST(WkbRender, AovsAddUpAndL0L1AreSingles)
 {
     Scene s = baseScene(32, 24, make_float3(0, 0.3f, 6), make_float3(0, 0, 0), 30);
-    s.volumes.push_back(proceduralVolume("cloud", {{"radius", 1.0}, {"voxel_size", 1.0 / 20}}, splat(6.0f), splat(0.06f), 0.7f));
+    s.volumes.push_back(
+        proceduralVolume("cloud", {{"radius", 1.0}, {"voxel_size", 1.0 / 20}}, splat(6.0f), splat(0.06f), 0.7f));
     s.lights.push_back(sun(make_float3(0.4f, -1, -0.3f), 2.0f));
     Light point;
     point.name = "lamp";
@@ -218,7 +219,8 @@ TEST(WkbRender, ForwardScatteringIsTowardTheCamera)
     for (int side = 0; side < 2; ++side) {
         float z = side == 0 ? -8.0f : 8.0f;  // 0: camera opposite the sun, looking toward it
         Scene s = baseScene(16, 16, make_float3(0.01f, 0, z), make_float3(0, 0, 0), 12);
-        s.volumes.push_back(proceduralVolume("sphere", {{"radius", 0.8}, {"voxel_size", 0.05}}, splat(2.0f), splat(0.0f), 0.9f));
+        s.volumes.push_back(
+            proceduralVolume("sphere", {{"radius", 0.8}, {"voxel_size", 0.05}}, splat(2.0f), splat(0.0f), 0.9f));
         s.lights.push_back(sun(make_float3(0, 0, -1), 1.0f));  // travels toward -z
         L2[side] = mean(aov(render(s).film, "L2plus"));
     }
@@ -229,10 +231,10 @@ TEST(WkbRender, ForwardScatteringIsTowardTheCamera)
 struct StabilityCase {
     const char* name;
     std::string generator;
-    double size;        // radius (sphere) or edge (box), metres
-    double voxel;       // metres
+    double size;   // radius (sphere) or edge (box), metres
+    double voxel;  // metres
     float sigma_s, sigma_a, g;
-    float3 camera;      // camera position; it looks at the origin
+    float3 camera;  // camera position; it looks at the origin
     bool pointLightInside = false;
     wkb::KernelType kernel = wkb::KernelType::Gaussian;
 };
@@ -244,7 +246,8 @@ TEST_P(WkbStability, FiniteNonNegativeBounded)
     const StabilityCase& c = GetParam();
     const float R = float(c.size);
     Scene s = baseScene(12, 12, c.camera, make_float3(0, 0, 0), 40);
-    std::map<std::string, double> params = {{c.generator == "box" ? "size" : "radius", c.size}, {"voxel_size", c.voxel}};
+    std::map<std::string, double> params = {{c.generator == "box" ? "size" : "radius", c.size},
+                                            {"voxel_size", c.voxel}};
     s.volumes.push_back(proceduralVolume(c.generator, params, splat(c.sigma_s), splat(c.sigma_a), c.g));
     double Emax = 1.0;
     if (c.pointLightInside) {
@@ -293,9 +296,10 @@ INSTANTIATE_TEST_SUITE_P(
         StabilityCase{"g05", "sphere", 1.0, 1.0 / 16, 3.0f, 0.03f, 0.5f, {0, 0, 5}},
         StabilityCase{"g09", "sphere", 1.0, 1.0 / 16, 3.0f, 0.03f, 0.9f, {0, 0, 5}},
         StabilityCase{"g099", "sphere", 1.0, 1.0 / 16, 3.0f, 0.03f, 0.99f, {0, 0, 5}},
-        StabilityCase{"g099Exact", "sphere", 1.0, 1.0 / 16, 3.0f, 0.03f, 0.99f, {0, 0, 5}, false, wkb::KernelType::Exact},
-        StabilityCase{"gMinus099Exact", "sphere", 1.0, 1.0 / 16, 3.0f, 0.03f, -0.99f, {0, 0, 5}, false,
-                      wkb::KernelType::Exact},
+        StabilityCase{
+            "g099Exact", "sphere", 1.0, 1.0 / 16, 3.0f, 0.03f, 0.99f, {0, 0, 5}, false, wkb::KernelType::Exact},
+        StabilityCase{
+            "gMinus099Exact", "sphere", 1.0, 1.0 / 16, 3.0f, 0.03f, -0.99f, {0, 0, 5}, false, wkb::KernelType::Exact},
         // a point light inside the volume, and the camera inside the volume
         StabilityCase{"lightInside", "sphere", 1.0, 1.0 / 16, 4.0f, 0.04f, 0.7f, {0, 0, 5}, true},
         StabilityCase{"cameraInside", "sphere", 1.0, 1.0 / 16, 4.0f, 0.04f, 0.7f, {0.1f, 0.05f, 0.2f}},
@@ -320,7 +324,8 @@ TEST(WkbStabilityGrid, DensitiesSpanningTwelveDecades)
     auto ctx = handContext(s, {handMadeVolume(16, 1.0f / 16, make_float3(0, 0, 0), rho, m)});
     wkb::WkbIntegrator w(*ctx, ctx.plan, ctx.stats);
     ASSERT_TRUE(w.active());
-    const double bound = l2plusBound(0.99e6 * std::sqrt(3.0), 0.99, angularBound(wkb::KernelType::Gaussian, 0.8f, 128), 1.0);
+    const double bound =
+        l2plusBound(0.99e6 * std::sqrt(3.0), 0.99, angularBound(wkb::KernelType::Gaussian, 0.8f, 128), 1.0);
     double total = 0;
     for (Rgb v : marchL2plus(*ctx, w)) {
         ASSERT_TRUE(isFinite(v));
@@ -339,9 +344,11 @@ TEST(WkbStabilityGrid, SingleActiveVoxelAndEmptyGrid)
     m.sigma_s = splat(50.0f);
     m.phase = NbPhase{0.5f, 0, 0, 0};
     {
-        auto ctx = handContext(s, {handMadeVolume(1, 0.1f, make_float3(0, 0, 0), [](int, int, int) { return 1.0f; }, m)});
+        auto ctx = handContext(s, {handMadeVolume(
+                                      1, 0.1f, make_float3(0, 0, 0), [](int, int, int) { return 1.0f; }, m)});
         wkb::WkbIntegrator w(*ctx, ctx.plan, ctx.stats);
-        const double bound = l2plusBound(50.0 * 0.2 * std::sqrt(3.0), 1.0, angularBound(wkb::KernelType::Gaussian, 0.5f, 128), 1.0);
+        const double bound =
+            l2plusBound(50.0 * 0.2 * std::sqrt(3.0), 1.0, angularBound(wkb::KernelType::Gaussian, 0.5f, 128), 1.0);
         for (Rgb v : marchL2plus(*ctx, w)) {
             ASSERT_TRUE(isFinite(v));
             ASSERT_GE(nbMinComponent(v), 0.0f);
@@ -349,7 +356,8 @@ TEST(WkbStabilityGrid, SingleActiveVoxelAndEmptyGrid)
         }
     }
     {
-        auto ctx = handContext(s, {handMadeVolume(8, 0.1f, make_float3(0, 0, 0), [](int, int, int) { return 0.0f; }, m)});
+        auto ctx = handContext(s, {handMadeVolume(
+                                      8, 0.1f, make_float3(0, 0, 0), [](int, int, int) { return 0.0f; }, m)});
         wkb::WkbIntegrator w(*ctx, ctx.plan, ctx.stats);
         EXPECT_FALSE(w.active());
         for (Rgb v : marchL2plus(*ctx, w))
@@ -361,7 +369,8 @@ TEST(WkbStabilityGrid, SingleActiveVoxelAndEmptyGrid)
 TEST(WkbRender, ThinSceneSkipsL2plusWithItsBound)
 {
     Scene s = baseScene(8, 8, make_float3(0, 0, 5), make_float3(0, 0, 0), 40);
-    s.volumes.push_back(proceduralVolume("sphere", {{"radius", 1.0}, {"voxel_size", 0.1}}, splat(1e-3f), splat(0.0f), 0.0f));
+    s.volumes.push_back(
+        proceduralVolume("sphere", {{"radius", 1.0}, {"voxel_size", 0.1}}, splat(1e-3f), splat(0.0f), 0.0f));
     s.lights.push_back(sun(make_float3(0, -1, 0), 1.0f));
     RenderResult r = render(s);
     EXPECT_FALSE(r.plan.wkb.l2plus);
@@ -391,7 +400,8 @@ TEST(WkbEnergy, ThickConservativeSphereGivesBackAtMostWhatItReceives)
         const float3 toCamera = make_float3(float(st), float(-mu), 0.0f);
         Scene s = baseScene(res, res, toCamera * float(distance), make_float3(0, 0, 0), float(fov));
         s.camera.up = make_float3(0, 0, 1);
-        s.volumes.push_back(proceduralVolume("sphere", {{"radius", R}, {"voxel_size", voxel}}, splat(10.0f), splat(0.0f), 0.5f));
+        s.volumes.push_back(
+            proceduralVolume("sphere", {{"radius", R}, {"voxel_size", voxel}}, splat(10.0f), splat(0.0f), 0.5f));
         s.lights.push_back(sun(make_float3(0, -1, 0), float(E)));
         s.render.spp = 1;
         RenderResult r = render(s);
@@ -458,7 +468,8 @@ TEST(WkbSources, EnvironmentLightProjectsToSh)
     Medium m;
     m.sigma_s = splat(0.1f);
     m.phase = NbPhase{0.6f, 0, 0, 0};  // p_1 != 0, so that order 1 is worth keeping
-    auto ctx = handContext(s, {handMadeVolume(32, 1.0f / 32, make_float3(0, 0, 0), [](int, int, int) { return 1.0f; }, m)});
+    auto ctx = handContext(s, {handMadeVolume(
+                                  32, 1.0f / 32, make_float3(0, 0, 0), [](int, int, int) { return 1.0f; }, m)});
     wkb::WkbIntegrator w(*ctx, ctx.plan, ctx.stats);
     ASSERT_TRUE(w.active());
     const wkb::SourcePlan& sp = w.setup().sources[0];
@@ -501,7 +512,8 @@ TEST(WkbSources, EmissionFeedsL2plusDeepInsideAMedium)
     m.sigma_s = splat(omega * c);
     m.sigma_a = splat((1 - omega) * c);
     m.phase = NbPhase{0.0f, 0, 0, 0};
-    auto vol = handMadeVolume(n, voxel, make_float3(0, 0, 0), [](int, int, int) { return 1.0f; }, m);
+    auto vol = handMadeVolume(
+        n, voxel, make_float3(0, 0, 0), [](int, int, int) { return 1.0f; }, m);
     fillGrid(vol->emission, n, 3, [&](int, int, int, int) { return S; });
     vol->emission.updateMajorants();
     auto ctx = handContext(s, {vol});
@@ -523,8 +535,10 @@ TEST(WkbSources, EmissionFeedsL2plusDeepInsideAMedium)
 TEST(WkbRender, OverlappingVolumesMix)
 {
     Scene s = baseScene(16, 12, make_float3(0, 0.3f, 5), make_float3(0, 0, 0), 35);
-    s.volumes.push_back(proceduralVolume("cloud", {{"radius", 0.8}, {"voxel_size", 0.05}}, splat(5.0f), splat(0.05f), 0.85f));
-    Volume haze = proceduralVolume("box", {{"size", 2.0}, {"voxel_size", 0.1}}, make_float3(0.3f, 0.4f, 0.6f), splat(0.02f), 0.0f);
+    s.volumes.push_back(
+        proceduralVolume("cloud", {{"radius", 0.8}, {"voxel_size", 0.05}}, splat(5.0f), splat(0.05f), 0.85f));
+    Volume haze = proceduralVolume("box", {{"size", 2.0}, {"voxel_size", 0.1}}, make_float3(0.3f, 0.4f, 0.6f),
+                                   splat(0.02f), 0.0f);
     haze.name = "haze";
     s.volumes.push_back(haze);
     s.lights.push_back(sun(make_float3(0.3f, -1, 0.2f), 2.0f));

@@ -9,12 +9,12 @@
 
 #include <stdio.h>
 
-#define TRY(call)                                                                        \
-    do {                                                                                 \
-        if ((call) != NIMBUS_OK) {                                                       \
-            fprintf(stderr, "render_ring: %s: %s\n", #call, nimbus_last_error());        \
-            return 1;                                                                    \
-        }                                                                                \
+#define TRY(call)                                                                                                      \
+    do {                                                                                                               \
+        if ((call) != NIMBUS_OK) {                                                                                     \
+            fprintf(stderr, "render_ring: %s: %s\n", #call, nimbus_last_error());                                      \
+            return 1;                                                                                                  \
+        }                                                                                                              \
     } while (0)
 
 int main(int argc, char** argv)
