@@ -6,11 +6,12 @@
  *
  * Separable: the x and y offsets are drawn independently from one 1-D profile f(x) on
  * |x| <= r = width / 2 (pixels), normalised to integrate to 1.
- *   box              f = 1 / width                                   (default width 1)
- *   gaussian         f ~ exp(-x^2 / (2 s^2)), s = width / 4, cut at 2 s (default width 2: s = 0.5
- *                    pixel, pbrt-v4's default standard deviation)
+ *   box              f = 1 / width                 (width 1: one sample area per pixel)
+ *   gaussian         f ~ exp(-x^2 / (2 s^2)), s = width / 4, cut at 2 s (the scene's default,
+ *                    width 2: s = 0.5 pixel, pbrt-v4's default standard deviation)
  *   blackman_harris  the 4-term Blackman-Harris window over [-r, r] (Harris 1978: a0..a3 below;
- *                    default width 3, as Arnold's)
+ *                    Arnold uses width 3)
+ * render.filter_width defaults to 2 for every filter (docs/scene-format.md).
  * Sampling inverts the profile's CDF: the Gaussian's in closed form (the inverse error function,
  * Giles 2010), the Blackman-Harris window's by Newton steps kept inside a shrinking bracket
  * (bisection where a step leaves it), which reach float resolution within 12 steps for every u.

@@ -18,13 +18,16 @@ fs::path installedShare()
     if (!dladdr(reinterpret_cast<void*>(&installedShare), &info) || !info.dli_fname)
         return {};
     std::error_code ec;
-    fs::path module = fs::canonical(fs::path(info.dli_fname), ec);
+    // For the main program glibc reports argv[0], which has no '/' when it was found on $PATH.
+    const std::string name = info.dli_fname;
+    fs::path module = name.find('/') == std::string::npos ? fs::read_symlink("/proc/self/exe", ec)
+                                                          : fs::canonical(fs::path(name), ec);
     if (ec)
         return {};
     fs::path dir = module.parent_path();
     for (int up = 0; up < 2 && dir.has_parent_path(); ++up) {
         dir = dir.parent_path();
-        fs::path share = dir / "share" / "nimbus";
+        fs::path share = dir / NIMBUS_INSTALL_DATADIR / "nimbus";
         if (fs::is_regular_file(share / "kernels" / "pathtrace.cl", ec))
             return share;
     }

@@ -1,6 +1,6 @@
 // TileCulling.h: image tiles whose primary rays cannot meet the volumes, found before any ray
 // is traced. A typical frame frames a cloud with sky around it: those tiles are background
-// (renderMarched writes them without tracing).
+// (the tile driver writes them without tracing).
 #pragma once
 
 #include "../../kernels/shared/camera.h"

@@ -1,6 +1,6 @@
 // RenderPlan.h: what a scene needs and what it can leave out, decided before any heavy work
 // (DESIGN "leave out what a scene does not need"). Made once by the engine's planning pass
-// (src/engine/Planning.cpp: the shared part from RenderPlanner.h, then the integrator's own
+// (planPass in src/engine/Renderer.cpp: the shared part from RenderPlanner.h, then the integrator's own
 // part), then immutable: integrators read it and never write it. What happens during the render
 // goes to RenderStats. Printed by `nimbus info` and, with the stats, by --explain.
 #pragma once

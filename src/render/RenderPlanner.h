@@ -1,7 +1,7 @@
 // RenderPlanner.h: the shared part of the planning pass: per volume what was loaded and how
 // thick it is, per light whether it can reach a volume and how its transmittance is found (a
 // deep shadow map, or shadow rays). Pure: reads the scene and the loaded volumes, builds nothing.
-// The engine adds the integrator's own part (src/engine/Planning.cpp).
+// The engine adds the integrator's own part (planPass in src/engine/Renderer.cpp).
 #pragma once
 
 #include "RenderPlan.h"

@@ -130,7 +130,9 @@ void LightVolumes::build(const RenderContext& ctx, const WkbSetup& setup, Render
         const SourcePlan& sp = setup.sources[i];
         if (sp.mode != SourceMode::Delta)
             continue;
-        if (!sp.needsOwnShadowMap) {
+        // The context's map where it built one (the engine builds them for wkb); a context made
+        // without shadow maps (a tool, a test) gets the light's own map here instead.
+        if (!sp.needsOwnShadowMap && ctx.lights[sp.lightIndex].shadowMap) {
             mMaps[i] = &*ctx.lights[sp.lightIndex].shadowMap;
             continue;
         }

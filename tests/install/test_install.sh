@@ -42,10 +42,11 @@ mkdir "$work/elsewhere"
    "$prefix/bin/nimbus" render --default --set camera.resolution=[64,36] -o d.exr --preview d.png -q)
 [ -s "$work/elsewhere/d.exr" ] && [ -s "$work/elsewhere/d.png" ] || { echo "test_install: the CLI wrote nothing"; exit 1; }
 
-# 4. Relocated: a copy of the prefix reads its own share/nimbus, not the source tree's.
+# 4. Relocated and run from $PATH (argv[0] a bare name): a copy of the prefix reads its own
+#    share/nimbus, not the source tree's.
 cp -a "$prefix" "$work/moved"
 echo "this is not an OCIO config" > "$work/moved/share/nimbus/ocio/config.ocio"
-if (cd "$work/elsewhere" && env -u OCIO -u NIMBUS_OCIO_CONFIG "$work/moved/bin/nimbus" render --default \
+if (cd "$work/elsewhere" && env -u OCIO -u NIMBUS_OCIO_CONFIG PATH="$work/moved/bin:$PATH" nimbus render --default \
       --set camera.resolution=[32,18] -o m.exr --preview m.png -q 2>"$work/moved.err"); then
   echo "test_install: the moved CLI rendered a preview through a broken config: it does not read its own share/"; exit 1
 fi
