@@ -8,13 +8,6 @@
 
 namespace nimbus {
 
-namespace {
-std::string bytes(size_t b)
-{
-    return formatBytes(b);
-}
-}  // namespace
-
 std::string RenderPlan::describe() const
 {
     std::ostringstream s;
@@ -30,8 +23,8 @@ std::string RenderPlan::describe() const
         s << "    " << v.name << ": grids [";
         for (size_t i = 0; i < v.gridsRead.size(); ++i)
             s << (i ? ", " : "") << v.gridsRead[i];
-        s << "], " << v.bricks << " bricks (" << bytes(v.memoryBytes) << "), voxel " << v.voxelSize << " m, bounds "
-          << v.bounds << "\n";
+        s << "], " << v.bricks << " bricks (" << formatBytes(v.memoryBytes) << "), voxel " << v.voxelSize
+          << " m, bounds " << v.bounds << "\n";
         s << "      optical depth: up to " << v.maxOpticalDepthPerVoxel << " per voxel, up to " << v.opticalDepthAcross
           << " across; emission " << (v.emission ? "on" : "off (no emission grid)");
         if (v.clampedVoxels)
@@ -39,7 +32,7 @@ std::string RenderPlan::describe() const
         s << "\n";
         if (wkb.enabled && wkb.l2plus) {
             s << "      L2+ light grid: " << v.lightGrid << " (" << v.lightVoxelFactor << " density voxels each), "
-              << v.mipLevels << " mip levels, " << bytes(v.pyramidBytes) << "; ";
+              << v.mipLevels << " mip levels, " << formatBytes(v.pyramidBytes) << "; ";
             char buf[96];
             std::snprintf(buf, sizeof buf, "%.2g", v.l2plusBound);
             s << (v.l2plus ? "L2+ sources on" : "L2+ sources off") << " (bound " << buf << " E/4pi)\n";
@@ -68,8 +61,8 @@ std::string RenderPlan::describe() const
             s << "  L2+ (wkb): kernel " << wkb.kernel << "; source " << wkb.source << "; " << buf << "\n";
             std::snprintf(buf, sizeof buf, " (estimated, %.2f x, budget %.2f x)",
                           double(wkb.pyramidBytes) / double(std::max<size_t>(wkb.densityBytes, 1)), wkb.memoryBudget);
-            s << "    light pyramids " << bytes(wkb.pyramidBytes) << " for density grids of " << bytes(wkb.densityBytes)
-              << buf << "\n";
+            s << "    light pyramids " << formatBytes(wkb.pyramidBytes) << " for density grids of "
+              << formatBytes(wkb.densityBytes) << buf << "\n";
         } else {
             std::snprintf(buf, sizeof buf, "%.2g", wkb.l2plusBound);
             s << "  L2+ (wkb): not computed (bound " << buf << " E/4pi)\n";

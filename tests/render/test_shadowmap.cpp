@@ -15,18 +15,28 @@
 using namespace nimbus;
 using namespace nimbus::test;
 
-TEST(ShadowMap, CompressionStaysWithinTolerance)
+namespace {
+
+// A 40^3 volume of 5 cm voxels at [-1, 1]^3 whose density waves through 0 (clamped), up to 10.
+std::shared_ptr<VolumeData> wavyVolume(const Medium& m)
 {
-    Medium m;
-    m.sigma_s = make_float3(2.0f, 1.0f, 0.5f);
-    m.sigma_a = make_float3(0.1f, 0.3f, 0.2f);
-    auto vol = handMadeVolume(
+    return handMadeVolume(
         40, 0.05f, make_float3(-1, -1, -1),
         [](int i, int j, int k) {
             float v = 1.0f + std::sin(i * 0.4f) * std::cos(j * 0.3f) + 0.5f * std::sin(k * 0.7f + i * 0.1f);
             return std::max(0.0f, v) * 4.0f;
         },
         m);
+}
+
+}  // namespace
+
+TEST(ShadowMap, CompressionStaysWithinTolerance)
+{
+    Medium m;
+    m.sigma_s = make_float3(2.0f, 1.0f, 0.5f);
+    m.sigma_a = make_float3(0.1f, 0.3f, 0.2f);
+    auto vol = wavyVolume(m);
     VolumeSet volumes({vol}, 0.5f);
 
     for (LightType type : {LightType::Distant, LightType::Spot, LightType::Point}) {
@@ -137,13 +147,7 @@ TEST(ShadowMap, BakeFromMarchSamplesIsTheMarch)
     Medium m;
     m.sigma_s = splat(3.0f);
     m.sigma_a = splat(0.2f);
-    auto vol = handMadeVolume(
-        40, 0.05f, make_float3(-1, -1, -1),
-        [](int i, int j, int k) {
-            float v = 1.0f + std::sin(i * 0.4f) * std::cos(j * 0.3f) + 0.5f * std::sin(k * 0.7f + i * 0.1f);
-            return std::max(0.0f, v) * 4.0f;
-        },
-        m);
+    auto vol = wavyVolume(m);
     VolumeSet volumes({vol}, 0.5f);
     Light l;
     l.type = LightType::Distant;
