@@ -128,8 +128,8 @@ struct RenderSettings {
     double timeLimit = 0.0;     // pathtrace: seconds, 0 = none
     double noiseTarget = 1e-4;  // pathtrace with spp 0: stop at this beauty relMSE (from the variance AOV); 0 = none
     // wkb (docs/wkb.md has the derivation of each):
-    WkbKernel wkbKernel = WkbKernel::Gaussian;
-    WkbSource wkbSource = WkbSource::Straight;
+    WkbKernel wkbKernel = WkbKernel::Exact;
+    WkbSource wkbSource = WkbSource::RandomWalk;
     float wkbBlurK = 24.0f;         // K in the blur width s sqrt(K mu l), Tessendorf eq. 79
     float wkbLStep = 0.25f;         // l-march step, scattering lengths; grows as l_step * l past l = 1
     int wkbOrderMax = 128;          // cap on the Legendre order j of the angular sum (eq. 88)
