@@ -1,5 +1,6 @@
 #include "WkbIntegrator.h"
 
+#include "LegendreSeries.h"
 #include "SphericalHarmonics.h"
 
 #include <algorithm>
@@ -76,7 +77,7 @@ struct WkbIntegrator::Scratch {
     std::vector<float> phaseWeights;
     std::vector<double> pieceW, nodeW;  // per volume scattering weight: of the pending piece (1/m), of the node
     std::vector<float> channels;
-    std::vector<double> coef, legendre, pj, shY, sums;
+    std::vector<double> coef, pj, shY, sums;
     Piece pending;
     bool hasPending = false;
     double muLast = kMuMax;
@@ -332,14 +333,11 @@ void WkbIntegrator::evaluateNode(Scratch& sc, float3 o, float3 d, const TableEnt
         if (sp.mode == SourceMode::Delta) {
             // Addition theorem: sum_m Y_jm(n) Y*_jm(N) = (2j+1)/(4 pi) P_j(n . N).
             const double x0 = std::max(-1.0, std::min(1.0, double(dot(n, LightVolumes::deltaDirection(sp, x)))));
-            double Pm = 0.0, P = 1.0;
-            for (int j = 0; j <= J; ++j) {
-                const double f = double(2 * j + 1) * NB_INV_4PI_D * P;
+            LegendreSeries P(x0);
+            for (int j = 0; j <= J; ++j, P.advance()) {
+                const double f = double(2 * j + 1) * NB_INV_4PI_D * P.value();
                 for (int c = 0; c < 3; ++c)
                     S[c] += f * sc.coef[size_t(c) * (J + 1) + j];
-                const double next = (double(2 * j + 1) * x0 * P - double(j) * Pm) / double(j + 1);
-                Pm = P;
-                P = next;
             }
             Rgb E = splat(0.0f);
             if (exactWeight > 0.0)

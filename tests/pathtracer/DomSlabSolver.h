@@ -9,7 +9,8 @@
 //                  + a sum_l (2l+1)/(4 pi) g^l P_l(mu) 2 pi int_{-1}^{1} P_l(mu') I(tau, mu') dmu'
 // with tau from the lit face, mu > 0 downward (Chandrasekhar 1960 ch. 1; Thomas & Stamnes 1999,
 // "Radiative Transfer in the Atmosphere and Ocean", ch. 6 and 8). Double-Gauss quadrature
-// (Sykes 1951): Gauss-Legendre on each hemisphere, n nodes each, Legendre terms to 2n - 1.
+// (Sykes 1951): Gauss-Legendre on each hemisphere, n nodes each, Legendre terms to 2n - 1 (nodes,
+// weights and P_l from Boost.Math).
 // Along each ordinate the transfer equation is integrated exactly for a source linear in tau
 // between grid nodes; source iteration to convergence. The emerging radiance in any direction
 // comes from integrating the converged source function (with the exact HG for the beam term)
@@ -17,6 +18,9 @@
 #pragma once
 
 #include "SlabSolver.h"
+
+#include <boost/math/quadrature/gauss.hpp>
+#include <boost/math/special_functions/legendre.hpp>
 
 #include <cmath>
 #include <vector>
@@ -99,11 +103,8 @@ private:
     }
     void legendre(double mu, std::vector<double>& p) const
     {
-        p[0] = 1;
-        if (mL > 1)
-            p[1] = mu;
-        for (int l = 2; l < mL; ++l)
-            p[size_t(l)] = ((2 * l - 1) * mu * p[size_t(l - 1)] - (l - 1) * p[size_t(l - 2)]) / l;
+        for (int l = 0; l < mL; ++l)
+            p[size_t(l)] = boost::math::legendre_p(l, mu);
     }
     double diffuseSource(const std::vector<double>& moments, const std::vector<double>& P) const
     {
@@ -131,17 +132,15 @@ private:
         }
         return I;
     }
+    // 2 pi int_0^1 I(mu) mu dmu, 32-point Gauss-Legendre on each of 8 pieces.
     double flux(bool up) const
     {
-        std::vector<double> x, w;
-        gaussLegendre01(32, x, w);
         const int pieces = 8;
         double sum = 0;
         for (int p = 0; p < pieces; ++p)
-            for (size_t i = 0; i < x.size(); ++i) {
-                double mu = (p + x[i]) / pieces;
-                sum += w[i] / pieces * (up ? top(mu) : bottom(mu)) * mu;
-            }
+            sum += boost::math::quadrature::gauss<double, 32>::integrate(
+                [&](double mu) { return (up ? top(mu) : bottom(mu)) * mu; }, double(p) / pieces,
+                double(p + 1) / pieces);
         return 2 * M_PI * sum;
     }
 

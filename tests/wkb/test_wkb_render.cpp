@@ -8,6 +8,7 @@
 #include "wkb/AngularKernel.h"
 #include "wkb/WkbIntegrator.h"
 
+#include <boost/math/quadrature/gauss.hpp>
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -383,13 +384,16 @@ TEST(WkbRender, ThinSceneSkipsL2plusWithItsBound)
 // intensity I(theta) toward a far camera at angle theta from the sun's direction of travel is
 // the image-plane integral of radiance (sum of pixel radiance x pixel area at the sphere); by the
 // symmetry about the sun's axis the outgoing power is 2 pi int_{-1}^{1} I(mu) dmu, here by 6-point
-// Gauss-Legendre. The edge of the procedural sphere (a one-voxel ramp) is counted generously:
-// the intercepted power uses the radius plus a voxel.
+// Gauss-Legendre (Boost.Math's nodes and weights). The edge of the procedural sphere (a one-voxel
+// ramp) is counted generously: the intercepted power uses the radius plus a voxel.
 TEST(WkbEnergy, ThickConservativeSphereGivesBackAtMostWhatItReceives)
 {
     const double R = 1.0, voxel = R / 16, E = 1.0, distance = 40.0;
-    const double nodes[6] = {-0.9324695142, -0.6612093865, -0.2386191861, 0.2386191861, 0.6612093865, 0.9324695142};
-    const double weights[6] = {0.1713244924, 0.3607615730, 0.4679139346, 0.4679139346, 0.3607615730, 0.1713244924};
+    // Boost stores the non-negative half of the rule: nodes +-t[i], weights w[i].
+    const auto &t = boost::math::quadrature::gauss<double, 6>::abscissa(),
+               &tw = boost::math::quadrature::gauss<double, 6>::weights();
+    const double nodes[6] = {-t[2], -t[1], -t[0], t[0], t[1], t[2]};
+    const double weights[6] = {tw[2], tw[1], tw[0], tw[0], tw[1], tw[2]};
     const int res = 40;
     const double fov = 2.0 * std::atan(1.15 * R / distance) * 180.0 / M_PI;
     const double pixelArea = std::pow(2.0 * distance * std::tan(0.5 * fov * M_PI / 180.0) / res, 2.0);
