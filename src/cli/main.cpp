@@ -4,7 +4,8 @@
 //   nimbus render --default            the embedded default scene (a procedural cloud)
 //   nimbus info SCENE.json             scene summary and render plan
 //   nimbus devices                     OpenCL devices for the path tracer
-//   render flags for the path tracer:  --device N|NAME, --checkpoint SECONDS
+//   render flags for the preview:      --preview-view VIEW, --preview-look LOOK, --exposure STOPS
+//   render flags for the path tracer:  --device N|NAME, --checkpoint SECONDS (to <name>.partial.exr)
 //   nimbus default-scene               prints the default scene as JSON
 //   nimbus compare SCENE.json [--out DIR] [--minutes M] [--seeds K] [--full]   WKB vs path tracer
 //
@@ -44,6 +45,8 @@ struct SceneArgs {
     bool useDefault = false;
     std::vector<std::string> sets;
     std::string method;
+    // Shorthands for --set output.preview_view=..., output.preview_look=..., output.exposure=...
+    std::string previewView, previewLook, exposure;
 };
 
 Scene loadScene(const SceneArgs& a)
@@ -54,6 +57,12 @@ Scene loadScene(const SceneArgs& a)
     std::vector<std::string> overrides = a.sets;
     if (!a.method.empty())
         overrides.push_back("render.method=\"" + a.method + "\"");
+    if (!a.previewView.empty())
+        overrides.push_back("output.preview_view=" + nlohmann::json(a.previewView).dump());
+    if (!a.previewLook.empty())
+        overrides.push_back("output.preview_look=" + nlohmann::json(a.previewLook).dump());
+    if (!a.exposure.empty())
+        overrides.push_back("output.exposure=" + a.exposure);
     if (a.useDefault) {
         nlohmann::json j = sceneToJson(defaultScene());
         applyOverrides(j, overrides, "default scene");
@@ -69,6 +78,16 @@ void addSceneArgs(CLI::App* cmd, SceneArgs& a)
     cmd->add_option("--set", a.sets, "Override a scene value: key.path=value (JSON value)")->take_all();
     cmd->add_option("--method", a.method, "single | wkb | pathtrace")
         ->check(CLI::IsMember({"single", "wkb", "pathtrace"}));
+}
+
+// The preview controls: shorthands for --set output.preview_view=... and so on.
+void addPreviewArgs(CLI::App* cmd, SceneArgs& a)
+{
+    cmd->add_option("--preview-view", a.previewView,
+                    "Preview: OCIO view of the display (output.preview_view; the config is $OCIO or the shipped one)");
+    cmd->add_option("--preview-look", a.previewLook,
+                    "Preview: OCIO look applied before the view (output.preview_look)");
+    cmd->add_option("--exposure", a.exposure, "Preview: exposure in stops, before the view (output.exposure)");
 }
 
 // -o and --preview as given: `set` tells "-o ''" (an error) from no -o at all.
@@ -92,7 +111,8 @@ int runRender(const SceneArgs& args, const OutputArgs& out, bool explain, bool q
     if (out.previewSet)
         scene.output.preview = out.preview;  // "": no preview
     validateScene(scene);
-    checkOutputs(scene);
+    const bool checkpoints = pt.checkpointSeconds > 0;
+    checkOutputs(scene, checkpoints);
 
     Progress progress("render", 1000, ProgressOptions{quiet, {}});
     float last = 0.0f;
@@ -106,16 +126,18 @@ int runRender(const SceneArgs& args, const OutputArgs& out, bool explain, bool q
         return true;
     };
     options.pathtrace.device = pt.device;
-    if (pt.checkpointSeconds > 0) {
-        // The running estimate, written over the output path atomically (a reader never sees a
-        // half-written file; a crash leaves the last checkpoint).
+    const std::string checkpointFile = checkpointPath(scene.output.file);
+    if (checkpoints) {
+        // The running estimate, written atomically under a name that says so, its header with
+        // nimbus:complete 0 and the spp reached (the engine adds those). The final name is written
+        // only when the render finishes, so a killed render leaves nothing there that looks
+        // finished; the last checkpoint stays. The film holds the output AOVs only
+        // (outputAovsOnly), and their order is the file's own (OpenEXR sorts channels).
         options.pathtrace.checkpointSeconds = pt.checkpointSeconds;
-        options.pathtrace.onCheckpoint = [&scene, quiet](const Film& film) {
-            Film copy = film;
-            selectAovs(scene, copy);
-            writeExr(copy, scene.output.file);
+        options.pathtrace.onCheckpoint = [&checkpointFile, quiet](const Film& film) {
+            writeExr(film, checkpointFile);
             if (!quiet)
-                std::fprintf(stderr, "nimbus: checkpoint written to %s\n", scene.output.file.c_str());
+                std::fprintf(stderr, "nimbus: checkpoint written to %s\n", checkpointFile.c_str());
         };
     }
     RenderResult result = render(scene, options);
@@ -124,6 +146,8 @@ int runRender(const SceneArgs& args, const OutputArgs& out, bool explain, bool q
         std::cout << result.plan.describe() << result.stats.describe(result.plan);
     selectAovs(scene, result.film);
     writeOutputs(scene, result.film);
+    if (checkpoints)
+        std::remove(checkpointFile.c_str());  // the frame is complete; its checkpoint is stale
     if (!quiet) {
         std::fprintf(stderr, "nimbus: wrote %s", scene.output.file.c_str());
         if (!scene.output.preview.empty())
@@ -169,6 +193,7 @@ int main(int argc, char** argv)
     bool explain = false, quiet = false;
     CLI::App* render = app.add_subcommand("render", "Render a scene to EXR (and a preview PNG)");
     addSceneArgs(render, renderArgs);
+    addPreviewArgs(render, renderArgs);
     CLI::Option* outputOption =
         render->add_option("-o,--output", outputArgs.output, "EXR output path (overrides output.file)");
     CLI::Option* previewOption =

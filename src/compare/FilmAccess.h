@@ -27,10 +27,9 @@ inline float lum(const Aov& a, size_t i)
 
 inline long long sppOf(const Film& f)
 {
-    for (const auto& kv : f.metadata)
-        if (kv.first == "pathtrace_spp")
-            return std::atoll(kv.second.c_str());
-    return 0;
+    const FilmValue* spp = f.meta("pathtrace_spp");
+    const std::string* text = spp ? std::get_if<std::string>(spp) : nullptr;
+    return text ? std::atoll(text->c_str()) : 0;
 }
 
 }  // namespace nimbus

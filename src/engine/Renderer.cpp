@@ -5,18 +5,24 @@
 
 #include "../render/FilmLayout.h"
 #include "../render/RenderPlanner.h"
+#include "../scene/CameraMatrices.h"
+#include "../scene/SceneJson.h"
 #include "../scene/SceneValidate.h"
 
 #include "../core/Log.h"
 
+#include <nlohmann/json.hpp>
 #include <tbb/blocked_range.h>
 #include <tbb/global_control.h>
 #include <tbb/parallel_reduce.h>
 
 #include <chrono>
 #include <cmath>
+#include <cstdlib>
 #include <memory>
 #include <sstream>
+#include <sys/resource.h>
+#include <variant>
 
 namespace nimbus {
 
@@ -64,6 +70,24 @@ std::string settingsSummary(const Scene& s)
     return o.str();
 }
 
+// Bytes: the most this process has held resident so far (Linux reports KiB).
+double peakResidentBytes()
+{
+    struct rusage usage;
+    return ::getrusage(RUSAGE_SELF, &usage) == 0 ? double(usage.ru_maxrss) * 1024.0 : 0.0;
+}
+
+// Samples per pixel the film holds: the path tracer's count so far, else the march's.
+int sppReached(const Film& film, const Scene& scene)
+{
+    if (const FilmValue* v = film.meta("pathtrace_spp"))
+        if (const std::string* text = std::get_if<std::string>(v))
+            return std::atoi(text->c_str());
+    if (scene.render.method == Method::Pathtrace)
+        return 0;
+    return scene.render.spp > 0 ? scene.render.spp : kDefaultMarchSpp;
+}
+
 // Scenes built in code reach render() without the JSON loader: give unnamed lights their index
 // as a name (as the loader does) and run the same checks.
 Scene checkedScene(const Scene& scene)
@@ -98,6 +122,27 @@ Planned planPass(const Scene& scene, const IntegratorEntry& entry, RenderStats& 
 
 }  // namespace
 
+void addFrameMetadata(Film& film, const Scene& scene, double seconds, bool complete)
+{
+    film.set("version", NIMBUS_VERSION);
+    film.set("method", methodName(scene.render.method));
+    film.set("seed", std::to_string(scene.render.seed));
+    film.set("render_time", std::to_string(seconds));
+    film.set("settings", settingsSummary(scene));
+    film.set("scene", sceneToJson(scene).dump());
+    if (!scene.sourcePath.empty())
+        film.set("scene_file", scene.sourcePath);
+    const int spp = sppReached(film, scene);
+    const int x0 = film.x0, x1 = film.x1 > 0 ? film.x1 : film.width;
+    const int y0 = film.y0, y1 = film.y1 > 0 ? film.y1 : film.height;
+    film.set("complete", complete ? 1 : 0);
+    film.set("spp", spp);
+    film.set("samples", double(spp) * double(x1 - x0) * double(y1 - y0));
+    film.set("memory_peak_bytes", peakResidentBytes());
+    film.set("worldToCamera", worldToCameraMatrix(scene.camera));
+    film.set("worldToNDC", worldToNdcMatrix(scene.camera));
+}
+
 std::vector<std::string> aovNames(const Scene& scene, Method method)
 {
     return aovNames(scene, integratorEntry(method).traits);
@@ -115,10 +160,18 @@ RenderPlan planRender(const Scene& input)
     return planPass(scene, integratorEntry(scene.render.method), stats).plan;
 }
 
-RenderResult render(const Scene& input, const RenderOptions& options)
+RenderResult render(const Scene& input, const RenderOptions& callerOptions)
 {
     const Scene scene = checkedScene(input);
     auto start = std::chrono::steady_clock::now();
+    // A checkpoint carries the header a frame does, marked incomplete with the samples so far.
+    RenderOptions options = callerOptions;
+    if (callerOptions.pathtrace.onCheckpoint)
+        options.pathtrace.onCheckpoint = [&](const Film& running) {
+            Film checkpoint = running;
+            addFrameMetadata(checkpoint, scene, secondsSince(start), false);
+            callerOptions.pathtrace.onCheckpoint(checkpoint);
+        };
     std::unique_ptr<tbb::global_control> threads;
     if (scene.render.threads > 0)
         threads = std::make_unique<tbb::global_control>(tbb::global_control::max_allowed_parallelism,
@@ -145,14 +198,7 @@ RenderResult render(const Scene& input, const RenderOptions& options)
     result.plan = planned.plan;
 
     result.seconds = secondsSince(start);
-    auto& md = result.film.metadata;
-    md.push_back({"version", NIMBUS_VERSION});
-    md.push_back({"method", methodName(scene.render.method)});
-    md.push_back({"seed", std::to_string(scene.render.seed)});
-    md.push_back({"render_time", std::to_string(result.seconds)});
-    md.push_back({"settings", settingsSummary(scene)});
-    if (!scene.sourcePath.empty())
-        md.push_back({"scene", scene.sourcePath});
+    addFrameMetadata(result.film, scene, result.seconds, true);
     return result;
 }
 

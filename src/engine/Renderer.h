@@ -39,6 +39,12 @@ struct RenderResult {
 // render failures, Cancelled when cancelled.
 RenderResult render(const Scene& scene, const RenderOptions& options = {});
 
+// The header of a frame (docs/output.md, "Metadata"): version, method, seed, settings, the scene
+// as JSON, the statistics (render time in `seconds`, spp reached, samples, peak memory), whether
+// it is `complete` (false: a checkpoint) and the camera as OpenEXR's worldToCamera and
+// worldToNDC. render() adds it to its film and to every checkpoint's.
+void addFrameMetadata(Film& film, const Scene& scene, double seconds, bool complete);
+
 // The plan alone (the planning pass: loads the volumes, builds no shadow map): `nimbus info`.
 RenderPlan planRender(const Scene& scene);
 

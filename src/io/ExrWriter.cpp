@@ -14,6 +14,7 @@
 #include <cstring>
 #include <memory>
 #include <set>
+#include <variant>
 #include <vector>
 
 namespace nimbus {
@@ -39,6 +40,16 @@ std::string oneLine(std::string text)
 
 constexpr float kHalfMax = 65504.0f;
 
+// OpenEXR's channel names by meaning: A alpha, Z depth, Y any other scalar (variance).
+const char* singleChannelName(const std::string& aov)
+{
+    if (aov == "alpha")
+        return "A";
+    if (aov == "depth")
+        return "Z";
+    return "Y";
+}
+
 OIIO::TypeDesc typeOf(const Aov& aov)
 {
     return aov.isData ? OIIO::TypeDesc::FLOAT : OIIO::TypeDesc::HALF;
@@ -60,24 +71,32 @@ std::vector<ChannelSource> channelLayout(const Film& film, const std::string& pa
     }
 
     std::vector<ChannelSource> channels;
-    // The plain RGBA viewers open by default. Its alpha is the beauty's own when it has one, so
-    // that A and beauty.A agree, else the alpha AOV, else opaque.
+    // The main layer compositors read by default: the beauty's R, G, B, A (its alpha is the
+    // beauty's own when it has one, so that A and beauty.A agree, else the alpha AOV, else
+    // opaque) and Z, the depth AOV, when the film has one.
     if (const Aov* beauty = film.find("beauty")) {
         static const char* const rgb[] = {"R", "G", "B"};
         for (int c = 0; c < 3; ++c)
             channels.push_back({rgb[c], beauty, beauty->channels == 1 ? 0 : c, OIIO::TypeDesc::HALF});
         if (beauty->channels == 4)
             channels.push_back({"A", beauty, 3, OIIO::TypeDesc::HALF});
-        else if (const Aov* alpha = film.find("alpha"))
+        else if (const Aov* alpha = film.find("alpha"); alpha && alpha->channels == 1)
             channels.push_back({"A", alpha, 0, OIIO::TypeDesc::HALF});
         else
             channels.push_back({"A", nullptr, 0, OIIO::TypeDesc::HALF});
     }
+    if (const Aov* depth = film.find("depth"); depth && depth->channels == 1)
+        channels.push_back({"Z", depth, 0, OIIO::TypeDesc::FLOAT});
+    // Every AOV as a layer of its own: colour as <aov>.R/.G/.B(.A); a 1-channel AOV as the one
+    // channel its meaning names (singleChannelName).
     for (const Aov& aov : film.aovs) {
+        if (aov.channels == 1) {
+            channels.push_back({aov.name + "." + singleChannelName(aov.name), &aov, 0, typeOf(aov)});
+            continue;
+        }
         static const char* const suffixes[] = {".R", ".G", ".B", ".A"};
-        const int count = aov.channels == 4 ? 4 : 3;
-        for (int c = 0; c < count; ++c)
-            channels.push_back({aov.name + suffixes[c], &aov, aov.channels == 1 ? 0 : c, typeOf(aov)});
+        for (int c = 0; c < aov.channels; ++c)
+            channels.push_back({aov.name + suffixes[c], &aov, c, typeOf(aov)});
     }
     std::set<std::string> names;
     for (const ChannelSource& channel : channels)
@@ -128,13 +147,28 @@ void writeExr(const Film& film, const std::string& path)
         if (spec.channelnames[c] == "A")
             spec.alpha_channel = c;
     spec.z_channel = -1;
+    for (int c = 0; c < channelCount; ++c)
+        if (spec.channelnames[c] == "Z")
+            spec.z_channel = c;
     spec.attribute("compression", "zip");
     spec.attribute("Software", "nimbus " NIMBUS_VERSION);
     bool hasVersion = false;
     for (const auto& [key, value] : film.metadata) {
-        const std::string name = key.rfind("nimbus:", 0) == 0 ? key : "nimbus:" + key;
+        std::string name = key.rfind("nimbus:", 0) == 0 ? key : "nimbus:" + key;
+        // OpenEXR's standard camera attributes, by the names OpenImageIO maps to them.
+        if (key == "worldToCamera")
+            name = "worldtocamera";
+        else if (key == "worldToNDC")
+            name = "worldtoNDC";
         hasVersion = hasVersion || name == "nimbus:version";
-        spec.attribute(name, value);
+        if (const std::string* text = std::get_if<std::string>(&value))
+            spec.attribute(name, *text);
+        else if (const int* integer = std::get_if<int>(&value))
+            spec.attribute(name, *integer);
+        else if (const double* real = std::get_if<double>(&value))
+            spec.attribute(name, OIIO::TypeDesc::DOUBLE, real);
+        else
+            spec.attribute(name, OIIO::TypeMatrix44, std::get<Matrix44>(value).data());
     }
     if (!hasVersion)
         spec.attribute("nimbus:version", NIMBUS_VERSION);

@@ -1,11 +1,12 @@
 // ExrWriter.h: a Film as one multi-layer scanline OpenEXR file.
 //
-// Layout (docs/output.md has the table): every AOV is a layer with channels "<aov>.R",
-// "<aov>.G", "<aov>.B" ("<aov>.A" too for 4-channel AOVs such as beauty); a 1-channel AOV
-// (alpha, depth, variance) repeats its value in all three so that every reader that expects
-// colour layers shows it. The beauty is also written as the plain R, G, B, A that viewers show
-// by default. Colour channels are half, data AOVs (Aov::isData) float. Data window = the film's
-// crop, display window = the full frame. Film metadata become string attributes "nimbus:<key>".
+// Layout (docs/output.md has the table), OpenEXR's conventions: the main layer R, G, B, A is the
+// beauty (A its alpha) and Z the depth AOV, what compositors read by default. Every AOV is also
+// a layer of its own: "<aov>.R", ".G", ".B" (".A" too for 4-channel AOVs such as beauty), a
+// 1-channel AOV one channel named by its meaning ("alpha.A", "depth.Z", "variance.Y"). Colour
+// channels are half, data (Aov::isData, and Z) float. Data window = the film's crop, display
+// window = the full frame. Film metadata become attributes "nimbus:<key>" of the value's type
+// (string, int, double, m44f); "worldToCamera" and "worldToNDC" are OpenEXR's own (m44f).
 #pragma once
 
 #include <string>

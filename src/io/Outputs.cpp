@@ -65,10 +65,30 @@ void checkWritable(const Scene& scene, const std::string& path, const std::strin
 
 }  // namespace
 
-void checkOutputs(const Scene& scene)
+std::string checkpointPath(const std::string& file)
+{
+    const fs::path path(file);
+    fs::path name = path.stem();
+    name += ".partial";
+    name += path.extension();
+    return (path.parent_path() / name).string();
+}
+
+PreviewOptions previewOptions(const Scene& scene)
+{
+    PreviewOptions options;
+    options.view = scene.output.previewView;
+    options.look = scene.output.previewLook;
+    options.exposure = scene.output.exposure;
+    return options;
+}
+
+void checkOutputs(const Scene& scene, bool checkpoints)
 {
     const std::vector<std::string> inputs = sceneInputFiles(scene);
     checkWritable(scene, scene.output.file, "output.file", inputs);
+    if (checkpoints)
+        checkWritable(scene, checkpointPath(scene.output.file), "output.file (its checkpoint)", inputs);
     if (!scene.output.preview.empty()) {
         checkWritable(scene, scene.output.preview, "output.preview", inputs);
         std::error_code ec;
@@ -88,6 +108,10 @@ void checkOutputs(const Scene& scene)
                              methodName(scene.render.method) + "' has no AOV '" + name + "' (available: " + list + ")");
         }
     }
+    // The preview's config, view and look, checked now: after the render is too late (the EXR
+    // would already be written and the run would end in a render failure).
+    if (!scene.output.preview.empty() || !scene.output.previewView.empty() || !scene.output.previewLook.empty())
+        checkPreviewSettings(previewOptions(scene), where(scene));
 }
 
 void selectAovs(const Scene& scene, Film& film)
@@ -110,7 +134,7 @@ void writeOutputs(const Scene& scene, const Film& film)
 {
     writeExr(film, scene.output.file);
     if (!scene.output.preview.empty())
-        writePreview(film, scene.output.preview);
+        writePreview(film, scene.output.preview, previewOptions(scene));
 }
 
 }  // namespace nimbus

@@ -53,46 +53,92 @@ std::string listOf(const std::vector<std::string>& names)
     return list;
 }
 
-// The CPU processor from scene_linear to the chosen display and view; every failure becomes one
-// Error line naming the config, the display or the view.
-OCIO::ConstCPUProcessorRcPtr displayProcessor(const PreviewOptions& options)
+// A problem with the preview settings: the scene key it belongs to and what is wrong.
+struct SettingError {
+    std::string key;  // "output.preview", "output.preview_view", "output.preview_look"
+    std::string message;
+};
+
+struct Resolved {
+    OCIO::ConstConfigRcPtr config;
+    std::string display, view, look;
+    std::string where;  // "OCIO config '<path>' (<source>)"
+};
+
+// The config loaded and the display, view and look checked against it; throws SettingError.
+Resolved resolve(const PreviewOptions& options)
 {
     const ConfigChoice choice = chooseConfig(options);
-    const std::string where = "OCIO config '" + choice.path + "' (" + choice.source + ")";
-    OCIO::ConstConfigRcPtr config;
+    Resolved r;
+    r.where = "OCIO config '" + choice.path + "' (" + choice.source + ")";
     try {
-        config = OCIO::Config::CreateFromFile(choice.path.c_str());
+        r.config = OCIO::Config::CreateFromFile(choice.path.c_str());
+        r.config->validate();
     } catch (const OCIO::Exception& e) {
-        throw Error("cannot load " + where + ": " + oneLine(e.what()));
+        throw SettingError{"output.preview", "cannot load " + r.where + ": " + oneLine(e.what())};
     }
 
-    std::string display = options.display.empty() ? config->getDefaultDisplay() : options.display;
+    r.display = options.display.empty() ? r.config->getDefaultDisplay() : options.display;
     std::vector<std::string> displays;
-    for (int i = 0; i < config->getNumDisplays(); ++i)
-        displays.push_back(config->getDisplay(i));
-    if (std::find(displays.begin(), displays.end(), display) == displays.end())
-        throw Error("display '" + display + "' is not in " + where + " (displays: " + listOf(displays) + ")");
-    std::string view = options.view.empty() ? config->getDefaultView(display.c_str()) : options.view;
+    for (int i = 0; i < r.config->getNumDisplays(); ++i)
+        displays.push_back(r.config->getDisplay(i));
+    if (std::find(displays.begin(), displays.end(), r.display) == displays.end())
+        throw SettingError{"output.preview", "display '" + r.display + "' is not in " + r.where +
+                                                 " (displays: " + listOf(displays) + ")"};
+    r.view = options.view.empty() ? r.config->getDefaultView(r.display.c_str()) : options.view;
     std::vector<std::string> views;
-    for (int i = 0; i < config->getNumViews(display.c_str()); ++i)
-        views.push_back(config->getView(display.c_str(), i));
-    if (std::find(views.begin(), views.end(), view) == views.end())
-        throw Error("view '" + view + "' of display '" + display + "' is not in " + where +
-                    " (views: " + listOf(views) + ")");
+    for (int i = 0; i < r.config->getNumViews(r.display.c_str()); ++i)
+        views.push_back(r.config->getView(r.display.c_str(), i));
+    if (std::find(views.begin(), views.end(), r.view) == views.end())
+        throw SettingError{"output.preview_view", "'" + r.view + "' is not a view of display '" + r.display + "' in " +
+                                                      r.where + " (views: " + listOf(views) + ")"};
+    r.look = options.look;
+    if (!r.look.empty()) {
+        std::vector<std::string> looks;
+        for (int i = 0; i < r.config->getNumLooks(); ++i)
+            looks.push_back(r.config->getLookNameByIndex(i));
+        if (std::find(looks.begin(), looks.end(), r.look) == looks.end())
+            throw SettingError{"output.preview_look", "'" + r.look + "' is not a look in " + r.where + " (looks: " +
+                                                          (looks.empty() ? std::string("none") : listOf(looks)) + ")"};
+    }
+    return r;
+}
 
+// The CPU processor from scene_linear through the look (when one is set, in place of the view's
+// own looks) to the chosen display and view.
+OCIO::ConstCPUProcessorRcPtr displayProcessor(const Resolved& r)
+{
     try {
         OCIO::DisplayViewTransformRcPtr transform = OCIO::DisplayViewTransform::Create();
         transform->setSrc(OCIO::ROLE_SCENE_LINEAR);
-        transform->setDisplay(display.c_str());
-        transform->setView(view.c_str());
-        return config->getProcessor(transform)->getDefaultCPUProcessor();
+        transform->setDisplay(r.display.c_str());
+        transform->setView(r.view.c_str());
+        if (r.look.empty())
+            return r.config->getProcessor(transform)->getDefaultCPUProcessor();
+        OCIO::LegacyViewingPipelineRcPtr pipeline = OCIO::LegacyViewingPipeline::Create();
+        pipeline->setDisplayViewTransform(transform);
+        pipeline->setLooksOverrideEnabled(true);
+        pipeline->setLooksOverride(r.look.c_str());
+        return pipeline->getProcessor(r.config)->getDefaultCPUProcessor();
     } catch (const OCIO::Exception& e) {
-        throw Error("cannot build display '" + display + "', view '" + view + "' from " + where + ": " +
+        throw Error("cannot build display '" + r.display + "', view '" + r.view + "'" +
+                    (r.look.empty() ? std::string() : ", look '" + r.look + "'") + " from " + r.where + ": " +
                     oneLine(e.what()));
     }
 }
 
 }  // namespace
+
+void checkPreviewSettings(const PreviewOptions& options, const std::string& where)
+{
+    try {
+        displayProcessor(resolve(options));
+    } catch (const SettingError& e) {
+        throw InputError(where + ": " + e.key + ": " + e.message);
+    } catch (const Error& e) {
+        throw InputError(where + ": output.preview: " + e.what());
+    }
+}
 
 void writePreview(const Film& film, const std::string& path, const PreviewOptions& options)
 {
@@ -115,7 +161,12 @@ void writePreview(const Film& film, const std::string& path, const PreviewOption
     y0 = std::clamp(y0, 0, film.height);
     y1 = std::clamp(y1, y0, film.height);
 
-    OCIO::ConstCPUProcessorRcPtr processor = displayProcessor(options);
+    OCIO::ConstCPUProcessorRcPtr processor;
+    try {
+        processor = displayProcessor(resolve(options));
+    } catch (const SettingError& e) {
+        throw Error(e.message);
+    }
 
     // Scene-linear RGB of the crop. NaN (a failed sample) shows black rather than whatever the
     // 8-bit conversion makes of it; +inf stays and clips to white.

@@ -291,6 +291,7 @@ void renderPathtrace(const RenderContext& ctx, Film& film, const RenderControl& 
         if (pt.checkpointSeconds > 0 && pt.onCheckpoint &&
             secondsBetween(lastCheckpoint, now) >= pt.checkpointSeconds && !(sppTarget > 0 && done >= sppTarget)) {
             readBack(done);
+            film.set("pathtrace_spp", std::to_string(done));
             pt.onCheckpoint(film);
             lastCheckpoint = Clock::now();
         }
@@ -307,8 +308,8 @@ void renderPathtrace(const RenderContext& ctx, Film& film, const RenderControl& 
         logWarning("path tracer: " + std::to_string(capped) + " paths reached the safety cap of " +
                    std::to_string(kSafetyMaxDepth) + " scattering events and were ended (energy lost)");
 
-    film.metadata.push_back({"pathtrace_spp", std::to_string(done)});
-    film.metadata.push_back({"pathtrace_device", device.name});
+    film.set("pathtrace_spp", std::to_string(done));
+    film.set("pathtrace_device", device.name);
     if (pt.stats) {
         PathtraceStats& s = *pt.stats;
         s.samplesPerPixel = done;

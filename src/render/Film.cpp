@@ -40,4 +40,22 @@ const Aov* Film::find(const std::string& name) const
     return nullptr;
 }
 
+const FilmValue* Film::meta(const std::string& key) const
+{
+    for (auto& [name, value] : metadata)
+        if (name == key)
+            return &value;
+    return nullptr;
+}
+
+void Film::set(const std::string& key, FilmValue value)
+{
+    for (auto& [name, existing] : metadata)
+        if (name == key) {
+            existing = std::move(value);
+            return;
+        }
+    metadata.push_back({key, std::move(value)});
+}
+
 }  // namespace nimbus

@@ -7,8 +7,10 @@
 #pragma once
 
 #include "../core/BulkAllocator.h"
+#include "../scene/CameraMatrices.h"
 
 #include <string>
+#include <variant>
 #include <vector>
 
 namespace nimbus {
@@ -20,17 +22,24 @@ struct Aov {
     BulkVector<float> pixels;  // row-major from the top-left, channels interleaved
 };
 
+// A header attribute: text, an integer, a real, or a 4x4 matrix (OpenEXR's m44f).
+using FilmValue = std::variant<std::string, int, double, Matrix44>;
+
 struct Film {
     int width = 0, height = 0;
     // Data window (the crop) in pixels: [x0, x1) x [y0, y1).
     int x0 = 0, y0 = 0, x1 = 0, y1 = 0;
     std::vector<Aov> aovs;
-    // Key/value metadata written to the EXR header (nimbus version, method, settings, seed...).
-    std::vector<std::pair<std::string, std::string>> metadata;
+    // Key/value metadata written to the EXR header (docs/output.md has the list): "<key>" as
+    // "nimbus:<key>", except OpenEXR's standard attributes "worldToCamera" and "worldToNDC".
+    std::vector<std::pair<std::string, FilmValue>> metadata;
 
     Aov& add(const std::string& name, int channels, bool isData);
     Aov* find(const std::string& name);
     const Aov* find(const std::string& name) const;
+    // The metadata value of `key`, or nullptr; set() replaces it or appends it.
+    const FilmValue* meta(const std::string& key) const;
+    void set(const std::string& key, FilmValue value);
     float* pixel(Aov& aov, int x, int y) { return aov.pixels.data() + (size_t(y) * width + x) * aov.channels; }
 };
 

@@ -141,6 +141,9 @@ struct RenderSettings {
 struct OutputSettings {
     std::string file = "out/render.exr";
     std::string preview;            // PNG through the OCIO view; empty: none
+    std::string previewView;        // the preview's OCIO view of the default display; empty: its default view
+    std::string previewLook;        // an OCIO look applied before the view; empty: none
+    float exposure = 0.0f;          // the preview's exposure, stops: scene-linear x 2^exposure before the view
     std::vector<std::string> aovs;  // empty: all the method produces
 };
 

@@ -176,6 +176,9 @@ void visitOutput(V& v, O& o)
 {
     v.field("file", o.file);
     v.field("preview", o.preview);
+    v.field("preview_view", o.previewView);
+    v.field("preview_look", o.previewLook);
+    v.field("exposure", o.exposure);
     v.field("aovs", o.aovs);
 }
 

@@ -341,6 +341,8 @@ void checkOutput(const Checker& c, const OutputSettings& o)
         if (!seen.insert(o.aovs[i]).second)
             c.fail(p, "'" + o.aovs[i] + "' is listed twice");
     }
+    // 2^64 overflows nothing a preview shows; beyond that only a typo gets here.
+    c.range("output.exposure", o.exposure, Range{-64, 64, false, false, "stops"});
 }
 
 }  // namespace

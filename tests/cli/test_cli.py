@@ -402,10 +402,13 @@ class Cli(unittest.TestCase):
     def test_exr_layers_and_metadata(self):
         s = small_scene()
         names, px, meta = self.assert_clean_render(s)
-        for aov in ["beauty", "L0", "L1", "alpha", "depth", "light_key"]:
+        for aov in ["beauty", "L0", "L1", "light_key"]:
             for c in "RGB":
                 self.assertIn(f"{aov}.{c}", names)
-        for key in ["nimbus:version", "nimbus:method", "nimbus:seed", "nimbus:render_time", "nimbus:settings"]:
+        for single in ["A", "Z", "alpha.A", "depth.Z"]:  # the rest: tests/cli/test_exr_conventions.py
+            self.assertIn(single, names)
+        for key in ["nimbus:version", "nimbus:method", "nimbus:seed", "nimbus:render_time", "nimbus:settings",
+                    "nimbus:scene", "nimbus:complete", "nimbus:spp", "worldToCamera", "worldToNDC"]:
             self.assertIn(key, meta)
         self.assertEqual(meta["nimbus:method"], "single")
         lit = px[..., names.index("beauty.R")]

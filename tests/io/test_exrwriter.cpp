@@ -113,16 +113,17 @@ TEST(ExrWriter, LayersChannelsFormatsWindowsAndMetadata)
     std::set<std::string> names;
     for (const auto& [name, c] : r.index)
         names.insert(name);
-    const std::set<std::string> expected = {"R",        "G",        "B",           "A",           "beauty.R",
-                                            "beauty.G", "beauty.B", "beauty.A",    "L0.R",        "L0.G",
-                                            "L0.B",     "alpha.R",  "alpha.G",     "alpha.B",     "depth.R",
-                                            "depth.G",  "depth.B",  "light_key.R", "light_key.G", "light_key.B"};
+    // OpenEXR's conventions: the main layer R, G, B, A and a single Z; 1-channel AOVs one
+    // channel each, named by meaning.
+    const std::set<std::string> expected = {
+        "R",    "G",    "B",    "A",       "Z",       "beauty.R",    "beauty.G",    "beauty.B",   "beauty.A",
+        "L0.R", "L0.G", "L0.B", "alpha.A", "depth.Z", "light_key.R", "light_key.G", "light_key.B"};
     EXPECT_EQ(names, expected);
     EXPECT_EQ(r.spec.nchannels, int(expected.size()));
 
     for (const char* half : {"R", "G", "B", "A", "beauty.R", "beauty.A", "L0.G", "light_key.B"})
         EXPECT_EQ(r.format(half), OIIO::TypeDesc::HALF) << half;
-    for (const char* full : {"alpha.R", "alpha.G", "alpha.B", "depth.R", "depth.G", "depth.B"})
+    for (const char* full : {"Z", "alpha.A", "depth.Z"})
         EXPECT_EQ(r.format(full), OIIO::TypeDesc::FLOAT) << full;
 
     EXPECT_EQ(r.spec.x, 1);
@@ -156,11 +157,12 @@ TEST(ExrWriter, ValuesRoundTrip)
         for (int x = film.x0; x < film.x1; ++x) {
             for (size_t a = 0; a < film.aovs.size(); ++a) {
                 const Aov& aov = film.aovs[a];
-                const int count = aov.channels == 4 ? 4 : 3;
-                for (int c = 0; c < count; ++c) {
-                    const float want =
-                        aov.pixels[(size_t(y) * film.width + x) * aov.channels + (aov.channels == 1 ? 0 : c)];
-                    const std::string name = aov.name + "." + rgba[c];
+                for (int c = 0; c < aov.channels; ++c) {
+                    const float want = aov.pixels[(size_t(y) * film.width + x) * aov.channels + c];
+                    const std::string name = aov.name + "." +
+                                             (aov.channels > 1      ? rgba[c]
+                                              : aov.name == "alpha" ? "A"
+                                                                    : "Z");
                     const float got = r.at(name, x, y);
                     if (aov.isData)
                         EXPECT_EQ(got, want) << name << " at " << x << "," << y;
@@ -173,8 +175,61 @@ TEST(ExrWriter, ValuesRoundTrip)
                 const float want = beauty.pixels[(size_t(y) * film.width + x) * 4 + c];
                 EXPECT_NEAR(r.at(rgba[c], x, y), want, halfTolerance(want)) << rgba[c] << " at " << x << "," << y;
             }
+            EXPECT_EQ(r.at("Z", x, y), film.find("depth")->pixels[size_t(y) * film.width + x]);
         }
-    EXPECT_EQ(r.at("depth.G", 3, 3), 1.0e6f);
+    EXPECT_EQ(r.at("depth.Z", 3, 3), 1.0e6f);
+    EXPECT_EQ(r.at("Z", 3, 3), 1.0e6f);
+}
+
+// What a compositor's reader does: OpenImageIO names the alpha and depth channels of the part
+// from the channel names alone, A and Z, and reads them by those indices.
+TEST(ExrWriter, CompositingReadFindsAlphaInAAndDepthInZ)
+{
+    test::TempDir dir;
+    const Film film = makeFilm();
+    writeExr(film, dir / "frame.exr");
+    const ReadBack r = readExr(dir / "frame.exr");
+    ASSERT_GE(r.spec.alpha_channel, 0);
+    ASSERT_GE(r.spec.z_channel, 0);
+    EXPECT_EQ(r.spec.channelnames[r.spec.alpha_channel], "A");
+    EXPECT_EQ(r.spec.channelnames[r.spec.z_channel], "Z");
+    const Aov& beauty = *film.find("beauty");
+    const Aov& depth = *film.find("depth");
+    for (int y = film.y0; y < film.y1; ++y)
+        for (int x = film.x0; x < film.x1; ++x) {
+            const size_t i = (size_t(y - r.spec.y) * r.spec.width + (x - r.spec.x)) * r.spec.nchannels;
+            const float alpha = beauty.pixels[(size_t(y) * film.width + x) * 4 + 3];
+            EXPECT_NEAR(r.pixels[i + r.spec.alpha_channel], alpha, halfTolerance(alpha)) << x << "," << y;
+            EXPECT_EQ(r.pixels[i + r.spec.z_channel], depth.pixels[size_t(y) * film.width + x]) << x << "," << y;
+        }
+}
+
+// Typed metadata keep their type; the camera matrices are OpenEXR's m44f standard attributes.
+TEST(ExrWriter, TypedMetadataAndCameraAttributes)
+{
+    test::TempDir dir;
+    Film film = makeFilm();
+    Matrix44 m;
+    for (int i = 0; i < 16; ++i)
+        m[i] = 0.5f * float(i) - 3.0f;
+    film.set("complete", 0);
+    film.set("samples", 6.0e9);
+    film.set("worldToCamera", m);
+    film.set("worldToNDC", m);
+    writeExr(film, dir / "frame.exr");
+    const ReadBack r = readExr(dir / "frame.exr");
+    EXPECT_EQ(r.spec.get_int_attribute("nimbus:complete", -1), 0);
+    const OIIO::ParamValue* samples = r.spec.find_attribute("nimbus:samples");
+    ASSERT_TRUE(samples);
+    EXPECT_EQ(samples->type(), OIIO::TypeDesc::DOUBLE);
+    EXPECT_EQ(samples->get<double>(), 6.0e9);
+    for (const char* name : {"worldtocamera", "worldtoNDC"}) {
+        const OIIO::ParamValue* p = r.spec.find_attribute(name);
+        ASSERT_TRUE(p) << name;
+        EXPECT_EQ(p->type(), OIIO::TypeMatrix44) << name;
+        for (int i = 0; i < 16; ++i)
+            EXPECT_EQ(p->get<float>(i), m[i]) << name << "[" << i << "]";
+    }
 }
 
 TEST(ExrWriter, PlainAlphaFromAlphaAovOrOpaque)
@@ -191,7 +246,9 @@ TEST(ExrWriter, PlainAlphaFromAlphaAovOrOpaque)
     writeExr(film, dir / "alpha.exr");
     const ReadBack r = readExr(dir / "alpha.exr");
     EXPECT_EQ(r.at("A", 0, 1), 0.25f);
+    EXPECT_EQ(r.at("alpha.A", 0, 1), 0.25f);
     EXPECT_EQ(r.index.count("beauty.A"), 0u);
+    EXPECT_EQ(r.index.count("Z"), 0u) << "no depth AOV, no Z";
     EXPECT_EQ(r.spec.x, 0);
     EXPECT_EQ(r.spec.width, 2) << "an unset crop is the full frame";
 }
@@ -349,7 +406,7 @@ TEST(ExrWriter, ValuesBeyondHalfAreClampedWithOneWarningNamingTheAov)
     EXPECT_EQ(r.at("L0.G", 2, 3), 65504.0f);
     EXPECT_EQ(r.at("L0.B", 2, 3), -65504.0f);
     EXPECT_EQ(r.at("L0.R", 4, 4), 65504.0f);
-    EXPECT_EQ(r.at("depth.R", 3, 3), 1.0e6f) << "float channels are not clamped";
+    EXPECT_EQ(r.at("depth.Z", 3, 3), 1.0e6f) << "float channels are not clamped";
     ASSERT_EQ(warnings.size(), 1u);
     EXPECT_NE(warnings[0].find("L0 (2 pixels)"), std::string::npos) << warnings[0];
     EXPECT_NE(warnings[0].find(path), std::string::npos) << warnings[0];

@@ -50,8 +50,9 @@ def default_nimbus():
 # ---- images ----------------------------------------------------------------------------------
 
 def read_layers(path):
-    """{layer: array (h, w, channels)} and the spec's nimbus:* metadata. Unprefixed R, G, B, A
-    (the beauty again, for viewers) are left out."""
+    """{layer: array (h, w, channels)} and the spec's nimbus:* metadata. The main layer (R, G, B,
+    A: the beauty again; Z: the depth again) is left out; a 1-channel AOV (alpha.A, depth.Z,
+    variance.Y) is an array of one channel."""
     inp = oiio.ImageInput.open(path)
     if not inp:
         raise RuntimeError(oiio.geterror())
@@ -64,14 +65,15 @@ def read_layers(path):
         if layer:
             chans.setdefault(layer, []).append((c, px[..., i]))
     order = "RGBA"
-    layers = {k: np.stack([a for _, a in sorted(v, key=lambda t: order.index(t[0]))], -1) for k, v in chans.items()}
+    layers = {k: np.stack([a for _, a in sorted(v, key=lambda t: order.find(t[0]))], -1) for k, v in chans.items()}
     meta = {a.name: a.value for a in spec.extra_attribs if a.name.startswith("nimbus:")}
     return layers, meta
 
 
 def write_layers(path, layers, meta):
     """A multi-layer EXR in nimbus's layout (docs/output.md): R, G, B, A (the beauty), then
-    `<layer>.R/.G/.B(.A)`; colour as half, the variance as float; zip."""
+    `<layer>.R/.G/.B(.A)`, a 1-channel layer as its one channel (`variance.Y`); colour as half,
+    the variance as float; zip."""
     h, w, _ = layers["beauty"].shape
     names, fmts, planes = [], [], []
     def add(name, plane, fmt):
@@ -81,6 +83,9 @@ def write_layers(path, layers, meta):
     for layer in sorted(layers):
         a = layers[layer]
         fmt = oiio.FLOAT if layer == "variance" else oiio.HALF
+        if a.shape[-1] == 1:
+            add(layer + "." + {"alpha": "A", "depth": "Z"}.get(layer, "Y"), a[..., 0], oiio.FLOAT)
+            continue
         for i in range(a.shape[-1]):
             add(layer + "." + "RGBA"[i], a[..., i], fmt)
     spec = oiio.ImageSpec(w, h, len(names), oiio.FLOAT)

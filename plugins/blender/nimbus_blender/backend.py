@@ -175,6 +175,6 @@ def read_exr(path):
         indices = [i for _, i in sorted(channels, key=lambda c: order.get(c[0], 4))]
         data = full[..., indices]
         if layer in ("alpha", "depth", "variance"):
-            data = data[..., :1]  # a data AOV repeats its value in R, G, B
+            data = data[..., :1]  # one channel (alpha.A, depth.Z, variance.Y); older files repeat it in R, G, B
         out[layer] = np.ascontiguousarray(data[..., 0] if data.shape[-1] == 1 else data)
     return out
