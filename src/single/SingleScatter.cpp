@@ -145,7 +145,10 @@ bool marchStiffStep(const RenderContext& ctx, const VolumeData& vol, float3 o, f
             const Rgb stepT = make_float3(std::exp(-camera.x), std::exp(-camera.y), std::exp(-camera.z));
             const float opacity = nbAverage(T * (splat(1.0f) - stepT));  // stepOpacity, no thin steps here
             opacitySum += opacity;
-            depthSum += opacity * t0;
+            // At the sub-step's opacity-weighted mean distance, t0 + L (1/x - 1/(e^x - 1)), x
+            // its optical depth (L/2 where thin): the partial first step is not jittered.
+            const float x = nbAverage(camera);
+            depthSum += opacity * (t0 + (x > 1e-3f ? L * (1.0f / x - 1.0f / std::expm1(x)) : 0.5f * L));
             T = T * stepT;
             if (nbMaxComponent(T) < cutoff) {
                 T = splat(0.0f);
