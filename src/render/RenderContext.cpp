@@ -25,6 +25,8 @@ std::unique_ptr<RenderContext> RenderContext::create(const Scene& scene, VolumeS
     ctx->scene = &scene;
     ctx->volumes = std::move(volumes);
     ctx->background = scene.background;
+    for (const auto& v : ctx->volumes.volumes())
+        ctx->stiff.push_back(StiffVoxels::find(*v, scene.render.step * v->voxelSize));
     bool hasEnvironment = false;
     for (size_t i = 0; i < scene.lights.size(); ++i) {
         const Light& l = scene.lights[i];

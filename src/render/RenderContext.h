@@ -7,6 +7,7 @@
 #include "LightCache.h"
 #include "RenderPlan.h"
 #include "RenderStats.h"
+#include "StiffVoxels.h"
 #include "VolumeSet.h"
 
 #include <memory>
@@ -31,6 +32,7 @@ struct RenderContext {
     const Scene* scene = nullptr;
     VolumeSet volumes;
     std::vector<LightEntry> lights;  // index-aligned with scene.lights
+    std::vector<StiffVoxels> stiff;  // per volume: bricks with optically thick voxels (StiffVoxels.h)
     Rgb background = splat(0.0f);    // radiance seen where rays leave the volumes
 
     // The context for `plan` (made by planScene over the same volumes): the lights in kernel

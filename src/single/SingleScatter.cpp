@@ -33,6 +33,142 @@ inline void stepTerms(float sigma, float dt, float& transmit, float& weight)
     }
 }
 
+// E1 = int_0^L e^{-a u} du and E2 = int_0^L u e^{-a u} du, for either sign of a: by their
+// series where |a L| < 0.1 (1 - e^{-x} (1 + x) cancels to x^2 / 2 there), else in closed form.
+inline void secantWeights(float a, float L, float& e1, float& e2)
+{
+    const float x = std::max(a * L, -40.0f);
+    if (std::fabs(x) < 0.1f) {
+        e1 = L * (1.0f - x * (0.5f - x * (1.0f / 6.0f - x * (1.0f / 24.0f))));
+        e2 = L * L * (0.5f - x * (1.0f / 3.0f - x * (1.0f / 8.0f - x * (1.0f / 30.0f))));
+    } else {
+        const float e = std::exp(-x);
+        e1 = (1.0f - e) / a;
+        e2 = (1.0f - e * (1.0f + x)) / (a * a);
+    }
+}
+
+// A light as the stiff sub-steps read it: its baked optical depth and, for a point or spot
+// light, its position (distant lights: direction toward the light, distance unbounded).
+struct StiffLight {
+    size_t index;  // in ctx.lights
+    const BrickGrid* cache;
+    bool distant;
+};
+
+// One camera step [ta, tb] through a stiff brick (StiffVoxels.h) in n equal sub-steps. At
+// both ends of a sub-step the density rho and each light's optical depth tau_L (marched back
+// toward the light where a cell is not flat, stiffOpticalDepth) are taken, and both optical
+// depths, the camera's and the light's, are held linear across the sub-step (the secant
+// rule): with a = sigma_t (rho0 + rho1) / 2 + (tau1 - tau0) / L,
+//   int_0^L T e^{-sigma_t rho_avg u} rho(u) e^{-tau_L(u)} du = T e^{-tau0} (rho0 E1 + (rho1 - rho0) / L E2),
+// exact in a homogeneous medium at any step (light entering through any face), second order
+// where the density ramps (a voxelised surface). L1[l] gets that, per channel, times sigma_s
+// / rho for the caller to apply, and times L_i p for point and spot lights (distant lights'
+// L_i p is constant along the ray: the caller applies it). Returns false once every channel's
+// transmittance is below the cut-off.
+bool marchStiffStep(const RenderContext& ctx, const VolumeData& vol, float3 o, float3 d, float ta, float tb, int n,
+                    const StiffLight* lights, size_t nLights, Rgb& T, Rgb* L1, float& opacitySum, float& depthSum)
+{
+    const float3 oi = vol.indexFromWorld.point(o), di = vol.indexFromWorld.vector(d);
+    const Rgb kT = vol.sigmaT();
+    const NbPhase phase = vol.medium.phase;
+    const float cutoff = ctx.scene->render.tolerance;
+    const float L = (tb - ta) / float(n);
+    constexpr size_t kMaxLights = 16;
+    struct End {
+        float rho;
+        Rgb tau[kMaxLights];
+    };
+    // The lights toward which the sub-steps march back (at most kMaxLights; the rest read the
+    // lattice, as outside stiff bricks).
+    const size_t nl = std::min(nLights, kMaxLights);
+    auto evaluate = [&](float t, End& e) {
+        const float3 q = oi + di * t;
+        const BrickGrid::Stencil st = vol.density.stencil(q);
+        e.rho = st.brick < 0 ? 0.0f : std::max(vol.density.interpolate(st), 0.0f);
+        for (size_t l = 0; l < nl; ++l) {
+            if (st.brick < 0) {
+                e.tau[l] = splat(-1.0f);  // no lattice here: the other end's value stands in
+                continue;
+            }
+            const LightEntry& le = ctx.lights[lights[l].index];
+            float3 wi;
+            float distance = 1e30f;
+            if (lights[l].distant) {
+                wi = -nbLoad3(le.light.direction);
+            } else {
+                const float3 toLight = nbLoad3(le.light.position) - (o + d * t);
+                distance = length(toLight);
+                wi = toLight / std::max(distance, 1e-30f);
+            }
+            e.tau[l] = stiffOpticalDepth(vol, *lights[l].cache, q, vol.indexFromWorld.vector(wi), distance);
+        }
+    };
+    End e0, e1;
+    evaluate(ta, e0);
+    for (int j = 0; j < n; ++j) {
+        const float t0 = ta + float(j) * L;
+        evaluate(j + 1 == n ? tb : t0 + L, e1);
+        if (e0.rho > 0.0f || e1.rho > 0.0f) {
+            const float rhoAvg = 0.5f * (e0.rho + e1.rho), slope = (e1.rho - e0.rho) / L;
+            const Rgb camera = kT * (rhoAvg * L);  // the sub-step's optical depth
+            for (size_t l = 0; l < nl; ++l) {
+                Rgb tau0 = e0.tau[l], tau1 = e1.tau[l];
+                if (tau0.x < 0.0f)
+                    tau0 = tau1;
+                if (tau1.x < 0.0f)
+                    tau1 = tau0;
+                if (tau0.x < 0.0f)
+                    continue;
+                Rgb c;
+                float w1, w2;
+                secantWeights(camera.x / L + (tau1.x - tau0.x) / L, L, w1, w2);
+                c.x = std::exp(-tau0.x) * (e0.rho * w1 + slope * w2);
+                if (kT.y == kT.x && kT.z == kT.x && tau0.y == tau0.x && tau1.y == tau1.x && tau0.z == tau0.x &&
+                    tau1.z == tau1.x) {
+                    c.y = c.z = c.x;
+                } else {
+                    secantWeights(camera.y / L + (tau1.y - tau0.y) / L, L, w1, w2);
+                    c.y = std::exp(-tau0.y) * (e0.rho * w1 + slope * w2);
+                    secantWeights(camera.z / L + (tau1.z - tau0.z) / L, L, w1, w2);
+                    c.z = std::exp(-tau0.z) * (e0.rho * w1 + slope * w2);
+                }
+                c = T * c;
+                if (!lights[l].distant) {
+                    float3 wi;
+                    const Rgb weight = ctx.deltaWeight(lights[l].index, o + d * t0, wi);
+                    c = c * weight * nbPhaseEval(phase, dot(wi, d));  // travel -wi, then -d
+                }
+                L1[l] += c;
+            }
+            const Rgb stepT = make_float3(std::exp(-camera.x), std::exp(-camera.y), std::exp(-camera.z));
+            const float opacity = nbAverage(T * (splat(1.0f) - stepT));  // stepOpacity, no thin steps here
+            opacitySum += opacity;
+            // At the sub-step's opacity-weighted mean distance, t0 + L (1/x - 1/(e^x - 1)), x
+            // its optical depth (L/2 where thin): the partial first step is not jittered.
+            const float x = nbAverage(camera);
+            depthSum += opacity * (t0 + (x > 1e-3f ? L * (1.0f / x - 1.0f / std::expm1(x)) : 0.5f * L));
+            T = T * stepT;
+            if (nbMaxComponent(T) < cutoff) {
+                T = splat(0.0f);
+                return false;
+            }
+        }
+        e0 = e1;
+    }
+    return true;
+}
+
+// Where a stiff step starting at sample t begins (marchStiffStep's ta): at t where the step
+// before was integrated, else back to the sample before (its step read no density, or lay in
+// an empty brick, and density may begin inside it) but not before the lattice's start, so that
+// the first sample also covers the partial step from the entry into the occupied bricks.
+inline float stiffStepStart(float t, float dt, float tStart, float coveredTo)
+{
+    return std::max(std::max(coveredTo, t - dt), tStart);
+}
+
 // The common case in a tight loop: one volume without emission, every used light shadow-mapped
 // and baked on its voxels. The march walks the density grid's occupied bricks in index space
 // (BrickWalk.h: no spans, no matrix per step); one stencil reads the density and every light's
@@ -75,10 +211,38 @@ void marchOneVolume(const RenderContext& ctx, const VolumeData& vol, float3 o, f
     const Active first = activeList.empty() ? Active{0, nullptr, false, splat(0.0f)} : activeList[0];
     Rgb T = splat(1.0f), L1 = splat(0.0f);
     float depthSum = 0.0f, opacitySum = 0.0f;
-    walkVolume(vol, o, d, dt, jitter, [&](int, float t, const BrickGrid::Stencil& st) {
+    const StiffVoxels& stiff = ctx.stiff[0];
+    thread_local std::vector<StiffLight> stiffLights;
+    thread_local std::vector<Rgb> stiffL1;
+    stiffLights.clear();
+    for (size_t ai = 0; ai < nActive; ++ai)
+        stiffLights.push_back({size_t(active[ai].index), active[ai].cache, active[ai].distant});
+    stiffL1.resize(nActive);
+    float coveredTo = -1e30f;  // stiffStepStart
+    walkVolume(vol, o, d, dt, jitter, [&](int k, float t, const BrickGrid::Stencil& st) {
+        if (stiff.any) {
+            if (const int n = stiff.subStepsOf(st.brick)) {
+                const float ta = stiffStepStart(t, dt, t - (float(k) + jitter) * dt, coveredTo), tb = t + dt;
+                coveredTo = tb;
+                std::fill(stiffL1.begin(), stiffL1.end(), splat(0.0f));
+                const bool go = marchStiffStep(ctx, vol, o, d, ta, tb, int(std::ceil(float(n) * (tb - ta) / dt)),
+                                               stiffLights.data(), nActive, T, stiffL1.data(), opacitySum, depthSum);
+                for (size_t ai = 0; ai < nActive; ++ai) {
+                    const Active& a = OneDistant ? first : active[ai];
+                    const Rgb c = kS * stiffL1[ai] * (a.distant ? a.weight : splat(1.0f));
+                    L1 += c;
+                    if (!OneDistant) {
+                        float* pl = perLight + 3 * a.index;
+                        pl[0] += c.x, pl[1] += c.y, pl[2] += c.z;
+                    }
+                }
+                return go;
+            }
+        }
         const float rho = BrickGrid::trilinear<1>(density.brickData(st.brick) + st.corner, st.tx, st.ty, st.tz);
         if (!(rho > 0.0f))
             return true;
+        coveredTo = t + dt;
         Rgb stepT, w;
         stepTerms(kT.x * rho, dt, stepT.x, w.x);
         if (Grey) {
@@ -148,10 +312,25 @@ void marchGreyKeyLight(const RenderContext& ctx, const VolumeData& vol, const Li
     const float cutoff = ctx.scene->render.tolerance;
     const float dt = ctx.scene->render.step * vol.voxelSize;
     float T = 1.0f, L1 = 0.0f, depthSum = 0.0f, opacitySum = 0.0f;
-    walkVolume(vol, o, d, dt, jitter, [&](int, float t, const BrickGrid::Stencil& st) {
+    const StiffVoxels& stiff = ctx.stiff[0];
+    const StiffLight stiffKey{size_t(&key - ctx.lights.data()), &cache, true};
+    float coveredTo = -1e30f;  // stiffStepStart
+    walkVolume(vol, o, d, dt, jitter, [&](int k, float t, const BrickGrid::Stencil& st) {
+        if (stiff.any) {
+            if (const int n = stiff.subStepsOf(st.brick)) {
+                const float ta = stiffStepStart(t, dt, t - (float(k) + jitter) * dt, coveredTo), tb = t + dt;
+                coveredTo = tb;
+                Rgb Tr = splat(T), l1 = splat(0.0f);
+                const bool go = marchStiffStep(ctx, vol, o, d, ta, tb, int(std::ceil(float(n) * (tb - ta) / dt)),
+                                               &stiffKey, 1, Tr, &l1, opacitySum, depthSum);
+                T = Tr.x, L1 += l1.x;
+                return go;
+            }
+        }
         const float rho = BrickGrid::trilinear<1>(density.brickData(st.brick) + st.corner, st.tx, st.ty, st.tz);
         if (!(rho > 0.0f))
             return true;
+        coveredTo = t + dt;
         float stepT, w;
         stepTerms(kT * rho, dt, stepT, w);
         const float tauLight = BrickGrid::trilinear<1>(cache.brickData(st.brick) + st.corner, st.tx, st.ty, st.tz);
@@ -276,6 +455,23 @@ bool marchSingleFast(const RenderContext& ctx, float3 o, float3 d, float jitter,
     float depthSum = 0.0f, opacitySum = 0.0f;
     bool done = false;
 
+    // One volume without emission whose every used light is baked: stiff bricks take
+    // marchStiffStep's sub-steps, as in the specialised loops.
+    thread_local std::vector<StiffLight> stiffLights;
+    thread_local std::vector<Rgb> stiffL1;
+    stiffLights.clear();
+    bool stiffSteps = nVolumes == 1 && ctx.stiff[0].any && !volumes[0]->hasEmission();
+    for (size_t i = 0; i < nLights && stiffSteps; ++i) {
+        const LightEntry& e = ctx.lights[i];
+        if (!e.used)
+            continue;
+        stiffSteps = e.cache.has_value();
+        if (stiffSteps)
+            stiffLights.push_back({i, &e.cache->grid(0), e.light.type == NB_LIGHT_DISTANT});
+    }
+    stiffL1.resize(stiffLights.size());
+    float coveredTo = -1e30f;  // stiffStepStart
+
     int kNext = 0;  // latticeStart: the first lattice sample not yet taken
     for (const Span& span : spanList) {
         float len = span.t1 - span.t0;
@@ -293,8 +489,31 @@ bool marchSingleFast(const RenderContext& ctx, float3 o, float3 d, float jitter,
             kNext = k + 1;
             float3 p = o + d * t;
             MediumSample m = vs.sample(p, phaseWeights.data(), stencils.data());
+            if (stiffSteps) {
+                if (const int ns = ctx.stiff[0].subStepsOf(stencils[0].brick)) {
+                    const VolumeData& vol = *volumes[0];
+                    const float ta = stiffStepStart(t, dt, t - (float(k) + jitter) * dt, coveredTo), tb = t + dt;
+                    coveredTo = tb;
+                    std::fill(stiffL1.begin(), stiffL1.end(), splat(0.0f));
+                    done = !marchStiffStep(ctx, vol, o, d, ta, tb, int(std::ceil(float(ns) * (tb - ta) / dt)),
+                                           stiffLights.data(), stiffLights.size(), T, stiffL1.data(), opacitySum,
+                                           depthSum);
+                    for (size_t l = 0; l < stiffLights.size(); ++l) {
+                        const size_t i = stiffLights[l].index;
+                        const Rgb c =
+                            vol.sigmaS() * stiffL1[l] *
+                            (stiffLights[l].distant ? nbLoad3(ctx.lights[i].light.color) * rayPhase[i] : splat(1.0f));
+                        out.L1 += c;
+                        perLight[3 * i + 0] += c.x;
+                        perLight[3 * i + 1] += c.y;
+                        perLight[3 * i + 2] += c.z;
+                    }
+                    continue;
+                }
+            }
             if (nbMaxComponent(m.sigma_t) <= 0.0f && nbMaxComponent(m.emission) <= 0.0f)
                 continue;
+            coveredTo = t + dt;
             Rgb stepT, w;
             stepTerms(m.sigma_t.x, dt, stepT.x, w.x);
             if (m.sigma_t.y == m.sigma_t.x && m.sigma_t.z == m.sigma_t.x) {  // grey medium
@@ -404,6 +623,8 @@ int eightRayLightsOf(const RenderContext& ctx, const LightEntry** lights)
     bool allDistant = false;
     const FastMarch fast = fastMarchOf(ctx, &key, &allDistant);
     if (!allDistant || (fast != FastMarch::GreyKeyLight && fast != FastMarch::Grey))
+        return 0;
+    if (ctx.stiff[0].any)  // stiff bricks take the one-ray march's sub-steps (marchStiffStep)
         return 0;
     int lightCount = 0;
     for (const LightEntry& e : ctx.lights) {
