@@ -537,9 +537,11 @@ TEST(WkbSources, EnvironmentLightProjectsToSh)
 // uniform emission S (W/(m^3 sr)), extinction c and albedo omega0, every order is known: L0 =
 // S/c and L2+ = omega0^2 / (1 - omega0) S/c (the weight's integral, eq. 88 with an isotropic
 // source). With isotropic scattering (only order 0 enters) WKB reads the blurred unscattered
-// emission's mean over directions, at most S/c everywhere, with weights summing to at most
-// omega0^2/(1 - omega0): an upper bound. The blur reaches towards the faces (L0 = S/2c there);
-// the lower bound asserted is half of it. There are no lights: L2+ goes to L2plus alone.
+// emission's mean over directions, S/c in the interior, with weights summing to
+// omega0^2/(1 - omega0): here the model is exact, and the faces, 30 optical depths away, change
+// it by less than e^{-30}. What is left is the emission light volume's direction sampling and
+// the pyramid's float sums: held to 0.5% (measured 0.12% low; issue 13's L2plus energy target
+// is 5%). There are no lights: L2+ goes to L2plus alone.
 TEST(WkbSources, EmissionFeedsL2plusDeepInsideAMedium)
 {
     const int n = 48;
@@ -561,8 +563,7 @@ TEST(WkbSources, EmissionFeedsL2plusDeepInsideAMedium)
     const double exact = omega * omega / (1 - omega) * S / c;
     for (Rgb v : marchL2plus(*ctx, w)) {
         ASSERT_TRUE(isFinite(v));
-        EXPECT_LE(v.y, exact * (1 + 1e-5));
-        EXPECT_GE(v.y, 0.5 * exact);
+        EXPECT_NEAR(v.y, exact, 5e-3 * exact);
     }
 }
 
