@@ -98,6 +98,18 @@ Rgb stiffOpticalDepth(const VolumeData& vol, const BrickGrid& cache, float3 p, f
                            BrickGrid::trilinear<3>(t + 2, tx, ty, tz));
     };
 
+    // A trilinear cell is linear exactly when its four diagonals' corner sums agree; their
+    // spread bounds the interpolation's departure from the plane through the corners.
+    auto latticeIsLinear = [&](int brick, int corner) {
+        const float* t = cache.brickData(brick) + size_t(corner) * C;
+        float lo = 1e30f, hi = -1e30f;
+        for (int c = 0; c < 4; ++c) {
+            const float sum = t[size_t(kCorner[c]) * C] + t[size_t(kCorner[7 - c]) * C];
+            lo = std::min(lo, sum), hi = std::max(hi, sum);
+        }
+        return 0.5f * (hi - lo) < kFlatCell;
+    };
+
     Bbox bounds = density.activeIndexBounds();
     float integral = 0.0f;  // int rho ds from p, metres
     float s = 0.0f;
@@ -128,7 +140,9 @@ Rgb stiffOpticalDepth(const VolumeData& vol, const BrickGrid& cache, float3 p, f
             sNext[axis] += sDelta[axis];
             continue;
         }
-        if (hi - lo < flat)  // tau is linear across this cell: the lattice is exact here
+        // Density flat across the cell, and the lattice's tau linear across it (near a shadow's
+        // terminator tau_L bends sharply even where the density is flat): the lattice is exact.
+        if (hi - lo < flat && latticeIsLinear(brick, corner))
             return kT * integral + latticeDepth(brick, corner, origin, q);
         const float sEnd = std::min(sNext[axis], maxDistance);
         auto rho = [&](float sAt) {
