@@ -14,6 +14,8 @@ packages=(
   nlohmann-json3-dev libcli11-dev
   libgtest-dev libgmock-dev
   pybind11-dev python3-dev python3-numpy
+  # nimbus compare's charts (src/compare/compare_charts.py), run with /usr/bin/python3.
+  python3-matplotlib
   # The Blender add-on's end-to-end test (tests/blender): ~30 s to install, ~15 s to run.
   blender
 )

@@ -5,7 +5,8 @@
 #   <prefix>/lib/cmake/nimbus/               find_package(nimbus): nimbus::nimbus (the C ABI),
 #                                            nimbus::volume_plugin (headers for a procedural)
 #   <prefix>/lib/pkgconfig/nimbus.pc         pkg-config nimbus (relocatable: ${pcfiledir})
-#   <prefix>/share/nimbus/                   kernels/, shaders/, ocio/config.ocio: found at run
+#   <prefix>/share/nimbus/                   kernels/, shaders/, ocio/config.ocio,
+#                                            compare/compare_charts.py: found at run
 #                                            time next to bin/ or lib/ (src/core/DataFiles.h)
 # Included from the top level after src/ and plugins/ (it names their targets).
 
@@ -33,3 +34,4 @@ install(FILES ${PROJECT_BINARY_DIR}/nimbus.pc DESTINATION ${CMAKE_INSTALL_LIBDIR
 install(DIRECTORY ${PROJECT_SOURCE_DIR}/kernels/ DESTINATION ${CMAKE_INSTALL_DATADIR}/nimbus/kernels)
 install(DIRECTORY ${PROJECT_SOURCE_DIR}/shaders/ DESTINATION ${CMAKE_INSTALL_DATADIR}/nimbus/shaders)
 install(FILES ${PROJECT_SOURCE_DIR}/src/io/ocio/config.ocio DESTINATION ${CMAKE_INSTALL_DATADIR}/nimbus/ocio)
+install(FILES ${PROJECT_SOURCE_DIR}/src/compare/compare_charts.py DESTINATION ${CMAKE_INSTALL_DATADIR}/nimbus/compare)

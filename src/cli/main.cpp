@@ -226,7 +226,7 @@ int main(int argc, char** argv)
         app.add_subcommand("compare", "Error against run time: WKB and the path tracer against a converged reference");
     addSceneArgs(compare, compareArgs);
     compare->add_option("--out", compareOptions.outDir,
-                        "Output directory (compare.csv, error_vs_time.png, sheet.png, summary.md)");
+                        "Output directory (compare.csv, summary.md, panels/, error_vs_time.png, sheet.png)");
     compare
         ->add_option("--minutes", compareOptions.minutes,
                      "Scales the reference's 45 s and the path tracer's 0.5..8 s ladder")
@@ -276,7 +276,13 @@ int main(int argc, char** argv)
             compareOptions.quiet = quiet;
             Scene scene = loadScene(compareArgs);
             validateScene(scene);
-            runCompare(scene, compareOptions);
+            const CompareResult result = runCompare(scene, compareOptions);
+            if (!result.chartsError.empty()) {
+                std::fprintf(stderr, "nimbus: error: compare: the charts were not drawn: %s; compare.csv, "
+                                     "summary.md and panels/ are in %s\n",
+                             result.chartsError.c_str(), compareOptions.outDir.c_str());
+                return kRenderFailure;
+            }
             return kOk;
         }
         if (*dump) {

@@ -1,14 +1,16 @@
 // Compare.cpp: runCompare (Compare.h), the runs of `nimbus compare`: the reference (cached,
 // ReferenceCache.h), the path tracer at a ladder of times and seeds, WKB for each source model
 // and kernel and at a ladder of quality steps, single scattering, and the path tracer at WKB's
-// time. Each run's errors come from ErrorMetrics.cpp; the files are written by Report.cpp,
-// Sheet.cpp and Chart.cpp.
+// time. Each run's errors come from ErrorMetrics.cpp; the files are written by Report.cpp and
+// Sheet.cpp, and the charts drawn from them by compare_charts.py (Charts.h).
 #include "Compare.h"
+#include "Charts.h"
 #include "FilmAccess.h"
 #include "ReferenceCache.h"
 #include "Report.h"
 #include "Sheet.h"
 
+#include "../core/DataFiles.h"
 #include "../core/Error.h"
 #include "../engine/Renderer.h"
 #include "../io/ExrWriter.h"
@@ -161,12 +163,18 @@ CompareResult runCompare(const Scene& input, const CompareOptions& opt)
     rows.push_back(makeRow("pathtrace", "equal-time", pt, eq, ref));
 
     writeCsv(rows, opt.outDir + "/compare.csv");
-    writeErrorChart(rows, opt.outDir + "/error_vs_time.png",
-                    input.sourcePath.empty() ? "nimbus compare" : fs::path(input.sourcePath).filename().string());
-    writeSheet(ref, baseWkb, eq.film, opt.outDir + "/sheet.png", opt.outDir);
-
+    writeSheetPanels(ref, baseWkb, eq.film, opt.outDir + "/panels");
     writeSummary(input, ref, result, opt.outDir + "/summary.md");
-    say("wrote " + opt.outDir + "/{compare.csv,error_vs_time.png,sheet.png,summary.md}");
+    say("wrote " + opt.outDir + "/{compare.csv,summary.md,panels/}");
+
+    ChartInputs charts;
+    charts.dir = opt.outDir;
+    charts.title = input.sourcePath.empty() ? "nimbus compare" : fs::path(input.sourcePath).filename().string();
+    charts.referenceNoise = result.referenceNoise;
+    charts.wkbModel = std::string(wkbSourceName(input.render.wkbSource)) + "/" + wkbKernelName(input.render.wkbKernel);
+    result.chartsError = drawCompareCharts(charts, dataPath(DataFile::CompareCharts));
+    if (result.chartsError.empty())
+        say("wrote " + opt.outDir + "/{error_vs_time.png,sheet.png}");
     return result;
 }
 

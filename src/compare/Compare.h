@@ -53,17 +53,19 @@ struct CompareResult {
     std::vector<CompareRow> rows;
     double referenceSeconds = 0, referenceNoise = 0;
     bool referenceCached = false;
+    // Why error_vs_time.png and sheet.png were not drawn (Charts.h), "" when they were: every
+    // other file is written all the same.
+    std::string chartsError;
 };
 
-// The whole comparison for a validated scene; writes compare.csv, error_vs_time.png, sheet.png,
-// summary.md and reference.exr under options.outDir.
+// The whole comparison for a validated scene; writes compare.csv, summary.md, panels/ (the
+// sheet's images), reference.exr (when rendered) and, drawn by matplotlib from those,
+// error_vs_time.png and sheet.png under options.outDir. A failure to draw the charts is
+// reported in CompareResult::chartsError, not thrown.
 CompareResult runCompare(const Scene& scene, const CompareOptions& options);
 
 // Path-tracer time to reach a relMSE, from the path tracer's rows (log-log interpolation of the
 // seed-averaged beauty relMSE against time; beyond the measured range, relMSE ~ 1/t).
 double ptTimeToError(const std::vector<CompareRow>& rows, double relMse);
-
-// Draws the log-log chart of beauty relMSE against time (both methods) and writes it as PNG.
-void writeErrorChart(const std::vector<CompareRow>& rows, const std::string& path, const std::string& title);
 
 }  // namespace nimbus

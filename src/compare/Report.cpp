@@ -74,7 +74,8 @@ void writeSummary(const Scene& input, const Film& ref, const CompareResult& resu
     md << "\nFiles: compare.csv (every run, every seed), error_vs_time.png, sheet.png (reference | WKB "
        << wkbSourceName(input.render.wkbSource) << "/" << wkbKernelName(input.render.wkbKernel)
        << " | path tracer at WKB's time | WKB - reference, luminance, red brighter, blue darker, full scale the "
-          "largest difference).\n";
+          "largest difference, its colour bar in W/(m^2 sr)), panels/ (the sheet's images: PNG through the preview "
+          "transform, difference.exr in float).\n";
     writeAtomic(path, md.str());
 }
 

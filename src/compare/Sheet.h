@@ -1,5 +1,6 @@
-// Sheet.h: sheet.png of `nimbus compare`, the reference, WKB and the path tracer side by side
-// with WKB's error. Private to src/compare.
+// Sheet.h: the panels of sheet.png of `nimbus compare`, written as files for the chart script
+// (compare_charts.py, Charts.h), which lays them out with titles and a colour bar. Private to
+// src/compare.
 #pragma once
 
 #include "../render/Film.h"
@@ -8,10 +9,13 @@
 
 namespace nimbus {
 
-// reference | WKB | path tracer at equal time (through the preview transform) | signed
-// difference WKB - reference of luminance (blue negative, red positive, full scale = the largest
-// |difference|), each panel magnified 4x (nearest pixel).
-// tmpDir: where the panels pass through the preview transform (a PNG, removed after).
-void writeSheet(const Film& ref, const Film& wkb, const Film& pt, const std::string& path, const std::string& tmpDir);
+// Writes into `dir` (created if missing):
+//   reference.png, wkb.png, pathtrace.png   each film's beauty through the preview transform
+//                                           (src/io/Preview.h, the shipped config's default view)
+//   difference.exr                          signed luminance WKB - reference (Rec. 709 weights,
+//                                           FilmAccess.h lum), one float channel "Y", in the
+//                                           film's linear radiance, W/(m^2 sr)
+// Each file whole or not at all. Throws Error when a film has no beauty or the sizes differ.
+void writeSheetPanels(const Film& ref, const Film& wkb, const Film& pt, const std::string& dir);
 
 }  // namespace nimbus

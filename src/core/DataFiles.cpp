@@ -46,6 +46,9 @@ std::string dataPath(DataFile which)
     case DataFile::Shaders: return (root / "shaders").string();
     case DataFile::OcioConfig:
         return (installed ? root / "ocio" / "config.ocio" : root / "src" / "io" / "ocio" / "config.ocio").string();
+    case DataFile::CompareCharts:
+        return (installed ? root / "compare" / "compare_charts.py" : root / "src" / "compare" / "compare_charts.py")
+            .string();
     }
     return {};
 }

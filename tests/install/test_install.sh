@@ -16,7 +16,8 @@ prefix=$work/prefix
 cmake --install "$build" --prefix "$prefix" >/dev/null
 for f in bin/nimbus include/nimbus/nimbus.h include/nimbus/nimbus.hpp include/nimbus/nimbus_volume_plugin.h \
          lib/cmake/nimbus/nimbusConfig.cmake lib/pkgconfig/nimbus.pc share/nimbus/kernels/pathtrace.cl \
-         share/nimbus/shaders/default.ax share/nimbus/ocio/config.ocio; do
+         share/nimbus/shaders/default.ax share/nimbus/ocio/config.ocio \
+         share/nimbus/compare/compare_charts.py; do
   [ -e "$prefix/$f" ] || { echo "test_install: $f is not installed"; exit 1; }
 done
 ls "$prefix"/lib*/libnimbus_c.so* >/dev/null || { echo "test_install: libnimbus_c.so is not installed"; exit 1; }
