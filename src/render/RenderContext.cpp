@@ -5,6 +5,7 @@
 
 #include "../scene/KernelScene.h"
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 
@@ -81,6 +82,13 @@ void RenderContext::buildShadowMaps(const RenderPlan& plan, RenderStats& stats)
         ls.shadowMapSeconds = lights[i].shadowMap->buildSeconds();
         ls.cacheBytes = lights[i].cache->memoryBytes();
         ls.cacheSeconds = lights[i].cache->seconds();
+    }
+    if (stats.volumes.size() < stiff.size())
+        stats.volumes.resize(stiff.size());
+    for (size_t v = 0; v < stiff.size(); ++v) {
+        stats.volumes[v].bricks = volumes.volumes()[v]->density.brickCount();  // subSteps: empty if none stiff
+        stats.volumes[v].stiffBricks = size_t(std::count_if(stiff[v].subSteps.begin(), stiff[v].subSteps.end(),
+                                                            [](uint8_t n) { return n > 0; }));
     }
     stats.addStage("shadow maps", secondsSince(t1));
 }

@@ -35,10 +35,15 @@ std::string RenderStats::describe(const RenderPlan& plan) const
             s << (l.shadowMapBytes ? ";" : "") << " L2+ shadow map of its own, " << formatBytes(l.l2plusShadowMapBytes);
         s << "\n";
     }
-    for (size_t v = 0; v < volumes.size() && v < plan.volumes.size(); ++v)
+    for (size_t v = 0; v < volumes.size() && v < plan.volumes.size(); ++v) {
         if (volumes[v].pyramidBytes)
             s << "  volume " << plan.volumes[v].name << ": L2+ light pyramid " << volumes[v].mipLevels
               << " mip levels, " << formatBytes(volumes[v].pyramidBytes) << "\n";
+        // Any stiff brick sends every single-scattering ray of the frame to the one-ray march.
+        if (volumes[v].bricks)
+            s << "  volume " << plan.volumes[v].name << ": " << volumes[v].stiffBricks << " of " << volumes[v].bricks
+              << " bricks stiff (optically thick voxels, sub-stepped)\n";
+    }
     if (pyramidBytes)
         s << "  light pyramids in all: " << formatBytes(pyramidBytes) << "\n";
     if (!stageSeconds.empty()) {

@@ -25,6 +25,8 @@ struct LightStats {
 struct VolumeStats {
     int mipLevels = 0;  // wkb light pyramid as built
     size_t pyramidBytes = 0;
+    size_t bricks = 0;       // allocated density bricks
+    size_t stiffBricks = 0;  // of those, stiff (StiffVoxels.h): single scattering sub-steps them
 };
 
 struct RenderStats {
