@@ -50,15 +50,15 @@ StiffVoxels StiffVoxels::find(const VolumeData& vol, float step)
             const float* values = g.brickData(int(b));
             const float rhoMax = *std::max_element(values, values + BrickGrid::kBrickValues);
             // A cell's contrast is at most the brick's maximum: most bricks stop here.
-            if (!(kT * h * rhoMax >= kFlatCell))
+            if (!(kT * h * rhoMax >= kStiffCell) && !(kT * rhoMax * step > kStiffStep))
                 continue;
             const float thick = kT * rhoMax * step;  // a camera step's largest optical depth
-            if (thick <= kSubStepDepth && kT * h * cellContrast(values) < kFlatCell)
+            if (thick <= kStiffStep && kT * h * cellContrast(values) < kStiffCell)
                 continue;
-            s.subSteps[b] = uint8_t(std::clamp(int(std::ceil(thick / kSubStepDepth)), 1, kMaxSubSteps));
+            s.subSteps[b] = uint16_t(std::clamp(int(std::ceil(thick / kSubStepDepth)), 1, kMaxSubSteps));
         }
     });
-    s.any = std::any_of(s.subSteps.begin(), s.subSteps.end(), [](uint8_t n) { return n > 0; });
+    s.any = std::any_of(s.subSteps.begin(), s.subSteps.end(), [](uint16_t n) { return n > 0; });
     if (!s.any)
         s.subSteps.clear();
     return s;
