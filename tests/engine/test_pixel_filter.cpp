@@ -75,8 +75,9 @@ TEST_P(FilterEdge, PixelsAreTheFiltersCdfAcrossTheEdge)
             }
         }
         // A filter wider than a pixel spreads the edge over pixels (the one-pixel box keeps it sharp).
-        if (c.width > 1.0f)
+        if (c.width > 1.0f) {
             EXPECT_GE(inside, 4) << "the edge falls between pixels for " << pixelFilterName(c.filter);
+        }
     }
 }
 
