@@ -186,8 +186,9 @@ TEST(AtomicFile, KeepsTheModeAndOwnerOfTheFileItReplaces)
     writeBytes(target, "old");
     ASSERT_EQ(chmod(target.c_str(), 0640), 0);
     const bool root = geteuid() == 0;
-    if (root)
+    if (root) {
         ASSERT_EQ(chown(target.c_str(), 4321, 8765), 0);
+    }
     AtomicFile file(target);
     std::fputs("new", file.stream());
     file.commit();
