@@ -169,6 +169,23 @@ inline float stiffStepStart(float t, float dt, float tStart, float coveredTo)
     return std::max(std::max(coveredTo, t - dt), tStart);
 }
 
+// The stretch [ta, tb] a stiff step at lattice sample k (t = tStart + (k + jitter) dt) integrates,
+// and its sub-step count: `subSteps` per whole step, in proportion for a longer first step.
+// Records the stretch as covered.
+struct StiffStep {
+    float ta, tb;
+    int n;
+};
+inline StiffStep stiffStepAt(int k, float t, float dt, float jitter, int subSteps, float& coveredTo)
+{
+    StiffStep st;
+    st.ta = stiffStepStart(t, dt, t - (float(k) + jitter) * dt, coveredTo);
+    st.tb = t + dt;
+    st.n = int(std::ceil(float(subSteps) * (st.tb - st.ta) / dt));
+    coveredTo = st.tb;
+    return st;
+}
+
 // The common case in a tight loop: one volume without emission, every used light shadow-mapped
 // and baked on its voxels. The march walks the density grid's occupied bricks in index space
 // (BrickWalk.h: no spans, no matrix per step); one stencil reads the density and every light's
@@ -222,11 +239,10 @@ void marchOneVolume(const RenderContext& ctx, const VolumeData& vol, float3 o, f
     walkVolume(vol, o, d, dt, jitter, [&](int k, float t, const BrickGrid::Stencil& st) {
         if (stiff.any) {
             if (const int n = stiff.subStepsOf(st.brick)) {
-                const float ta = stiffStepStart(t, dt, t - (float(k) + jitter) * dt, coveredTo), tb = t + dt;
-                coveredTo = tb;
+                const StiffStep ss = stiffStepAt(k, t, dt, jitter, n, coveredTo);
                 std::fill(stiffL1.begin(), stiffL1.end(), splat(0.0f));
-                const bool go = marchStiffStep(ctx, vol, o, d, ta, tb, int(std::ceil(float(n) * (tb - ta) / dt)),
-                                               stiffLights.data(), nActive, T, stiffL1.data(), opacitySum, depthSum);
+                const bool go = marchStiffStep(ctx, vol, o, d, ss.ta, ss.tb, ss.n, stiffLights.data(), nActive, T,
+                                               stiffL1.data(), opacitySum, depthSum);
                 for (size_t ai = 0; ai < nActive; ++ai) {
                     const Active& a = OneDistant ? first : active[ai];
                     const Rgb c = kS * stiffL1[ai] * (a.distant ? a.weight : splat(1.0f));
@@ -318,11 +334,10 @@ void marchGreyKeyLight(const RenderContext& ctx, const VolumeData& vol, const Li
     walkVolume(vol, o, d, dt, jitter, [&](int k, float t, const BrickGrid::Stencil& st) {
         if (stiff.any) {
             if (const int n = stiff.subStepsOf(st.brick)) {
-                const float ta = stiffStepStart(t, dt, t - (float(k) + jitter) * dt, coveredTo), tb = t + dt;
-                coveredTo = tb;
+                const StiffStep ss = stiffStepAt(k, t, dt, jitter, n, coveredTo);
                 Rgb Tr = splat(T), l1 = splat(0.0f);
-                const bool go = marchStiffStep(ctx, vol, o, d, ta, tb, int(std::ceil(float(n) * (tb - ta) / dt)),
-                                               &stiffKey, 1, Tr, &l1, opacitySum, depthSum);
+                const bool go =
+                    marchStiffStep(ctx, vol, o, d, ss.ta, ss.tb, ss.n, &stiffKey, 1, Tr, &l1, opacitySum, depthSum);
                 T = Tr.x, L1 += l1.x;
                 return go;
             }
@@ -492,12 +507,10 @@ bool marchSingleFast(const RenderContext& ctx, float3 o, float3 d, float jitter,
             if (stiffSteps) {
                 if (const int ns = ctx.stiff[0].subStepsOf(stencils[0].brick)) {
                     const VolumeData& vol = *volumes[0];
-                    const float ta = stiffStepStart(t, dt, t - (float(k) + jitter) * dt, coveredTo), tb = t + dt;
-                    coveredTo = tb;
+                    const StiffStep ss = stiffStepAt(k, t, dt, jitter, ns, coveredTo);
                     std::fill(stiffL1.begin(), stiffL1.end(), splat(0.0f));
-                    done = !marchStiffStep(ctx, vol, o, d, ta, tb, int(std::ceil(float(ns) * (tb - ta) / dt)),
-                                           stiffLights.data(), stiffLights.size(), T, stiffL1.data(), opacitySum,
-                                           depthSum);
+                    done = !marchStiffStep(ctx, vol, o, d, ss.ta, ss.tb, ss.n, stiffLights.data(), stiffLights.size(),
+                                           T, stiffL1.data(), opacitySum, depthSum);
                     for (size_t l = 0; l < stiffLights.size(); ++l) {
                         const size_t i = stiffLights[l].index;
                         const Rgb c =
