@@ -14,6 +14,7 @@ import bpy
 from mathutils import Vector
 
 out_dir, vdb_path, *mode = sys.argv[sys.argv.index("--") + 1:]
+fire_vdb_path = os.path.join(os.path.dirname(vdb_path), "fire.vdb")
 
 if addon_utils.enable("nimbus_blender", default_set=True) is None:
     sys.exit("blender_scene: the nimbus_blender add-on is not installed")
@@ -95,6 +96,7 @@ if mode == ["crosscheck"]:
     sys.exit(0)
 
 scene.nimbus.spp = 4
+scene.render.film_transparent = True  # Combined's alpha is the coverage, as in the CLI's EXR
 # Every method in-process (the path tracer's OpenCL driver inside Blender's jemalloc process
 # included), each writing the scene it rendered for `nimbus render` to repeat.
 for method in ("single", "wkb", "pathtrace"):
@@ -103,3 +105,21 @@ for method in ("single", "wkb", "pathtrace"):
     scene.render.filepath = os.path.join(out_dir, "blender_%s.exr" % method)
     bpy.ops.render.render(write_still=True)
     print("blender_scene: rendered", method, scene.render.filepath)
+
+# Film > Transparent off: Combined is opaque (alpha 1), as Cycles writes it.
+scene.render.film_transparent = False
+scene.nimbus.method = "single"
+scene.nimbus.export_json = os.path.join(out_dir, "scene_opaque.json")
+scene.render.filepath = os.path.join(out_dir, "blender_opaque.exr")
+bpy.ops.render.render(write_still=True)
+print("blender_scene: rendered opaque", scene.render.filepath)
+
+# Fire: the flame and temperature grids are exported when the material emits (Blackbody
+# Intensity > 0); motion blur, which the add-on ignores, is reported as a warning.
+scene.render.use_motion_blur = True
+volume.filepath = fire_vdb_path
+principled.inputs["Blackbody Intensity"].default_value = 1.0
+scene.nimbus.export_json = os.path.join(out_dir, "scene_fire.json")
+scene.render.filepath = os.path.join(out_dir, "blender_fire.exr")
+bpy.ops.render.render(write_still=True)
+print("blender_scene: rendered fire", scene.render.filepath)

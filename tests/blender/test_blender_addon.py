@@ -50,6 +50,7 @@ with tempfile.TemporaryDirectory(prefix="nimbus-blender-test-") as tmp:
                BLENDER_USER_CONFIG=os.path.join(tmp, "config"))
     smoke = os.path.join(tmp, "smoke.vdb")
     smoke_vdb(smoke)
+    smoke_vdb(os.path.join(tmp, "fire.vdb"), fire=True)
 
     _, t_install = run(["bash", os.path.join(source_dir, "scripts", "install-blender-addon.sh"), build_dir], env)
     installed = os.path.join(tmp, "scripts", "addons", "nimbus_blender")
@@ -59,7 +60,15 @@ with tempfile.TemporaryDirectory(prefix="nimbus-blender-test-") as tmp:
 
     proc, t_blender = run([blender, "-b", "--factory-startup", "--python",
                            os.path.join(source_dir, "tests", "blender", "blender_scene.py"), "--", tmp, smoke], env)
-    check("nimbus: " not in proc.stdout + proc.stderr, "no nimbus warning or error in Blender's log")
+    log = proc.stdout + proc.stderr
+    main_log, _, extra_log = log.partition("blender_scene: rendered pathtrace")
+    check("nimbus: " not in main_log, "no nimbus warning or error in Blender's log (single, wkb, pathtrace)")
+    check("nimbus: motion blur is not supported" in extra_log, "Blender's motion blur is reported as ignored")
+    # Blender prints an engine's reports as "Warning: ..." / "Error: ..." (nimbus's own info lines,
+    # such as a shader's compile time, are not reports).
+    extra_warnings = sorted({line.strip() for line in extra_log.splitlines()
+                             if line.startswith(("Warning: nimbus: ", "Error: nimbus: "))})
+    check(len(extra_warnings) == 1, "no other warning in the opaque and fire renders: %s" % extra_warnings)
 
     with open(os.path.join(tmp, "scene_single.json")) as f:
         doc = json.load(f)
@@ -97,10 +106,31 @@ with tempfile.TemporaryDirectory(prefix="nimbus-blender-test-") as tmp:
             print("%-9s %-20s vs CLI %-9s max |difference| after rounding to half: %g" %
                   (method, blender_layer, nimbus_layer, diff))
             check(np.array_equal(a, b), "%s: %s equals the CLI's %s" % (method, blender_layer, nimbus_layer))
-        # Depth is float in both files: equal as floats.
+        # Depth is float in both files: equal as floats where the ray met the volume; Cycles'
+        # 1e10 where it met nothing (nimbus writes 0 there).
         depth = mine.get("ViewLayer.Depth")
-        check(depth is not None and np.array_equal(depth[..., 0], theirs["depth"][..., 0]),
-              "%s: Depth equals the CLI's depth" % method)
+        expected = np.where(theirs["depth"][..., 0] > 0.0, theirs["depth"][..., 0], np.float32(1e10))
+        check(depth is not None and np.array_equal(depth[..., 0], expected),
+              "%s: Depth equals the CLI's depth, 1e10 on the background" % method)
+        check(depth is not None and (theirs["depth"][..., 0] == 0.0).any(), "%s: some pixels see no volume" % method)
+
+    # Film > Transparent off: alpha 1 everywhere, the colour unchanged.
+    _, t = run([cli, "render", os.path.join(tmp, "scene_opaque.json"), "-o", os.path.join(tmp, "cli_opaque.exr")])
+    mine = read_layers(os.path.join(tmp, "blender_opaque.exr"))["ViewLayer.Combined"]
+    theirs = read_layers(os.path.join(tmp, "cli_opaque.exr"))["beauty"]
+    check(np.all(mine[..., 3] == 1.0), "Film > Transparent off: Combined alpha is 1 everywhere")
+    check(np.array_equal(mine[..., :3].astype(np.float16).astype(np.float32), theirs[..., :3]),
+          "Film > Transparent off: Combined colour equals the CLI's beauty")
+
+    # Fire: the flame grid (and temperature) exported, and the fire seen in L0.
+    with open(os.path.join(tmp, "scene_fire.json")) as f:
+        fire = json.load(f)["volumes"][0]
+    check(fire["source"]["grids"].get("flame") == "flame", "the flame grid is exported (Blackbody Intensity > 0)")
+    check(fire["source"]["grids"].get("temperature") == "temperature", "the temperature grid is exported")
+    check(fire["medium"]["emission_scale"] == 1.0, "Blackbody Intensity is the emission scale")
+    fire_l0 = read_layers(os.path.join(tmp, "blender_fire.exr"))["ViewLayer.L0"]
+    smoke_l0 = read_layers(os.path.join(tmp, "blender_single.exr"))["ViewLayer.L0"]
+    check(fire_l0[..., 0].max() > 10.0 * max(float(smoke_l0[..., 0].max()), 1e-6), "the fire glows in L0")
 
     print("timings: install %.1f s, blender render %.1f s, nimbus render %.1f s" % (t_install, t_blender, t_cli))
 

@@ -19,8 +19,9 @@ def read_layers(path):
     return {layer: pixels[..., [i for _, i in sorted(ch)]] for layer, ch in layers.items()}
 
 
-def smoke_vdb(path):
-    """A soft noisy ball of density, 40^3 voxels of 5 cm."""
+def smoke_vdb(path, fire=False):
+    """A soft noisy ball of density, 40^3 voxels of 5 cm; with fire, also `flame` (the core) and
+    `temperature` (kelvin) grids, as Blender's fluid caches write them."""
     n = 40
     z, y, x = np.mgrid[0:n, 0:n, 0:n].astype(np.float32)
     c = (n - 1) / 2.0
@@ -32,4 +33,13 @@ def smoke_vdb(path):
     grid.name = "density"
     grid.gridClass = vdb.GridClass.FOG_VOLUME
     grid.transform = vdb.createLinearTransform(voxelSize=0.05)
-    vdb.write(path, grids=[grid])
+    grids = [grid]
+    if fire:
+        flame = np.clip(2.0 * density - 1.0, 0.0, 1.0).astype(np.float32)
+        for name, values in (("flame", flame), ("temperature", (1200.0 + 800.0 * flame).astype(np.float32))):
+            g = vdb.FloatGrid()
+            g.copyFromArray(values, ijk=(-n // 2, -n // 2, -n // 2))
+            g.name = name
+            g.transform = vdb.createLinearTransform(voxelSize=0.05)
+            grids.append(g)
+    vdb.write(path, grids=grids)

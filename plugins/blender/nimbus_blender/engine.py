@@ -10,6 +10,8 @@ from . import backend, export
 # nimbus AOVs that become Blender passes of their own (beauty is Combined, alpha is Combined's
 # alpha, depth is Blender's Depth pass when the view layer has it).
 COLOR_AOVS = ("L0", "L1", "L2plus")
+# Cycles' Depth where a pixel sees nothing (nimbus writes 0 there: docs/output.md).
+BACKGROUND_DEPTH = 1e10
 
 
 def light_aov_names(scene):
@@ -22,6 +24,35 @@ def light_aov_names(scene):
         if obj.type == "LIGHT" and not obj.hide_render:
             out.append("light_" + names(obj.name))
     return out
+
+
+def seen_background(document):
+    """The radiance nimbus shows behind the volumes: the environment lights' (or background)."""
+    skies = [l["radiance"] for l in document.get("lights", []) if l.get("type") == "environment"]
+    if not skies:
+        return np.array(document.get("background", [0.0, 0.0, 0.0]), dtype=np.float32)
+    return np.sum(np.array(skies, dtype=np.float32), axis=0)
+
+
+def combined_pass(beauty, film_transparent, background):
+    """Blender's Combined from nimbus's beauty (whose colour holds the background seen through the
+    volumes, T * background, and whose alpha is the coverage 1 - mean T).
+    Film > Transparent off: opaque, as Cycles writes it (alpha 1, the background in the colour).
+    On: Cycles leaves the world out of the colour; the background's share is taken out again as
+    (1 - alpha) * background, exact for grey media and within the spread of T over the channels
+    for chromatic ones."""
+    out = np.array(beauty, dtype=np.float32, copy=True)
+    if not film_transparent:
+        out[..., 3] = 1.0
+    elif np.any(background > 0.0):
+        out[..., :3] -= (1.0 - out[..., 3:4]) * background
+        np.maximum(out[..., :3], 0.0, out=out[..., :3])
+    return out
+
+
+def depth_pass(depth):
+    """Blender's Depth: nimbus's depth, with Cycles' 1e10 where the ray met nothing."""
+    return np.where(depth > 0.0, depth, np.float32(BACKGROUND_DEPTH)).astype(np.float32)
 
 
 def to_blender(pixels):
@@ -71,10 +102,11 @@ class NimbusRenderEngine(bpy.types.RenderEngine):
             self.add_pass(name, channels, "RGB" if channels == 3 else "X")
         result = self.begin_result(0, 0, width, height)
         layer = result.layers[0]
-        layer.passes["Combined"].rect = to_blender(aovs["beauty"])
+        combined = combined_pass(aovs["beauty"], scene.render.film_transparent, seen_background(document))
+        layer.passes["Combined"].rect = to_blender(combined)
         depth = layer.passes.get("Depth")
         if depth is not None and "depth" in aovs:
-            depth.rect = to_blender(aovs["depth"])
+            depth.rect = to_blender(depth_pass(aovs["depth"]))
         for name in extra:
             layer.passes[name].rect = to_blender(aovs[name])
         self.end_result(result)

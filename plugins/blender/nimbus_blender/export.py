@@ -242,8 +242,14 @@ def export_volume(obj, matrix, depsgraph, warnings):
     if names and density_name not in names:
         raise ExportError("%s: no grid '%s' (Density Attribute) in %s; grids: %s" %
                           (label, density_name, volume_file(obj, depsgraph), ", ".join(sorted(names))))
-    if temperature_name in names and medium["emission_scale"] > 0.0:
-        grids["temperature"] = temperature_name
+    if medium["emission_scale"] > 0.0:
+        if temperature_name in names:
+            grids["temperature"] = temperature_name
+        # Blender's fluid caches write the fire's intensity as a `flame` grid (older caches and
+        # other tools: `heat`); nimbus's default shader multiplies the blackbody emission by it.
+        flame = next((n for n in ("flame", "heat") if n in names), None)
+        if flame is not None:
+            grids["flame"] = flame
     return {
         "name": obj.name,
         "source": {"type": "vdb", "file": volume_file(obj, depsgraph), "grids": grids},
@@ -286,6 +292,8 @@ def scene_document(depsgraph, warnings=None):
         raise ExportError("the scene has no camera")
     if r.use_border:
         warnings.append("render region (border) is ignored: nimbus renders the full frame")
+    if r.use_motion_blur:
+        warnings.append("motion blur is not supported by the nimbus add-on and is ignored")
     camera = scene.camera.evaluated_get(depsgraph)
     doc = {
         "version": 1,
