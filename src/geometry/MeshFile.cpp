@@ -42,9 +42,11 @@ TriangleMesh readMeshFile(const std::string& path, const std::string& key)
     importer.SetPropertyInteger(AI_CONFIG_PP_RVC_FLAGS, aiComponent_NORMALS | aiComponent_TANGENTS_AND_BITANGENTS |
                                                             aiComponent_COLORS | aiComponent_TEXCOORDS |
                                                             aiComponent_MATERIALS | aiComponent_TEXTURES);
+    // OBJ faces index shared positions already, and Assimp's importer keeps one vertex per face
+    // corner; welding them back (aiProcess_JoinIdenticalVertices) hashes every corner and was
+    // most of a 100k-triangle mesh's load time, for memory nimbus does not need back.
     const aiScene* scene =
-        importer.ReadFile(path, aiProcess_RemoveComponent | aiProcess_Triangulate | aiProcess_PreTransformVertices |
-                                    aiProcess_JoinIdenticalVertices);
+        importer.ReadFile(path, aiProcess_RemoveComponent | aiProcess_Triangulate | aiProcess_PreTransformVertices);
     if (!scene) {
         std::string why = importer.GetErrorString();
         std::replace(why.begin(), why.end(), '\n', ' ');
