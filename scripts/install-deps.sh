@@ -9,6 +9,8 @@ packages=(
   libopenimageio-dev openimageio-tools python3-openimageio
   libopencolorio-dev
   libembree-dev libtbb-dev
+  # Scene geometry: OBJ and PLY meshes (src/geometry/MeshFile.cpp).
+  libassimp-dev
   ocl-icd-opencl-dev opencl-headers pocl-opencl-icd clinfo
   libboost-math-dev libboost-dev
   nlohmann-json3-dev libcli11-dev

@@ -19,7 +19,9 @@
 
 namespace nimbus {
 
-inline float expNeg(float x)
+// Always inlined: every call sits in a hot loop, and the camera march's many instances must not
+// tip the inliner into calls (whose boundary also changes how the arithmetic fuses).
+[[gnu::always_inline]] inline float expNeg(float x)
 {
     x = std::min(std::max(x, -87.0f), 87.0f);  // (a NaN stays NaN, as in std::exp)
     const float k = std::floor(x * 1.44269504089f + 0.5f);

@@ -114,7 +114,12 @@ Planned planPass(const Scene& scene, const IntegratorEntry& entry, RenderStats& 
     Planned p;
     p.plan = planScene(scene, volumes);
     p.plan.aovs = aovNames(scene, entry.traits);
+    t = std::chrono::steady_clock::now();
     p.context = RenderContext::create(scene, std::move(volumes), p.plan);
+    if (p.context->geometry || p.context->holdoutDepth) {
+        stats.addStage("geometry", secondsSince(t));  // meshes read, BVHs built, depth map read
+        planGeometry(*p.context, p.plan);
+    }
     if (entry.plan)
         entry.plan(*p.context, p.plan);
     return p;

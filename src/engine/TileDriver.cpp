@@ -17,6 +17,16 @@ namespace {
 
 constexpr int kTile = 16;
 
+// The camera's unit view axis at shutter time `time`, as nbCameraRay interpolates it (camera.h):
+// what a depth image's Z is measured along.
+float3 viewAxisAt(const NbCamera& cam, float time)
+{
+    float3 f = nbLoad3(cam.forwardOpen);
+    if (cam.hasMotion > 0.5f)
+        f = normalize(f + (nbLoad3(cam.forwardClose) - f) * time);
+    return f;
+}
+
 }  // namespace
 
 void renderTiles(const RenderContext& ctx, const Integrator& integrator, Film& film, const RenderControl& control)
@@ -106,10 +116,17 @@ void renderTiles(const RenderContext& ctx, const Integrator& integrator, Film& f
             background.add(miss, none.data());
     }
 
+    // Holdouts (docs/geometry.md): each camera ray is clipped at the first holdout object (Embree,
+    // eight rays at a time) or at the depth image's Z at its position, whichever is nearer.
+    const EmbreeScene* holdoutGeometry = ctx.geometry && ctx.geometry->hasHoldouts() ? ctx.geometry.get() : nullptr;
+    const HoldoutDepth* holdoutDepth = ctx.holdoutDepth.get();
+    const bool holdouts = holdoutGeometry || holdoutDepth;
+
     // Tiles whose rays can meet an occupied brick of some volume (density or emission); the
     // others see only the background, where the integrator allows it (not wkb, which keeps its
-    // own per-ray path).
-    const bool skipEmpty = integrator.skipsEmptyTiles();
+    // own per-ray path). A holdout hides the background, so with both, every tile is marched.
+    const bool skipEmpty =
+        integrator.skipsEmptyTiles() && !(holdouts && nbMaxComponent(ctx.background) > 0.0f);
     std::vector<char> seesBricks(size_t(tileCount), 1);
     if (skipEmpty) {
         std::fill(seesBricks.begin(), seesBricks.end(), 0);
@@ -131,6 +148,7 @@ void renderTiles(const RenderContext& ctx, const Integrator& integrator, Film& f
         // One row of a tile at a time: every sample's ray first, then their marches together
         // (marchSingleRays takes eight at once where it can), then the pixels' sums.
         std::vector<float3> origins, directions;
+        std::vector<float> tFar, sampleX, sampleY, sampleTime;
         std::vector<NbRng> rngs;
         std::vector<CameraSample> samples;
         std::vector<float> perLight;
@@ -164,10 +182,28 @@ void renderTiles(const RenderContext& ctx, const Integrator& integrator, Film& f
                         float time = nbRngNext(&rng);
                         nbCameraRay(cam, float(x) + 0.5f + jx, float(y) + 0.5f + jy, film.width, film.height, time,
                                     &origins[size_t(i)], &directions[size_t(i)]);
+                        if (holdoutDepth) {
+                            sampleX.resize(rays), sampleY.resize(rays), sampleTime.resize(rays);
+                            sampleX[size_t(i)] = float(x) + 0.5f + jx, sampleY[size_t(i)] = float(y) + 0.5f + jy;
+                            sampleTime[size_t(i)] = time;
+                        }
                     }
                 }
-                integrator.marchRays(int(rays), origins.data(), directions.data(), rngs.data(), samples.data(),
-                                     perLight.data());
+                if (holdouts) {
+                    tFar.assign(rays, INFINITY);
+                    if (holdoutGeometry)
+                        holdoutGeometry->holdoutHits(int(rays), origins.data(), directions.data(), tFar.data());
+                    if (holdoutDepth)
+                        for (size_t i = 0; i < rays; ++i) {
+                            // Z along the view axis to t along the ray (d unit).
+                            const float z = holdoutDepth->depthAt(sampleX[i], sampleY[i]);
+                            const float cosAxis = dot(directions[i], viewAxisAt(cam, sampleTime[i]));
+                            if (z < INFINITY && cosAxis > 0.0f)
+                                tFar[i] = std::min(tFar[i], z / cosAxis);
+                        }
+                }
+                integrator.marchRays(int(rays), origins.data(), directions.data(), holdouts ? tFar.data() : nullptr,
+                                     rngs.data(), samples.data(), perLight.data());
                 for (int x = tx0, i = 0; x < tx1; ++x) {
                     px.reset(3 * nLights);
                     for (int s = 0; s < spp; ++s, ++i)

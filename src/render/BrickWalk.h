@@ -115,4 +115,17 @@ void walkVolume(const VolumeData& vol, float3 o, float3 d, float dt, float jitte
         walkOccupiedBricks(vol.density, oi, di, s0, s1, lattice == Lattice::FromEntry ? s0 : 0.0f, dt, jitter, visit);
 }
 
+// walkVolume up to tMax (a camera ray held out by geometry, docs/geometry.md): the same lattice,
+// no sample at or past tMax. Apart from walkVolume, so that rays without a holdout compile to
+// exactly the code they did before holdouts (the same images, bit for bit).
+template <class Visit>
+void walkVolumeTo(const VolumeData& vol, float3 o, float3 d, float dt, float jitter, float tMax, Visit&& visit)
+{
+    float t0, t1, s0, s1;
+    const float3 oi = vol.indexFromWorld.point(o), di = vol.indexFromWorld.vector(d);
+    if (vol.worldBounds.intersect(o, safeInverse(d), 0.0f, tMax, t0, t1) &&
+        vol.density.activeIndexBounds().intersect(oi, safeInverse(di), t0, t1, s0, s1))
+        walkOccupiedBricks(vol.density, oi, di, s0, s1, s0, dt, jitter, visit);
+}
+
 }  // namespace nimbus

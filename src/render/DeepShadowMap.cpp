@@ -61,6 +61,8 @@ DeepShadowMap DeepShadowMap::build(const NbLight& light, const VolumeSet& volume
     }
     const std::vector<char> texelMeetsBricks =
         m.mProjection == Projection::Orthographic ? m.texelsMeetingBricks(volumes) : std::vector<char>();
+    const std::vector<float> stops =
+        settings.shadowCasters ? m.texelStops(*settings.shadowCasters) : std::vector<float>();
     std::vector<std::vector<Vertex>> rows(size_t(res) * m.mFaces.size());
     std::vector<std::vector<uint32_t>> rowCounts(rows.size());
     // An orthographic map over one grey volume marches a row's texel rays together, eight at a
@@ -87,14 +89,19 @@ DeepShadowMap DeepShadowMap::build(const NbLight& light, const VolumeSet& volume
                 const size_t t = row * size_t(res) + size_t(ix);
                 std::vector<float>* samples = keep ? &sampleRows[row] : nullptr;
                 TexelSamples* where = keep ? &sampleIndex[t] : nullptr;
+                const float zStop = stops.empty() ? INFINITY : stops[t];
                 if (!meets(ix)) {
-                    texel.clear();  // what the march would find: no density, an empty function
-                    if (keep)
-                        sampleIndex[t] = {0, kEmptyTexel, 0};
+                    if (zStop < INFINITY) {  // no density, but a shadow caster
+                        m.finishTexel({}, texel, samples, where, zStop);
+                    } else {
+                        texel.clear();  // what the march would find: no density, an empty function
+                        if (keep)
+                            sampleIndex[t] = {0, kEmptyTexel, 0};
+                    }
                 } else if (byRow) {
-                    m.finishTexel(rowRaw[size_t(ix)], texel, samples, where);
+                    m.finishTexel(rowRaw[size_t(ix)], texel, samples, where, zStop);
                 } else {
-                    m.buildTexel(volumes, face, ix, iy, texel, samples, where);
+                    m.buildTexel(volumes, face, ix, iy, texel, samples, where, zStop);
                 }
                 rows[row].insert(rows[row].end(), texel.begin(), texel.end());
                 rowCounts[row].push_back(uint32_t(texel.size()));
@@ -228,13 +235,37 @@ void DeepShadowMap::marchRay(const VolumeSet& volumes, float3 o, float3 d, float
 }
 
 void DeepShadowMap::buildTexel(const VolumeSet& volumes, int face, int ix, int iy, std::vector<Vertex>& out,
-                               std::vector<float>* samples, TexelSamples* where) const
+                               std::vector<float>* samples, TexelSamples* where, float zStop) const
 {
     float3 o, d;
     texelRay(face, (ix + 0.5f) / mRes, (iy + 0.5f) / mRes, o, d);
     thread_local std::vector<Vertex> raw;
     marchRay(volumes, o, d, mStepFraction, raw);
-    finishTexel(raw, out, samples, where);
+    finishTexel(raw, out, samples, where, zStop);
+}
+
+std::vector<float> DeepShadowMap::texelStops(const EmbreeScene& casters) const
+{
+    const size_t perFace = size_t(mRes) * size_t(mRes);
+    std::vector<float> stops(perFace * mFaces.size(), INFINITY);
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, size_t(mRes) * mFaces.size()),
+                      [&](const tbb::blocked_range<size_t>& r) {
+                          for (size_t row = r.begin(); row != r.end(); ++row) {
+                              const int face = int(row / size_t(mRes)), iy = int(row % size_t(mRes));
+                              for (int ix = 0; ix < mRes; ++ix) {
+                                  float3 o, d;
+                                  texelRay(face, (ix + 0.5f) / mRes, (iy + 0.5f) / mRes, o, d);
+                                  // The texel ray's depth is its t (unit d from the plane or the
+                                  // light). An orthographic map's plane lies just before the
+                                  // volumes: a caster between it and the sun shadows the whole ray.
+                                  float z = casters.shadowHit(o, d, 0.0f, INFINITY);
+                                  if (mProjection == Projection::Orthographic && casters.occluded(o, -d, 0.0f, INFINITY))
+                                      z = 0.0f;
+                                  stops[row * size_t(mRes) + size_t(ix)] = z;
+                              }
+                          }
+                      });
+    return stops;
 }
 
 void DeepShadowMap::marchTexelRow(const VolumeSet& volumes, int face, int iy, const std::vector<int>& columns,
@@ -265,10 +296,39 @@ void DeepShadowMap::marchTexelRow(const VolumeSet& volumes, int face, int iy, co
 #endif
 }
 
-void DeepShadowMap::finishTexel(const std::vector<Vertex>& raw, std::vector<Vertex>& out, std::vector<float>* samples,
-                                TexelSamples* where) const
+void DeepShadowMap::finishTexel(const std::vector<Vertex>& marched, std::vector<Vertex>& out,
+                                std::vector<float>* samples, TexelSamples* where, float zStop) const
 {
-    compress(raw, mTolerance, out, mGrey ? 1 : 3);
+    const std::vector<Vertex>* rawp = &marched;
+    thread_local std::vector<Vertex> stopped;
+    if (zStop < INFINITY) {
+        // The march before the caster, its optical depth at zStop (linear between the march's
+        // vertices: across a gap between runs tau is constant), then the jump.
+        stopped.clear();
+        size_t i = 0;
+        while (i < marched.size() && marched[i].z < zStop)
+            stopped.push_back(marched[i++]);
+        Vertex at{zStop, {0, 0, 0}};
+        if (!stopped.empty()) {
+            const Vertex& a = stopped.back();
+            const float w = i < marched.size() ? (zStop - a.z) / (marched[i].z - a.z) : 0.0f;
+            for (int c = 0; c < 3; ++c)
+                at.tau[c] = a.tau[c] + w * (i < marched.size() ? marched[i].tau[c] - a.tau[c] : 0.0f);
+        }
+        stopped.push_back(at);
+        compress(stopped, mTolerance, out, mGrey ? 1 : 3);
+        if (out.empty() || out.back().z != zStop)
+            out.push_back(at);
+        Vertex behind = at;
+        for (float& tau : behind.tau)
+            tau += kOpaqueDepth;
+        out.push_back(behind);
+        stopped.push_back(behind);
+        rawp = &stopped;
+    } else {
+        compress(marched, mTolerance, out, mGrey ? 1 : 3);
+    }
+    const std::vector<Vertex>& raw = *rawp;
     if (!samples)
         return;
     // marchRay's vertices lie on the depths k dz: runs of samples, with tau constant across

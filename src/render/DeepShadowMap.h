@@ -19,6 +19,7 @@
 
 #include "../../kernels/shared/light.h"
 #include "../core/BulkAllocator.h"
+#include "../geometry/EmbreeScene.h"
 #include "VolumeSet.h"
 
 #include <algorithm>
@@ -38,7 +39,16 @@ public:
         // Keep the march samples where they can be kept (see hasMarchSamples), for a bake that
         // follows; the caller releases them after.
         bool keepMarchSamples = false;
+        // Opaque surfaces that stop the texel rays (docs/geometry.md): behind the first one a
+        // texel's optical depth jumps by kOpaqueDepth. Null: none (the map is as without geometry).
+        const EmbreeScene* shadowCasters = nullptr;
     };
+
+    // The optical depth added behind a shadow caster: e^-200 is 0 in float, and the camera
+    // march's expNeg clamps it to e^-87 ~ 1.6e-38, the "opaque" of every cut-off. A lookup
+    // between a lit texel and a shadowed one interpolates tau, so the shadow's edge is sharp to
+    // within one texel (and, baked on the voxels, one voxel), never a soft ramp of T.
+    static constexpr float kOpaqueDepth = 200.0f;
 
     DeepShadowMap() = default;
     // Move-only: the kept march samples are addressed by pointers into their rows.
@@ -174,16 +184,20 @@ private:
     // (the others are empty without marching).
     std::vector<char> texelsMeetingBricks(const VolumeSet& volumes) const;
     void buildTexel(const VolumeSet& volumes, int face, int ix, int iy, std::vector<Vertex>& out,
-                    std::vector<float>* samples, TexelSamples* where) const;
+                    std::vector<float>* samples, TexelSamples* where, float zStop) const;
+    // Per texel, the depth where its ray first meets a shadow caster (0 where one lies between the
+    // light and an orthographic map's plane), INFINITY where none.
+    std::vector<float> texelStops(const EmbreeScene& casters) const;
     // marchRay for the texels (columns, iy) of an orthographic map over one grey volume, eight
     // rays at once where the build can (MarchParallelRays.h), else one by one: raw[ix] receives
     // texel ix's march.
     void marchTexelRow(const VolumeSet& volumes, int face, int iy, const std::vector<int>& columns,
                        std::vector<std::vector<Vertex>>& raw) const;
     // A texel from its march: the compressed function in `out`; the samples kept for the bake,
-    // where asked (samples, where not null).
+    // where asked (samples, where not null). zStop: where a shadow caster stops the ray (the
+    // march is cut there and the optical depth jumps by kOpaqueDepth), INFINITY for none.
     void finishTexel(const std::vector<Vertex>& raw, std::vector<Vertex>& out, std::vector<float>* samples,
-                     TexelSamples* where) const;
+                     TexelSamples* where, float zStop = INFINITY) const;
 
     Projection mProjection = Projection::Orthographic;
     int mRes = 0;

@@ -44,8 +44,10 @@ public:
 
     // Drive::CameraRays. Marches n camera rays o[i] + t d[i] (d unit) with their random streams,
     // writing out[i] (zeroed by the caller) and per-light L1 into perLight[3 lights i + 3 l + c]
-    // (zeroed by the caller). Called concurrently from worker threads: const and re-entrant.
-    virtual void marchRays(int n, const float3* o, const float3* d, NbRng* rng, CameraSample* out,
+    // (zeroed by the caller). tFar[i]: where a holdout stops ray i (docs/geometry.md: nothing at
+    // or past it is marched, the ray sees no background), INFINITY where none; tFar null: no
+    // holdouts in the scene. Called concurrently from worker threads: const and re-entrant.
+    virtual void marchRays(int n, const float3* o, const float3* d, const float* tFar, NbRng* rng, CameraSample* out,
                            float* perLight) const
     {
         throw std::logic_error("marchRays called on a whole-image integrator");

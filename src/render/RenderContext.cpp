@@ -26,6 +26,10 @@ std::unique_ptr<RenderContext> RenderContext::create(const Scene& scene, VolumeS
     ctx->scene = &scene;
     ctx->volumes = std::move(volumes);
     ctx->background = scene.background;
+    // Geometry only where the scene has some: otherwise no Embree device exists at all.
+    if (!scene.geometry.empty())
+        ctx->geometry = std::make_shared<const EmbreeScene>(GeometrySet::load(scene));
+    ctx->holdoutDepth = HoldoutDepth::load(scene);
     for (const auto& v : ctx->volumes.volumes())
         ctx->stiff.push_back(StiffVoxels::find(*v, scene.render.step * v->voxelSize));
     bool hasEnvironment = false;
@@ -68,6 +72,7 @@ void RenderContext::buildShadowMaps(const RenderPlan& plan, RenderStats& stats)
     s.tolerance = s0.render.tolerance;
     s.stepFraction = s0.render.shadowStep;
     s.keepMarchSamples = true;  // for the bake below, then released
+    s.shadowCasters = shadowCasters();
     stats.lights.resize(lights.size());
     for (size_t i = 0; i < lights.size(); ++i) {
         if (!plan.lights[i].shadowMap)
@@ -119,6 +124,9 @@ Rgb RenderContext::incident(size_t i, float3 p, float u0, float u1, float3& wi, 
     if (e.shadowMap)
         return s.weight * e.shadowMap->transmittance(p, cursor);
     float tMax = std::min(s.distance, 1e30f);
+    if (const EmbreeScene* casters = shadowCasters())
+        if (casters->occluded(p, s.wi, 0.0f, tMax))
+            return splat(0.0f);
     Rgb tau = volumes.opticalDepth(p, s.wi, 0.0f, tMax, scene->render.shadowStep);
     return s.weight * exp(-tau);
 }

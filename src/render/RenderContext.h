@@ -2,6 +2,8 @@
 // its RenderPlan: the volumes as one medium, the lights in kernel form and their deep shadow maps.
 #pragma once
 
+#include "../geometry/EmbreeScene.h"
+#include "../geometry/HoldoutDepth.h"
 #include "../scene/Scene.h"
 #include "DeepShadowMap.h"
 #include "LightCache.h"
@@ -34,9 +36,23 @@ struct RenderContext {
     std::vector<LightEntry> lights;  // index-aligned with scene.lights
     std::vector<StiffVoxels> stiff;  // per volume: bricks with optically thick voxels (StiffVoxels.h)
     Rgb background = splat(0.0f);    // radiance seen where rays leave the volumes
+    // Scene geometry (docs/geometry.md): null where the scene has none (no Embree device is made).
+    std::shared_ptr<const EmbreeScene> geometry;
+    std::shared_ptr<const HoldoutDepth> holdoutDepth;  // camera.holdout_depth; null where none
+
+    // Whether camera rays can be held out (a holdout object or a depth map): the tile driver
+    // then clips each camera ray at its first holdout.
+    bool hasCameraHoldouts() const { return (geometry && geometry->hasHoldouts()) || holdoutDepth; }
+    // The shadow casters, or null: what deep shadow maps and shadow rays stop at.
+    const EmbreeScene* shadowCasters() const
+    {
+        return geometry && geometry->hasShadowCasters() ? geometry.get() : nullptr;
+    }
 
     // The context for `plan` (made by planScene over the same volumes): the lights in kernel
-    // form, used and shadow-mapped as the plan says; no shadow map built yet.
+    // form, used and shadow-mapped as the plan says; the scene's geometry loaded and its Embree
+    // scenes built, the depth-map holdout read (both throw InputError for bad files); no shadow
+    // map built yet.
     static std::unique_ptr<RenderContext> create(const Scene& scene, VolumeSet volumes, const RenderPlan& plan);
     // Loads the volumes, plans the shared part (planScene) and, if asked, builds the shadow maps:
     // for tests and tools that march rays themselves. Renders go through the engine.

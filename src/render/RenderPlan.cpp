@@ -68,6 +68,31 @@ std::string RenderPlan::describe() const
             s << "  L2+ (wkb): not computed (bound " << buf << " E/4pi)\n";
         }
     }
+    if (!geometry.empty()) {
+        size_t triangles = 0, bytes = 0;
+        for (auto& g : geometry)
+            triangles += g.triangles, bytes += g.memoryBytes;
+        char buf[64];
+        std::snprintf(buf, sizeof buf, "%.3f s", geometryBvhSeconds);
+        s << "  geometry: " << geometry.size() << " object(s), " << triangles << " triangles ("
+          << formatBytes(bytes) << "), Embree BVH built in " << buf << " (" << formatBytes(geometryBvhBytes)
+          << ")\n";
+        for (auto& g : geometry) {
+            s << "    " << g.name << " (" << g.type << "): ";
+            if (g.triangles)
+                s << g.triangles << " triangles, ";
+            else
+                s << "analytic, ";
+            s << "bounds " << g.bounds << ", " << formatBytes(g.memoryBytes) << "; "
+              << (g.holdout && g.shadows ? "holdout and shadow caster"
+                  : g.holdout            ? "holdout only (casts no shadow)"
+                  : g.shadows            ? "shadow caster only (not seen by the camera)"
+                                         : "neither holdout nor shadow caster: changes nothing")
+              << "\n";
+        }
+    }
+    if (!holdoutDepth.empty())
+        s << "  depth-map holdout: " << holdoutDepth << "\n";
     for (auto& n : notes)
         s << "  " << n << "\n";
     return s.str();

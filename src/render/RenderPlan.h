@@ -47,6 +47,15 @@ struct VolumePlan {
     size_t pyramidBytes = 0;   // estimated
 };
 
+// One object of scene.geometry as loaded (docs/geometry.md).
+struct GeometryPlan {
+    std::string name, type;
+    bool holdout = true, shadows = true;
+    size_t triangles = 0;    // 0 for the analytic sphere and infinite plane
+    std::string bounds;      // world space, "unbounded" for an infinite plane
+    size_t memoryBytes = 0;  // its share of the world-space arrays
+};
+
 // The multiple-scattering term's choices (method wkb).
 struct WkbPlan {
     bool enabled = false;    // method wkb
@@ -72,6 +81,10 @@ struct RenderPlan {
     std::vector<LightPlan> lights;    // index-aligned with scene.lights
     std::vector<VolumePlan> volumes;  // index-aligned with the loaded (non-empty) volumes
     WkbPlan wkb;
+    std::vector<GeometryPlan> geometry;  // index-aligned with scene.geometry
+    double geometryBvhSeconds = 0;       // building the Embree scenes (in the planning pass)
+    size_t geometryBvhBytes = 0;         // Embree's allocations
+    std::string holdoutDepth;            // the depth-map holdout, described; empty: none
     std::vector<std::string> notes;                    // other omissions and decisions, one line each
     std::shared_ptr<const IntegratorPlan> integrator;  // null for integrators with no decisions of their own
 

@@ -1,5 +1,7 @@
 #include "RenderPlanner.h"
 
+#include "RenderContext.h"
+
 #include "../scene/KernelScene.h"
 
 #include <cmath>
@@ -110,6 +112,36 @@ RenderPlan planScene(const Scene& scene, const VolumeSet& volumes)
         plan.lights.push_back(lp);
     }
     return plan;
+}
+
+void planGeometry(const RenderContext& ctx, RenderPlan& plan)
+{
+    plan.geometry.clear();
+    if (ctx.geometry) {
+        for (const GeometryObject& o : ctx.geometry->geometry().objects()) {
+            GeometryPlan gp;
+            gp.name = o.name;
+            gp.type = geometryTypeName(o.type);
+            gp.holdout = o.holdout;
+            gp.shadows = o.shadows;
+            gp.triangles = o.triangleCount;
+            gp.memoryBytes = o.memoryBytes;
+            char buf[160];
+            if (o.bounds.empty())
+                std::snprintf(buf, sizeof buf, "unbounded");
+            else
+                std::snprintf(buf, sizeof buf, "[%.3g %.3g %.3g]-[%.3g %.3g %.3g] m", o.bounds.lo.x, o.bounds.lo.y,
+                              o.bounds.lo.z, o.bounds.hi.x, o.bounds.hi.y, o.bounds.hi.z);
+            gp.bounds = buf;
+            plan.geometry.push_back(gp);
+        }
+        plan.geometryBvhSeconds = ctx.geometry->buildSeconds();
+        plan.geometryBvhBytes = ctx.geometry->bvhBytes();
+    }
+    if (ctx.holdoutDepth)
+        plan.holdoutDepth = ctx.scene->camera.holdoutDepth.file + ", channel " + ctx.scene->camera.holdoutDepth.channel +
+                            ", " + std::to_string(ctx.holdoutDepth->width()) + "x" +
+                            std::to_string(ctx.holdoutDepth->height()) + " (camera-space Z)";
 }
 
 }  // namespace nimbus

@@ -11,4 +11,9 @@ namespace nimbus {
 
 RenderPlan planScene(const Scene& scene, const VolumeSet& volumes);
 
+struct RenderContext;
+// The geometry's part of the plan, once the context has loaded it: each object, the BVH's build
+// time and memory, the depth-map holdout (`nimbus info` prints them).
+void planGeometry(const RenderContext& ctx, RenderPlan& plan);
+
 }  // namespace nimbus

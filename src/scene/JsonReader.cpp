@@ -133,6 +133,13 @@ std::string JsonValue::string() const
     return value.get<std::string>();
 }
 
+bool JsonValue::boolean() const
+{
+    if (!value.is_boolean())
+        typeError("true or false");
+    return value.get<bool>();
+}
+
 void JsonValue::floats(float* out, int n) const
 {
     if (!value.is_array() || int(value.size()) != n)
@@ -222,6 +229,12 @@ void JsonReader::field(const std::string& key, std::string& out)
 {
     if (const json* v = find(key))
         out = JsonValue{*v, keyPath(key), mFile}.string();
+}
+
+void JsonReader::field(const std::string& key, bool& out)
+{
+    if (const json* v = find(key))
+        out = JsonValue{*v, keyPath(key), mFile}.boolean();
 }
 
 void JsonReader::field(const std::string& key, float3& out)

@@ -31,6 +31,7 @@ struct JsonValue {
     float toFloat() const;  // finite and representable as a float
     int64_t integer(int64_t lo, int64_t hi) const;
     std::string string() const;
+    bool boolean() const;
     float3 vec3() const;                   // array of 3 numbers
     Rgb rgb() const;                       // array of 3 numbers, or one number for grey
     void floats(float* out, int n) const;  // array of exactly n numbers
@@ -62,6 +63,7 @@ public:
     void field(const std::string& key, int& out);
     void field(const std::string& key, uint32_t& out);
     void field(const std::string& key, std::string& out);
+    void field(const std::string& key, bool& out);
     void field(const std::string& key, float3& out);  // a position or direction
     void rgb(const std::string& key, Rgb& out);
     void field(const std::string& key, std::vector<std::string>& out);  // a list of strings

@@ -15,6 +15,16 @@ const char* lightTypeName(LightType t)
     return "?";
 }
 
+const char* geometryTypeName(GeometryType t)
+{
+    switch (t) {
+    case GeometryType::Mesh: return "mesh";
+    case GeometryType::Sphere: return "sphere";
+    case GeometryType::Plane: return "plane";
+    }
+    return "?";
+}
+
 const char* methodName(Method m)
 {
     switch (m) {

@@ -17,6 +17,14 @@
 
 namespace nimbus {
 
+// A camera-space depth image whose surfaces hold the volumes out (Tessendorf sec. 8; docs/geometry.md):
+// per pixel the distance along the camera's view axis (the Z AOV of production renderers), inf
+// or 0 where nothing holds out. Empty file: none.
+struct HoldoutDepthFile {
+    std::string file;  // resolved against the scene file's directory, as VDB files are
+    std::string channel = "Z";
+};
+
 struct Camera {
     float3 from = make_float3(0, 0, 5);
     float3 to = make_float3(0, 0, 0);
@@ -30,6 +38,7 @@ struct Camera {
     float shutterOpen = 0.0f, shutterClose = 0.0f;
     bool hasMotion = false;
     float3 fromClose = make_float3(0, 0, 5), toClose = make_float3(0, 0, 0), upClose = make_float3(0, 1, 0);
+    HoldoutDepthFile holdoutDepth;
 };
 
 enum class LightType { Distant, Point, Spot, Rect, Sphere, Environment };
@@ -87,6 +96,26 @@ struct Volume {
     Transform transform;  // worldFromVolume, applied after the grid's own index-to-world
     Medium medium;
     std::string shader;  // file in shaders/ or a path; empty: the default shader
+};
+
+// Opaque, unshaded surfaces in the scene (docs/geometry.md): holdout mattes for camera rays and
+// shadow casters for light. Placed by `transform` (worldFromObject, the volumes' key).
+enum class GeometryType { Mesh, Sphere, Plane };
+
+const char* geometryTypeName(GeometryType t);  // "mesh", "sphere", "plane"
+
+struct Geometry {
+    std::string name;  // defaults to "geometry<i>"
+    GeometryType type = GeometryType::Mesh;
+    std::string file;     // mesh: OBJ or PLY, resolved against the scene file's directory
+    float radius = 1.0f;  // sphere, metres in object space, centred at the object origin
+    // plane: the rectangle [-x/2, x/2] x [-z/2, z/2] of the object's y = 0 plane; unbounded
+    // (an infinite plane) where `bounded` is false (the JSON key `size` omitted).
+    float size[2] = {1, 1};
+    bool bounded = false;
+    Transform transform;   // worldFromObject
+    bool holdout = true;   // camera rays stop at it; it renders black with alpha 0
+    bool shadows = true;   // it blocks light (shadow maps, light volumes, light samples)
 };
 
 enum class Method { Single, Wkb, Pathtrace };
@@ -151,6 +180,7 @@ struct Scene {
     Camera camera;
     std::vector<Light> lights;
     std::vector<Volume> volumes;
+    std::vector<Geometry> geometry;
     RenderSettings render;
     OutputSettings output;
     Rgb background = splat(0.0f);  // radiance behind the volumes when no environment light

@@ -52,6 +52,7 @@ public:
     void field(const std::string& key, double v) { mJson[key] = v; }
     void field(const std::string& key, int v) { mJson[key] = v; }
     void field(const std::string& key, uint32_t v) { mJson[key] = v; }
+    void field(const std::string& key, bool v) { mJson[key] = v; }
     void field(const std::string& key, const std::string& v) { mJson[key] = v; }
     void field(const std::string& key, const std::vector<std::string>& v) { mJson[key] = v; }
     void field(const std::string& key, float3 v) { mJson[key] = array(v); }
@@ -142,6 +143,17 @@ std::string indexed(const std::string& path, size_t i)
     return path + "[" + std::to_string(i) + "]";
 }
 
+// A file named in the scene (VDB, mesh, depth image), relative to the scene file, so that a
+// scene directory can move as a whole.
+std::string relativeToScene(const std::string& path, const std::string& sourcePath)
+{
+    std::filesystem::path file(path);
+    std::filesystem::path dir = std::filesystem::path(sourcePath).parent_path();
+    if (!path.empty() && file.is_relative() && !dir.empty())
+        return (dir / file).lexically_normal().string();
+    return path;
+}
+
 // ---- render, output ------------------------------------------------------------------------
 
 template <class V, class R>
@@ -194,7 +206,7 @@ void visitCamera(V& v, C& c)
     v.field("crop", c.crop);
 }
 
-Camera readCamera(SceneReader r)
+Camera readCamera(SceneReader r, const std::string& sourcePath)
 {
     Camera c;
     visitCamera(r, c);
@@ -222,6 +234,12 @@ Camera readCamera(SceneReader r)
             shutter[0] = 0.0f, shutter[1] = 1.0f;
     }
     c.shutterOpen = shutter[0], c.shutterClose = shutter[1];
+    if (const json* v = r.find("holdout_depth")) {
+        SceneReader h(*v, r.keyPath("holdout_depth"), r.file());
+        c.holdoutDepth.file = relativeToScene(h.get("file").string(), sourcePath);
+        h.field("channel", c.holdoutDepth.channel);
+        h.finish();
+    }
     r.finish();
     return c;
 }
@@ -239,6 +257,8 @@ json writeCamera(const Camera& c)
         w.doc()["motion"] = {{"from", JsonWriter::array(c.fromClose)},
                              {"to", JsonWriter::array(c.toClose)},
                              {"up", JsonWriter::array(c.upClose)}};
+    if (!c.holdoutDepth.file.empty())
+        w.doc()["holdout_depth"] = {{"file", c.holdoutDepth.file}, {"channel", c.holdoutDepth.channel}};
     return w.doc();
 }
 
@@ -320,12 +340,7 @@ VolumeSource readSource(SceneReader r, const std::string& sourcePath)
     std::string type = r.get("type").string();
     if (type == "vdb") {
         s.type = SourceType::Vdb;
-        s.file = r.get("file").string();
-        // Relative to the scene file, so a scene directory can move as a whole.
-        std::filesystem::path file(s.file);
-        std::filesystem::path dir = std::filesystem::path(sourcePath).parent_path();
-        if (!s.file.empty() && file.is_relative() && !dir.empty())
-            s.file = (dir / file).lexically_normal().string();
+        s.file = relativeToScene(r.get("file").string(), sourcePath);
         if (const json* grids = r.find("grids")) {
             SceneReader g(*grids, r.keyPath("grids"), r.file());
             g.markAllRead();
@@ -510,6 +525,59 @@ json writeVolume(const Volume& v)
     return j;
 }
 
+// ---- geometry ------------------------------------------------------------------------------
+
+const GeometryType kGeometryTypes[] = {GeometryType::Mesh, GeometryType::Sphere, GeometryType::Plane};
+
+// An object has the keys of its type only (a radius on a mesh is a mistake to report), and
+// the placement and flags every type shares.
+Geometry readGeometry(SceneReader r, size_t index, const std::string& sourcePath)
+{
+    Geometry g;
+    g.name = "geometry" + std::to_string(index);
+    std::string type = r.get("type").string();
+    bool known = false;
+    for (GeometryType t : kGeometryTypes)
+        if (type == geometryTypeName(t))
+            g.type = t, known = true;
+    if (!known)
+        r.fail("type", "unknown geometry type '" + type + "' (expected mesh, sphere, plane)");
+    r.field("name", g.name);
+    switch (g.type) {
+    case GeometryType::Mesh: g.file = relativeToScene(r.get("file").string(), sourcePath); break;
+    case GeometryType::Sphere: r.field("radius", g.radius); break;
+    case GeometryType::Plane:
+        g.bounded = r.has("size");
+        r.field("size", g.size);
+        break;
+    }
+    if (const json* t = r.find("transform"))
+        g.transform = readTransform(JsonValue{*t, r.keyPath("transform"), r.file()});
+    r.field("holdout", g.holdout);
+    r.field("shadows", g.shadows);
+    r.finish(" for a " + type);
+    return g;
+}
+
+json writeGeometry(const Geometry& g)
+{
+    JsonWriter w;
+    w.field("name", g.name);
+    w.doc()["type"] = geometryTypeName(g.type);
+    switch (g.type) {
+    case GeometryType::Mesh: w.field("file", g.file); break;
+    case GeometryType::Sphere: w.field("radius", g.radius); break;
+    case GeometryType::Plane:
+        if (g.bounded)
+            w.field("size", g.size);
+        break;
+    }
+    w.doc()["transform"] = g.transform.rowMajor();
+    w.field("holdout", g.holdout);
+    w.field("shadows", g.shadows);
+    return w.doc();
+}
+
 // Byte offset to "line L, column C", both from 1, as editors count them.
 std::string lineColumn(const std::string& text, size_t offset)
 {
@@ -586,7 +654,7 @@ Scene sceneFromJson(const json& document, const std::string& sourcePath)
                                   ", got " + std::to_string(version));
     }
     if (const json* v = r.find("camera"))
-        s.camera = readCamera(SceneReader(*v, "camera", sourcePath));
+        s.camera = readCamera(SceneReader(*v, "camera", sourcePath), sourcePath);
     if (const json* v = r.find("lights")) {
         const json& list = requireList(JsonValue{*v, "lights", sourcePath});
         for (size_t i = 0; i < list.size(); ++i)
@@ -596,6 +664,11 @@ Scene sceneFromJson(const json& document, const std::string& sourcePath)
         const json& list = requireList(JsonValue{*v, "volumes", sourcePath});
         for (size_t i = 0; i < list.size(); ++i)
             s.volumes.push_back(readVolume(SceneReader(list[i], indexed("volumes", i), sourcePath), i, sourcePath));
+    }
+    if (const json* v = r.find("geometry")) {
+        const json& list = requireList(JsonValue{*v, "geometry", sourcePath});
+        for (size_t i = 0; i < list.size(); ++i)
+            s.geometry.push_back(readGeometry(SceneReader(list[i], indexed("geometry", i), sourcePath), i, sourcePath));
     }
     if (const json* v = r.find("render")) {
         SceneReader render(*v, "render", sourcePath);
@@ -631,6 +704,12 @@ json sceneToJson(const Scene& s)
     j["volumes"] = json::array();
     for (const Volume& v : s.volumes)
         j["volumes"].push_back(writeVolume(v));
+    // Written only where there is some, so that scenes without geometry read as they did.
+    if (!s.geometry.empty()) {
+        j["geometry"] = json::array();
+        for (const Geometry& g : s.geometry)
+            j["geometry"].push_back(writeGeometry(g));
+    }
     JsonWriter render, output;
     visitRender(render, s.render);
     visitOutput(output, s.output);

@@ -13,8 +13,8 @@ namespace nimbus {
 #if NIMBUS_EIGHT_RAY_MARCH
 
 bool marchGreyDistantEight(const RenderContext& ctx, const VolumeData& vol, const LightEntry* const* lights,
-                           int lightCount, int n, const float3* o, const float3* d, const float* jitter,
-                           CameraSample* out, float* perLight, size_t perLightStride)
+                           int lightCount, int n, const float3* o, const float3* d, const float* tFar,
+                           const float* jitter, CameraSample* out, float* perLight, size_t perLightStride)
 {
     const BrickGrid& density = vol.density;
     // Gathers index the pools with 32-bit integers; each light's baked optical depth shares the
@@ -48,8 +48,11 @@ bool marchGreyDistantEight(const RenderContext& ctx, const VolumeData& vol, cons
             continue;
         const float3 oi = vol.indexFromWorld.point(o[i]), di = vol.indexFromWorld.vector(d[i]);
         float t0, t1, s0, s1;
-        if (!(dt > 0.0f) || !vol.worldBounds.intersect(o[i], safeInverse(d[i]), 0.0f, 1e30f, t0, t1) ||
-            !density.activeIndexBounds().intersect(oi, safeInverse(di), t0, t1, s0, s1) || !(s1 > s0))
+        if (!(dt > 0.0f) || !vol.worldBounds.intersect(o[i], safeInverse(d[i]), 0.0f, 1e30f, t0, t1))
+            continue;
+        if (tFar && tFar[i] < INFINITY)
+            t1 = std::min(t1, tFar[i]);  // held out: walkVolume's tMax
+        if (!(t1 >= t0) || !density.activeIndexBounds().intersect(oi, safeInverse(di), t0, t1, s0, s1) || !(s1 > s0))
             continue;
         const float3 p = oi + di * s0;
         if (!(std::fabs(p.x) < 1e9f && std::fabs(p.y) < 1e9f && std::fabs(p.z) < 1e9f))
@@ -161,7 +164,8 @@ bool marchGreyDistantEight(const RenderContext& ctx, const VolumeData& vol, cons
             float* pl = perLight + perLightStride * size_t(i) + 3 * size_t(&e - ctx.lights.data());
             pl[0] += l1.x, pl[1] += l1.y, pl[2] += l1.z;
         }
-        out[i].L0 += Ts[i] * ctx.background;
+        if (!(tFar && tFar[i] < INFINITY))  // a held-out ray sees no background
+            out[i].L0 += Ts[i] * ctx.background;
         out[i].transmittance = splat(Ts[i]);
         out[i].depth = opacitySums[i] > 0.0f ? depthSums[i] / opacitySums[i] : 0.0f;
         out[i].opacity = opacitySums[i];

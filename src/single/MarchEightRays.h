@@ -29,14 +29,14 @@ namespace nimbus {
 constexpr int kMaxEightRayLights = 8;
 
 // The grey march of SingleScatter.cpp (marchGreyKeyLight, marchOneVolume<true, false>) for n <= 8
-// rays (o, d world, d unit) with their jitters, every used light distant and baked (`lights`,
+// rays (o, d world, d unit; tFar their holdout distances as marchSingle's, or null) with their jitters, every used light distant and baked (`lights`,
 // lightCount of them); perLight holds n runs of `perLightStride` floats. The caller has checked
 // the case (SingleScatter.cpp). False, with nothing written, where a lane's march is too long
 // for float sample indices, the pools too large for 32-bit gathers or the lights too many:
 // then the caller marches the rays one by one.
 bool marchGreyDistantEight(const RenderContext& ctx, const VolumeData& vol, const LightEntry* const* lights,
-                           int lightCount, int n, const float3* o, const float3* d, const float* jitter,
-                           CameraSample* out, float* perLight, size_t perLightStride);
+                           int lightCount, int n, const float3* o, const float3* d, const float* tFar,
+                           const float* jitter, CameraSample* out, float* perLight, size_t perLightStride);
 #endif
 
 }  // namespace nimbus

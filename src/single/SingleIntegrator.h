@@ -23,10 +23,10 @@ public:
     explicit SingleIntegrator(const RenderContext& ctx) : mCtx(&ctx) {}
 
     Drive drive() const override { return Drive::CameraRays; }
-    void marchRays(int n, const float3* o, const float3* d, NbRng* rng, CameraSample* out,
+    void marchRays(int n, const float3* o, const float3* d, const float* tFar, NbRng* rng, CameraSample* out,
                    float* perLight) const override
     {
-        marchSingleRays(*mCtx, n, o, d, rng, out, perLight);
+        marchSingleRays(*mCtx, n, o, d, rng, out, perLight, tFar);
     }
 
 private:

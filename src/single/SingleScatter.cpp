@@ -21,7 +21,7 @@ namespace {
 // 1 - T of a nearly clear ray is all rounding.) One exp per channel; for optically thin steps
 // (sigma_t dt < 1e-3) the series 1 - x/2 + x^2/6 keeps full float precision where 1 - e^{-x}
 // would cancel, and stiff steps (sigma_t dt ~ 1e4) give 1/sigma_t without overflow.
-inline void stepTerms(float sigma, float dt, float& transmit, float& weight)
+[[gnu::always_inline]] inline void stepTerms(float sigma, float dt, float& transmit, float& weight)
 {
     float x = sigma * dt;
     if (x < 1e-3f) {
@@ -35,7 +35,7 @@ inline void stepTerms(float sigma, float dt, float& transmit, float& weight)
 
 // E1 = int_0^L e^{-a u} du and E2 = int_0^L u e^{-a u} du, for either sign of a: by their
 // series where |a L| < 0.1 (1 - e^{-x} (1 + x) cancels to x^2 / 2 there), else in closed form.
-inline void secantWeights(float a, float L, float& e1, float& e2)
+[[gnu::always_inline]] inline void secantWeights(float a, float L, float& e1, float& e2)
 {
     const float x = std::max(a * L, -40.0f);
     if (std::fabs(x) < 0.1f) {
@@ -185,6 +185,29 @@ inline StiffStep stiffStepAt(int k, float t, float dt, float jitter, int subStep
     coveredTo = st.tb;
     return st;
 }
+// A held-out ray's last stiff step ends at the holdout.
+inline StiffStep clippedStep(StiffStep st, float tMax)
+{
+    st.tb = std::min(st.tb, tMax);
+    return st;
+}
+
+// How far a camera ray marches: to its first holdout (geometry or the depth map, found by the
+// tile driver), else unbounded, as 1e30 (the bound every march here used before holdouts, so that
+// a scene without them marches exactly as before). A held-out ray sees no background.
+struct Reach {
+    float tMax = 1e30f;
+    bool heldOut = false;
+};
+inline Reach reachOf(float tFar)
+{
+    return tFar < INFINITY ? Reach{std::min(tFar, 1e30f), true} : Reach{};
+}
+// The background seen through the medium's transmittance T, unless a holdout hides it.
+inline Rgb backgroundSeen(const RenderContext& ctx, Rgb T, const Reach& reach)
+{
+    return reach.heldOut ? splat(0.0f) : T * ctx.background;
+}
 
 // The common case in a tight loop: one volume without emission, every used light shadow-mapped
 // and baked on its voxels. The march walks the density grid's occupied bricks in index space
@@ -193,8 +216,10 @@ inline StiffStep stiffStepAt(int k, float t, float dt, float jitter, int subStep
 // as the general loop below: samples at t_k = t_in + (k + jitter) dt.
 // OneDistant: the only used light is distant (a key light), so its weight and cache pointer
 // live in registers for the whole ray.
-template <bool Grey, bool OneDistant>
-void marchOneVolume(const RenderContext& ctx, const VolumeData& vol, float3 o, float3 d, float jitter,
+// HeldOut: the ray stops at tMax (a holdout) and sees no background; rays without one take the
+// HeldOut = false instance, the march exactly as it was before holdouts.
+template <bool Grey, bool OneDistant, bool HeldOut>
+void marchOneVolume(const RenderContext& ctx, const VolumeData& vol, float3 o, float3 d, float jitter, float tMax,
                     CameraSample& out, float* perLight)
 {
     const size_t nLights = ctx.lights.size();
@@ -236,10 +261,12 @@ void marchOneVolume(const RenderContext& ctx, const VolumeData& vol, float3 o, f
         stiffLights.push_back({size_t(active[ai].index), active[ai].cache, active[ai].distant});
     stiffL1.resize(nActive);
     float coveredTo = -1e30f;  // stiffStepStart
-    walkVolume(vol, o, d, dt, jitter, [&](int k, float t, const BrickGrid::Stencil& st) {
+    auto step = [&](int k, float t, const BrickGrid::Stencil& st) {
         if (stiff.any) {
             if (const int n = stiff.subStepsOf(st.brick)) {
-                const StiffStep ss = stiffStepAt(k, t, dt, jitter, n, coveredTo);
+                StiffStep ss = stiffStepAt(k, t, dt, jitter, n, coveredTo);
+                if constexpr (HeldOut)
+                    ss = clippedStep(ss, tMax);
                 std::fill(stiffL1.begin(), stiffL1.end(), splat(0.0f));
                 const bool go = marchStiffStep(ctx, vol, o, d, ss.ta, ss.tb, ss.n, stiffLights.data(), nActive, T,
                                                stiffL1.data(), opacitySum, depthSum);
@@ -304,13 +331,18 @@ void marchOneVolume(const RenderContext& ctx, const VolumeData& vol, float3 o, f
             return false;
         }
         return true;
-    });
+    };
+    if constexpr (HeldOut)
+        walkVolumeTo(vol, o, d, dt, jitter, tMax, step);
+    else
+        walkVolume(vol, o, d, dt, jitter, step);
     out.L1 += L1;
     if (OneDistant) {
         float* pl = perLight + 3 * first.index;
         pl[0] += L1.x, pl[1] += L1.y, pl[2] += L1.z;
     }
-    out.L0 += T * ctx.background;
+    if constexpr (!HeldOut)
+        out.L0 += T * ctx.background;
     out.transmittance = T;
     out.depth = opacitySum > 0.0f ? depthSum / opacitySum : 0.0f;
     out.opacity = opacitySum;
@@ -319,8 +351,9 @@ void marchOneVolume(const RenderContext& ctx, const VolumeData& vol, float3 o, f
 // The commonest case of all, a grey medium (equal RGB extinction) lit by one distant light:
 // marchOneVolume<true, true> with the transmittance, the weights and the sum in scalars (the
 // constant RGB factors sigma_s / rho and L_i p are applied once, after the march).
+template <bool HeldOut>
 void marchGreyKeyLight(const RenderContext& ctx, const VolumeData& vol, const LightEntry& key, float3 o, float3 d,
-                       float jitter, CameraSample& out, float* perLight)
+                       float jitter, float tMax, CameraSample& out, float* perLight)
 {
     const BrickGrid& density = vol.density;
     const BrickGrid& cache = key.cache->grid(0);
@@ -331,10 +364,12 @@ void marchGreyKeyLight(const RenderContext& ctx, const VolumeData& vol, const Li
     const StiffVoxels& stiff = ctx.stiff[0];
     const StiffLight stiffKey{size_t(&key - ctx.lights.data()), &cache, true};
     float coveredTo = -1e30f;  // stiffStepStart
-    walkVolume(vol, o, d, dt, jitter, [&](int k, float t, const BrickGrid::Stencil& st) {
+    auto step = [&](int k, float t, const BrickGrid::Stencil& st) {
         if (stiff.any) {
             if (const int n = stiff.subStepsOf(st.brick)) {
-                const StiffStep ss = stiffStepAt(k, t, dt, jitter, n, coveredTo);
+                StiffStep ss = stiffStepAt(k, t, dt, jitter, n, coveredTo);
+                if constexpr (HeldOut)
+                    ss = clippedStep(ss, tMax);
                 Rgb Tr = splat(T), l1 = splat(0.0f);
                 const bool go =
                     marchStiffStep(ctx, vol, o, d, ss.ta, ss.tb, ss.n, &stiffKey, 1, Tr, &l1, opacitySum, depthSum);
@@ -359,14 +394,19 @@ void marchGreyKeyLight(const RenderContext& ctx, const VolumeData& vol, const Li
             return false;
         }
         return true;
-    });
+    };
+    if constexpr (HeldOut)
+        walkVolumeTo(vol, o, d, dt, jitter, tMax, step);
+    else
+        walkVolume(vol, o, d, dt, jitter, step);
     // Light travels along its direction, then toward the camera (along -d).
     const Rgb weight = nbLoad3(key.light.color) * nbPhaseEval(vol.medium.phase, -dot(nbLoad3(key.light.direction), d));
     const Rgb l1 = vol.sigmaS() * weight * L1;
     out.L1 += l1;
     float* pl = perLight + 3 * (&key - ctx.lights.data());
     pl[0] += l1.x, pl[1] += l1.y, pl[2] += l1.z;
-    out.L0 += T * ctx.background;
+    if constexpr (!HeldOut)
+        out.L0 += T * ctx.background;
     out.transmittance = splat(T);
     out.depth = opacitySum > 0.0f ? depthSum / opacitySum : 0.0f;
     out.opacity = opacitySum;
@@ -405,21 +445,32 @@ FastMarch fastMarchOf(const RenderContext& ctx, const LightEntry** key, bool* al
                               : FastMarch::Chromatic;
 }
 
-bool marchSingleFast(const RenderContext& ctx, float3 o, float3 d, float jitter, CameraSample& out, float* perLight)
+bool marchSingleFast(const RenderContext& ctx, float3 o, float3 d, float jitter, Reach reach, CameraSample& out,
+                     float* perLight)
 {
     const LightEntry* key = nullptr;
     const FastMarch fast = fastMarchOf(ctx, &key);
     if (fast == FastMarch::None)
         return false;
     const VolumeData& vol = *ctx.volumes.volumes()[0];
-    if (fast == FastMarch::GreyKeyLight)
-        marchGreyKeyLight(ctx, vol, *key, o, d, jitter, out, perLight);
+    const float tMax = reach.tMax;
+    if (reach.heldOut) {
+        if (fast == FastMarch::GreyKeyLight)
+            marchGreyKeyLight<true>(ctx, vol, *key, o, d, jitter, tMax, out, perLight);
+        else if (fast == FastMarch::Grey)
+            marchOneVolume<true, false, true>(ctx, vol, o, d, jitter, tMax, out, perLight);
+        else if (fast == FastMarch::OneDistant)
+            marchOneVolume<false, true, true>(ctx, vol, o, d, jitter, tMax, out, perLight);
+        else
+            marchOneVolume<false, false, true>(ctx, vol, o, d, jitter, tMax, out, perLight);
+    } else if (fast == FastMarch::GreyKeyLight)
+        marchGreyKeyLight<false>(ctx, vol, *key, o, d, jitter, tMax, out, perLight);
     else if (fast == FastMarch::Grey)
-        marchOneVolume<true, false>(ctx, vol, o, d, jitter, out, perLight);
+        marchOneVolume<true, false, false>(ctx, vol, o, d, jitter, tMax, out, perLight);
     else if (fast == FastMarch::OneDistant)
-        marchOneVolume<false, true>(ctx, vol, o, d, jitter, out, perLight);
+        marchOneVolume<false, true, false>(ctx, vol, o, d, jitter, tMax, out, perLight);
     else
-        marchOneVolume<false, false>(ctx, vol, o, d, jitter, out, perLight);
+        marchOneVolume<false, false, false>(ctx, vol, o, d, jitter, tMax, out, perLight);
     return true;
 }
 
@@ -428,8 +479,9 @@ bool marchSingleFast(const RenderContext& ctx, float3 o, float3 d, float jitter,
 // `latticeStart`, where given, puts the samples on one lattice along the whole ray,
 // t_k = *latticeStart + (k + jitter) step (one volume: the specialised loops' lattice, for
 // marchSingleGeneralReference) instead of one per span.
-[[gnu::noinline]] void marchSingleGeneral(const RenderContext& ctx, float3 o, float3 d, float jitter, NbRng& rng,
-                                          CameraSample& out, float* perLight, const float* latticeStart = nullptr)
+[[gnu::noinline]] void marchSingleGeneral(const RenderContext& ctx, float3 o, float3 d, float jitter, Reach reach,
+                                          NbRng& rng, CameraSample& out, float* perLight,
+                                          const float* latticeStart = nullptr)
 {
     const Scene& scene = *ctx.scene;
     const VolumeSet& vs = ctx.volumes;
@@ -460,7 +512,7 @@ bool marchSingleFast(const RenderContext& ctx, float3 o, float3 d, float jitter,
         rayPhaseValid[i] = 1;
     }
 
-    vs.spans(o, d, 0.0f, 1e30f, scene.render.step, spanList);
+    vs.spans(o, d, 0.0f, reach.tMax, scene.render.step, spanList);
     const int lightSamples = std::max(1, scene.render.lightSamples);
     // Stop where every channel's transmittance is below the tolerance: what lies behind can
     // change the pixel by at most that fraction of the light it would send unattenuated
@@ -507,7 +559,7 @@ bool marchSingleFast(const RenderContext& ctx, float3 o, float3 d, float jitter,
             if (stiffSteps) {
                 if (const int ns = ctx.stiff[0].subStepsOf(stencils[0].brick)) {
                     const VolumeData& vol = *volumes[0];
-                    const StiffStep ss = stiffStepAt(k, t, dt, jitter, ns, coveredTo);
+                    const StiffStep ss = clippedStep(stiffStepAt(k, t, dt, jitter, ns, coveredTo), reach.tMax);
                     std::fill(stiffL1.begin(), stiffL1.end(), splat(0.0f));
                     done = !marchStiffStep(ctx, vol, o, d, ss.ta, ss.tb, ss.n, stiffLights.data(), stiffLights.size(),
                                            T, stiffL1.data(), opacitySum, depthSum);
@@ -595,7 +647,7 @@ bool marchSingleFast(const RenderContext& ctx, float3 o, float3 d, float jitter,
         if (done)
             break;
     }
-    out.L0 += T * ctx.background;
+    out.L0 += backgroundSeen(ctx, T, reach);
     out.transmittance = T;
     out.depth = opacitySum > 0.0f ? depthSum / opacitySum : 0.0f;
     out.opacity = opacitySum;
@@ -603,12 +655,12 @@ bool marchSingleFast(const RenderContext& ctx, float3 o, float3 d, float jitter,
 
 // Most camera rays of a typical frame miss every volume: the background, nothing else (and no
 // further random numbers, as in the general march, which finds no span).
-bool missesEveryVolume(const RenderContext& ctx, float3 o, float3 d, CameraSample& out)
+bool missesEveryVolume(const RenderContext& ctx, float3 o, float3 d, Reach reach, CameraSample& out)
 {
     float tIn, tOut;
-    if (ctx.volumes.worldBounds().intersect(o, safeInverse(d), 0.0f, 1e30f, tIn, tOut))
+    if (ctx.volumes.worldBounds().intersect(o, safeInverse(d), 0.0f, reach.tMax, tIn, tOut))
         return false;
-    out.L0 += ctx.background;
+    out.L0 += backgroundSeen(ctx, splat(1.0f), reach);
     out.transmittance = splat(1.0f);
     out.depth = 0.0f;
     return true;
@@ -616,13 +668,15 @@ bool missesEveryVolume(const RenderContext& ctx, float3 o, float3 d, CameraSampl
 
 }  // namespace
 
-void marchSingle(const RenderContext& ctx, float3 o, float3 d, NbRng& rng, CameraSample& out, float* perLight)
+void marchSingle(const RenderContext& ctx, float3 o, float3 d, NbRng& rng, CameraSample& out, float* perLight,
+                 float tFar)
 {
     const float jitter = nbRngNext(&rng);
-    if (missesEveryVolume(ctx, o, d, out))
+    const Reach reach = reachOf(tFar);
+    if (missesEveryVolume(ctx, o, d, reach, out))
         return;
-    if (!marchSingleFast(ctx, o, d, jitter, out, perLight))
-        marchSingleGeneral(ctx, o, d, jitter, rng, out, perLight);
+    if (!marchSingleFast(ctx, o, d, jitter, reach, out, perLight))
+        marchSingleGeneral(ctx, o, d, jitter, reach, rng, out, perLight);
 }
 
 namespace {
@@ -677,7 +731,7 @@ void marchSingleGeneralReference(const RenderContext& ctx, float3 o, float3 d, N
                                  float* perLight)
 {
     const float jitter = nbRngNext(&rng);  // as marchSingle draws it
-    if (missesEveryVolume(ctx, o, d, out))
+    if (missesEveryVolume(ctx, o, d, Reach{}, out))
         return;
     // walkVolume's lattice start (BrickWalk.h): the entry into the occupied bricks' bounds.
     float start = 0.0f;
@@ -690,11 +744,11 @@ void marchSingleGeneralReference(const RenderContext& ctx, float3 o, float3 d, N
             vol.density.activeIndexBounds().intersect(oi, safeInverse(di), t0, t1, start, s1))
             lattice = &start;
     }
-    marchSingleGeneral(ctx, o, d, jitter, rng, out, perLight, lattice);
+    marchSingleGeneral(ctx, o, d, jitter, Reach{}, rng, out, perLight, lattice);
 }
 
 void marchSingleRays(const RenderContext& ctx, int n, const float3* o, const float3* d, NbRng* rng, CameraSample* out,
-                     float* perLight)
+                     float* perLight, const float* tFar)
 {
     const size_t stride = 3 * ctx.lights.size();
 #if NIMBUS_EIGHT_RAY_MARCH
@@ -711,19 +765,20 @@ void marchSingleRays(const RenderContext& ctx, int n, const float3* o, const flo
                 start[i] = rng[first + i];
                 jitter[i] = nbRngNext(&rng[first + i]);  // as marchSingle draws it
             }
-            if (!marchGreyDistantEight(ctx, vol, lights, lightCount, m, o + first, d + first, jitter, out + first,
+            if (!marchGreyDistantEight(ctx, vol, lights, lightCount, m, o + first, d + first,
+                                       tFar ? tFar + first : nullptr, jitter, out + first,
                                        perLight + stride * size_t(first), stride))
                 for (int i = 0; i < m; ++i) {
                     rng[first + i] = start[i];
                     marchSingle(ctx, o[first + i], d[first + i], rng[first + i], out[first + i],
-                                perLight + stride * size_t(first + i));
+                                perLight + stride * size_t(first + i), tFar ? tFar[first + i] : INFINITY);
                 }
         }
         return;
     }
 #endif
     for (int i = 0; i < n; ++i)
-        marchSingle(ctx, o[i], d[i], rng[i], out[i], perLight + stride * size_t(i));
+        marchSingle(ctx, o[i], d[i], rng[i], out[i], perLight + stride * size_t(i), tFar ? tFar[i] : INFINITY);
 }
 
 }  // namespace nimbus

@@ -48,6 +48,11 @@ std::vector<std::string> sceneInputFiles(const Scene& scene)
             // Not found: the volume's load says so, naming its key.
         }
     }
+    // Mesh files and the depth-map holdout (resolved by the JSON loader, as VDB files are).
+    for (const Geometry& g : scene.geometry)
+        if (g.type == GeometryType::Mesh)
+            addIfExists(g.file);
+    addIfExists(scene.camera.holdoutDepth.file);
     return files;
 }
 

@@ -24,7 +24,8 @@ std::vector<std::string> pluginCandidates(const std::string& path, const std::st
 
 // Every existing file the render would read: the scene file, each volume's VDB file, its shader
 // (a shader that cannot be found is left out: loading reports it) and each existing candidate of
-// its plugin library. Paths as found, not canonical: compare them by inode.
+// its plugin library, each mesh file and the depth-map holdout. Paths as found, not canonical:
+// compare them by inode.
 std::vector<std::string> sceneInputFiles(const Scene& scene);
 
 }  // namespace nimbus

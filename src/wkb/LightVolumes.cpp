@@ -33,11 +33,13 @@ float fract(float x)
 }
 
 // Emitted radiance arriving at x from direction u (i.e. travelling along -u): the integral of
-// T * emission along x + t u (Tessendorf eq. 26, the source term), midpoint steps.
-Rgb emittedRadiance(const VolumeSet& vs, float3 x, float3 u, float stepFraction)
+// T * emission along x + t u (Tessendorf eq. 26, the source term), midpoint steps, up to the
+// first shadow caster (emission behind an opaque surface does not reach x).
+Rgb emittedRadiance(const VolumeSet& vs, float3 x, float3 u, float stepFraction, const EmbreeScene* casters)
 {
     thread_local std::vector<Span> spans;
-    vs.spans(x, u, 0.0f, 1e30f, stepFraction, spans);
+    const float tMax = casters ? std::min(1e30f, casters->shadowHit(x, u, 0.0f, INFINITY)) : 1e30f;
+    vs.spans(x, u, 0.0f, tMax, stepFraction, spans);
     Rgb L = splat(0.0f), T = splat(1.0f);
     for (const Span& s : spans) {
         float len = s.t1 - s.t0;
@@ -126,6 +128,7 @@ void LightVolumes::build(const RenderContext& ctx, const WkbSetup& setup, Render
     dsm.resolution = ctx.scene->render.shadowMapResolution;
     dsm.tolerance = ctx.scene->render.tolerance;
     dsm.stepFraction = ctx.scene->render.shadowStep;
+    dsm.shadowCasters = ctx.shadowCasters();
     for (size_t i = 0; i < setup.sources.size(); ++i) {
         const SourcePlan& sp = setup.sources[i];
         if (sp.mode != SourceMode::Delta)
@@ -174,6 +177,7 @@ void LightVolumes::fillLevel0(const RenderContext& ctx, const WkbSetup& setup, s
     const float f = float(vs.factor);
     const float rMin = 0.5f * vs.lightVoxel;
     const float shadowStep = ctx.scene->render.shadowStep * f;  // light rays at the light grid's scale
+    const EmbreeScene* casters = ctx.shadowCasters();
     int maxShOrder = 0;
     for (const SourcePlan& sp : setup.sources)
         if (sp.mode == SourceMode::Sh)
@@ -244,12 +248,15 @@ void LightVolumes::fillLevel0(const RenderContext& ctx, const WkbSetup& setup, s
                                     float3 travel;  // the direction the light propagates, n'
                                     if (sp.emission) {
                                         float3 u = nbSampleSphereUniform(u0, u1);
-                                        L = emittedRadiance(ctx.volumes, wc, u, shadowStep) * (4.0f * NB_PI);
+                                        L = emittedRadiance(ctx.volumes, wc, u, shadowStep, casters) * (4.0f * NB_PI);
                                         travel = -u;
                                     } else {
                                         NbLightSample ls = nbLightSample(sp.light, wc, u0, u1);
                                         if (nbMaxComponent(ls.weight) <= 0.0f)
                                             continue;
+                                        if (casters &&
+                                            casters->occluded(wc, ls.wi, 0.0f, std::min(ls.distance, 1e30f)))
+                                            continue;  // a shadow caster between the voxel and the light
                                         Rgb tau = ctx.volumes.opticalDepth(wc, ls.wi, 0.0f,
                                                                            std::min(ls.distance, 1e30f), shadowStep);
                                         L = ls.weight * exp(-tau);  // L_i / pdf

@@ -107,14 +107,15 @@ WkbIntegrator::WkbIntegrator(const RenderContext& ctx, const RenderPlan& plan, R
             mMaxShOrder = std::max(mMaxShOrder, sp.order);
 }
 
-void WkbIntegrator::marchRays(int n, const float3* o, const float3* d, NbRng* rng, CameraSample* out,
-                              float* perLight) const
+void WkbIntegrator::marchRays(int n, const float3* o, const float3* d, const float* tFar, NbRng* rng,
+                              CameraSample* out, float* perLight) const
 {
     const size_t stride = 3 * mCtx->lights.size();
     for (int i = 0; i < n; ++i) {
         float* pl = perLight + stride * size_t(i);
-        marchSingle(*mCtx, o[i], d[i], rng[i], out[i], pl);
-        march(o[i], d[i], rng[i], out[i], pl);
+        const float t = tFar ? tFar[i] : INFINITY;
+        marchSingle(*mCtx, o[i], d[i], rng[i], out[i], pl, t);
+        march(o[i], d[i], rng[i], out[i], pl, t);
     }
 }
 
@@ -363,7 +364,7 @@ void WkbIntegrator::evaluateNode(Scratch& sc, float3 o, float3 d, const TableEnt
     }
 }
 
-void WkbIntegrator::march(float3 o, float3 d, NbRng& rng, CameraSample& out, float* perLight) const
+void WkbIntegrator::march(float3 o, float3 d, NbRng& rng, CameraSample& out, float* perLight, float tFar) const
 {
     if (!mSetup.active)
         return;
@@ -371,7 +372,7 @@ void WkbIntegrator::march(float3 o, float3 d, NbRng& rng, CameraSample& out, flo
     const VolumeSet& vs = mCtx->volumes;
     const size_t nv = vs.volumes().size();
     const float jitter = nbRngNext(&rng);
-    vs.spans(o, d, 0.0f, 1e30f, mCtx->scene->render.step, sc.spans);
+    vs.spans(o, d, 0.0f, std::min(tFar, 1e30f), mCtx->scene->render.step, sc.spans);
     if (sc.spans.empty())
         return;
     sc.phaseWeights.assign(nv, 0.0f);

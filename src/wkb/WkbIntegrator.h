@@ -35,7 +35,7 @@ public:
 
     Drive drive() const override { return Drive::CameraRays; }
     // L0 + L1 by marchSingle, then L2+ by march, ray by ray on one random stream each.
-    void marchRays(int n, const float3* o, const float3* d, NbRng* rng, CameraSample* out,
+    void marchRays(int n, const float3* o, const float3* d, const float* tFar, NbRng* rng, CameraSample* out,
                    float* perLight) const override;
     // Tiles that see no brick are marched too: L2+ keeps its own per-ray path there.
     bool skipsEmptyTiles() const override { return false; }
@@ -46,7 +46,8 @@ public:
 
     // Adds L2+ along the camera ray o + t d (d unit, t >= 0) to out.L2plus and each light's part
     // to perLight[3 i + c] (emission's part goes to L2plus only). Draws one number from rng.
-    void march(float3 o, float3 d, NbRng& rng, CameraSample& out, float* perLight) const;
+    // tFar: where a holdout stops the ray (the l-march ends there), INFINITY for none.
+    void march(float3 o, float3 d, NbRng& rng, CameraSample& out, float* perLight, float tFar = INFINITY) const;
 
 private:
     // A stretch of the ray with constant coefficients (one medium sample).

@@ -432,6 +432,84 @@ class Cli(unittest.TestCase):
         self.assertIn("deep shadow map", out)
         self.assertIn("skipped: zero power", out)
 
+    # Geometry (issue 14): bad meshes and depth maps are one line naming the file and the key.
+    def mesh_scene(self, mesh_text, name="m.obj"):
+        with open(os.path.join(self.d, name), "w") as f:
+            f.write(mesh_text)
+        return self.scene_file(small_scene(geometry=[{"name": "wall", "type": "mesh", "file": name}]))
+
+    def test_missing_mesh_file(self):
+        path = self.scene_file(small_scene(geometry=[{"type": "mesh", "file": "absent.obj"}]))
+        self.expect_bad_input(["render", path], "scene.json", "geometry[0].file", "absent.obj", "no such file")
+
+    def test_malformed_mesh(self):
+        path = self.mesh_scene("ply\nformat ascii 1.0\nelement vertex 3\nend_header\nnonsense\n", "m.ply")
+        self.expect_bad_input(["render", path], "scene.json", "geometry[0].file", "m.ply")
+
+    def test_mesh_without_triangles(self):
+        path = self.mesh_scene("v 0 0 0\nv 1 0 0\nv 0 1 0\nl 1 2 3\n")
+        self.expect_bad_input(["render", path], "scene.json", "geometry[0].file", "m.obj", "no triangles")
+
+    def test_mesh_with_nan_vertices(self):
+        path = self.mesh_scene("v 0 0 0\nv nan 0 0\nv 0 1 0\nf 1 2 3\n")
+        self.expect_bad_input(["render", path], "scene.json", "geometry[0].file", "m.obj", "not finite")
+
+    def test_unknown_geometry_key(self):
+        path = self.scene_file(small_scene(geometry=[{"type": "sphere", "radius": 1, "size": [1, 1]}]))
+        self.expect_bad_input(["render", path], "scene.json", "geometry[0]", "size")
+
+    def test_geometry_with_pathtrace_is_bad_input(self):
+        path = self.scene_file(small_scene(geometry=[{"type": "sphere", "radius": 0.2}]))
+        self.expect_bad_input(["render", path, "--method", "pathtrace"], "geometry", "not yet supported by pathtrace")
+
+    def write_depth(self, name, w, h, z):
+        spec = oiio.ImageSpec(w, h, 1, oiio.FLOAT)
+        spec.channelnames = ("Z",)
+        out = oiio.ImageOutput.create(os.path.join(self.d, name))
+        out.open(os.path.join(self.d, name), spec)
+        out.write_image(np.full((h, w, 1), z, dtype=np.float32))
+        out.close()
+
+    def test_depth_map_of_wrong_size(self):
+        self.write_depth("z.exr", 16, 16, 3.0)  # the camera renders 32 x 24
+        s = small_scene()
+        s["camera"]["holdout_depth"] = {"file": "z.exr"}
+        self.expect_bad_input(["render", self.scene_file(s)], "scene.json", "camera.holdout_depth.file", "z.exr",
+                              "16x16")
+
+    def test_depth_map_of_same_aspect_is_resampled_with_a_warning(self):
+        self.write_depth("z.exr", 64, 48, 0.0)  # twice the camera's 32 x 24, nothing held out
+        s = small_scene()
+        s["camera"]["holdout_depth"] = {"file": "z.exr", "channel": "Z"}
+        code, _, err = run("render", self.scene_file(s), "-o", self.out)
+        self.assertEqual(code, 0, err)
+        self.assertIn("resampled", err)
+
+    def test_depth_map_channel_missing(self):
+        self.write_depth("z.exr", 32, 24, 3.0)
+        s = small_scene()
+        s["camera"]["holdout_depth"] = {"file": "z.exr", "channel": "depth"}
+        self.expect_bad_input(["render", self.scene_file(s)], "camera.holdout_depth.channel", "depth", "Z")
+
+    def test_info_lists_geometry(self):
+        with open(os.path.join(self.d, "t.obj"), "w") as f:
+            f.write("v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nf 1 2 3 4\n")
+        s = small_scene(geometry=[{"name": "wall", "type": "mesh", "file": "t.obj", "shadows": False},
+                                  {"name": "ball", "type": "sphere", "radius": 0.3}])
+        code, out, err = run("info", self.scene_file(s))
+        self.assertEqual(code, 0, err)
+        self.assertIn("geometry: 2 object(s), 2 triangles", out)
+        self.assertIn("Embree BVH built in", out)
+        self.assertIn("wall (mesh): 2 triangles, bounds [0 0 0]-[1 1 0] m", out)
+        self.assertIn("holdout only", out)
+        self.assertIn("ball (sphere): analytic", out)
+
+    def test_neither_holdout_nor_shadows_warns(self):
+        s = small_scene(geometry=[{"type": "sphere", "radius": 0.3, "holdout": False, "shadows": False}])
+        code, _, err = run("render", self.scene_file(s), "-o", self.out)
+        self.assertEqual(code, 0, err)
+        self.assertIn("holdout and shadows are both false", err)
+
     def test_default_scene_renders(self):
         code, _, err = run("render", "--default", "-q", "-o", self.out, "--set", "camera.resolution=[48,27]",
                            "--set", "render.spp=1", "--preview", os.path.join(self.d, "p.png"))

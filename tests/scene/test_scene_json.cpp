@@ -353,3 +353,80 @@ TEST(SceneJson, ReadJsonFileNumberOverflow)
     }
     std::filesystem::remove(path);
 }
+
+// Geometry and the depth-map holdout (issue 14): every key survives the round trip, relative
+// files resolve against the scene's directory as VDB files do, a key of another type is an error.
+TEST(SceneJson, GeometryRoundTripsAndResolvesFiles)
+{
+    const json doc = json::parse(R"({
+      "camera": {"holdout_depth": {"file": "z.exr", "channel": "depth"}},
+      "geometry": [
+        {"name": "wall", "type": "mesh", "file": "wall.obj", "transform": {"translate": [1, 2, 3]}, "shadows": false},
+        {"type": "sphere", "radius": 0.5, "holdout": false},
+        {"type": "plane", "size": [20, 10]},
+        {"type": "plane"}
+      ]})");
+    const Scene s = sceneFromJson(doc, "/shots/a/scene.json");
+    ASSERT_EQ(s.geometry.size(), 4u);
+    EXPECT_EQ(s.geometry[0].file, "/shots/a/wall.obj");
+    EXPECT_EQ(s.geometry[0].transform.at(1, 3), 2.0);
+    EXPECT_FALSE(s.geometry[0].shadows);
+    EXPECT_TRUE(s.geometry[0].holdout);
+    EXPECT_EQ(s.geometry[1].name, "geometry1");
+    EXPECT_EQ(s.geometry[1].radius, 0.5f);
+    EXPECT_FALSE(s.geometry[1].holdout);
+    EXPECT_TRUE(s.geometry[2].bounded);
+    EXPECT_EQ(s.geometry[2].size[1], 10.0f);
+    EXPECT_FALSE(s.geometry[3].bounded);  // size omitted: infinite
+    EXPECT_EQ(s.camera.holdoutDepth.file, "/shots/a/z.exr");
+    EXPECT_EQ(s.camera.holdoutDepth.channel, "depth");
+    const Scene back = sceneFromJson(json::parse(sceneToJson(s).dump()), "");
+    ASSERT_EQ(back.geometry.size(), 4u);
+    for (size_t i = 0; i < 4; ++i) {
+        EXPECT_EQ(back.geometry[i].name, s.geometry[i].name);
+        EXPECT_EQ(back.geometry[i].type, s.geometry[i].type);
+        EXPECT_EQ(back.geometry[i].file, s.geometry[i].file);
+        EXPECT_EQ(back.geometry[i].radius, s.geometry[i].radius);
+        EXPECT_EQ(back.geometry[i].bounded, s.geometry[i].bounded);
+        EXPECT_EQ(back.geometry[i].size[0], s.geometry[i].size[0]);
+        EXPECT_EQ(back.geometry[i].transform.rowMajor(), s.geometry[i].transform.rowMajor());
+        EXPECT_EQ(back.geometry[i].holdout, s.geometry[i].holdout);
+        EXPECT_EQ(back.geometry[i].shadows, s.geometry[i].shadows);
+    }
+    EXPECT_EQ(back.camera.holdoutDepth.file, s.camera.holdoutDepth.file);
+    EXPECT_EQ(back.camera.holdoutDepth.channel, s.camera.holdoutDepth.channel);
+    // A scene without geometry writes no "geometry" key (its JSON is as before).
+    EXPECT_FALSE(sceneToJson(Scene()).contains("geometry"));
+    EXPECT_FALSE(sceneToJson(Scene())["camera"].contains("holdout_depth"));
+}
+
+TEST(SceneJson, GeometryKeyErrors)
+{
+    auto error = [](const char* text) {
+        try {
+            sceneFromJson(json::parse(text), "s.json");
+        } catch (const InputError& e) {
+            return std::string(e.what());
+        }
+        return std::string();
+    };
+    EXPECT_NE(error(R"({"geometry": [{"type": "mesh", "file": "m.obj", "radius": 1}]})").find("geometry[0]"),
+              std::string::npos);
+    EXPECT_NE(error(R"({"geometry": [{"type": "cube"}]})").find("unknown geometry type 'cube'"), std::string::npos);
+    EXPECT_NE(error(R"({"geometry": [{"type": "mesh"}]})").find("geometry[0].file"), std::string::npos);
+    EXPECT_NE(error(R"({"geometry": [{"type": "sphere", "radius": -1}]})").find("geometry[0].radius"),
+              std::string::npos);
+    EXPECT_NE(error(R"({"geometry": [{"type": "plane", "size": [0, 1]}]})").find("geometry[0].size[0]"),
+              std::string::npos);
+    EXPECT_NE(error(R"({"geometry": [{"type": "sphere", "holdout": 1}]})").find("geometry[0].holdout"),
+              std::string::npos);
+    EXPECT_NE(error(R"({"geometry": [{"type": "sphere", "transform": {"scale": 0}}]})").find("geometry[0].transform"),
+              std::string::npos);
+    EXPECT_NE(error(R"({"camera": {"holdout_depth": {"channel": "Z"}}})").find("camera.holdout_depth.file"),
+              std::string::npos);
+    EXPECT_NE(error(R"({"camera": {"holdout_depth": {"file": "z.exr", "scale": 2}}})").find("camera.holdout_depth"),
+              std::string::npos);
+    EXPECT_NE(error(R"({"geometry": [{"type": "sphere"}], "render": {"method": "pathtrace", "spp": 4}})")
+                  .find("geometry: is not yet supported by pathtrace"),
+              std::string::npos);
+}

@@ -63,7 +63,8 @@ double hg(double g, double cosTheta)
     return (1.0 - g * g) / (4.0 * kPi * std::pow(1.0 + g * g - 2.0 * g * cosTheta, 1.5));
 }
 
-struct Geometry {
+// The angles of one slab view (named apart from nimbus::Geometry, the scene's surfaces).
+struct SlabAngles {
     double mu0, mu, azimuthDeg;  // light and view cosines to the face normal; azimuth between them
 };
 
@@ -78,7 +79,7 @@ float3 fromNormal(double mu, double phiDeg)
 // mu = 0.3 the patch is 0.2 m long, every ray enters > 1.3 m, thousands of mean free paths, from
 // a side face) and the light. `light` is a distant light (its direction set here) or a point
 // light (its position set here, at `lightDistance` from the face's centre).
-Scene slabScene(const Geometry& geo, Rgb sigma_s, Rgb sigma_a, float g, Light light, float lightDistance)
+Scene slabScene(const SlabAngles& geo, Rgb sigma_s, Rgb sigma_a, float g, Light light, float lightDistance)
 {
     Scene s = emptyScene(16, 16);
     s.volumes.push_back(homogeneousBox(2 * kHalfWidth, 2 * kHalfHeight, 2 * kHalfWidth, kVoxel, sigma_s, sigma_a, g));
@@ -137,7 +138,7 @@ double distantClosedForm(float3 dir, Rgb E, Rgb albedo, float g, float3 d, int c
 }
 
 struct Case {
-    Geometry geo;
+    SlabAngles geo;
     double voxelDepth;  // sigma_t h of the densest channel
     Rgb albedo;
     float g;
@@ -174,11 +175,11 @@ double distantCaseError(const Case& k, uint32_t seed = 1)
 // The view and light geometry, including a grazing view (mu 0.3) and forward and backward
 // scattering, at voxel optical depths 10 and 100: the answer must not change with the voxel's
 // optical depth (a semi-infinite slab's L1 does not depend on sigma_t at all).
-const Geometry kGeometries[] = {{0.8, 0.9, 0}, {0.6, 0.3, 180}, {0.5, 0.7, 90}, {0.9, 0.3, 45}, {1.0, 1.0, 0}};
+const SlabAngles kGeometries[] = {{0.8, 0.9, 0}, {0.6, 0.3, 180}, {0.5, 0.7, 90}, {0.9, 0.3, 45}, {1.0, 1.0, 0}};
 
 TEST(SingleStiff, SemiInfiniteSlabMatchesTheClosedFormAtAnyVoxelDepth)
 {
-    for (const Geometry& geo : kGeometries)
+    for (const SlabAngles& geo : kGeometries)
         for (double voxelDepth : {10.0, 100.0}) {
             const double err = distantCaseError({geo, voxelDepth, splat(0.95f), 0.3f});
             EXPECT_LT(err, kBound) << "mu0 " << geo.mu0 << " mu " << geo.mu << " azimuth " << geo.azimuthDeg
@@ -194,7 +195,7 @@ TEST(SingleStiff, SemiInfiniteSlabMatchesTheClosedFormAtAnyVoxelDepth)
 // the bound is the same 1%.
 TEST(SingleStiff, DeepVoxelsStaySubStepAccurate)
 {
-    for (const Geometry& geo : kGeometries) {
+    for (const SlabAngles& geo : kGeometries) {
         const double err = distantCaseError({geo, 1000.0, splat(0.95f), 0.3f});
         EXPECT_LT(err, kBound) << "mu0 " << geo.mu0 << " mu " << geo.mu << " azimuth " << geo.azimuthDeg
                                << ": sub-steps capped at kMaxSubSteps carry more than kSubStepDepth";
@@ -205,7 +206,7 @@ TEST(SingleStiff, DeepVoxelsStaySubStepAccurate)
 // so every pair must hold the same accuracy.
 TEST(SingleStiff, SemiInfiniteSlabMatchesTheClosedFormForAlbedoAndPhase)
 {
-    const Geometry geo{0.7, 0.5, 150};
+    const SlabAngles geo{0.7, 0.5, 150};
     for (float albedo : {0.5f, 0.95f, 1.0f})
         for (float g : {-0.3f, 0.0f, 0.7f}) {
             const double err = distantCaseError({geo, 20.0, splat(albedo), g});
@@ -251,7 +252,7 @@ TEST(SingleStiff, PointLightFarAboveMatchesTheClosedFormOfItsLocalBeam)
     Light bulb;
     bulb.type = LightType::Point;
     bulb.intensity = make_float3(2500.0f, 5000.0f, 1250.0f);  // I / r^2 = 1, 2, 0.5 at the face
-    for (const Geometry& geo : {Geometry{1.0, 0.8, 0}, Geometry{0.7, 0.4, 180}}) {
+    for (const SlabAngles& geo : {SlabAngles{1.0, 0.8, 0}, SlabAngles{0.7, 0.4, 180}}) {
         Scene scene = slabScene(geo, splat(float(sigma_t * albedo)), splat(float(sigma_t * (1 - albedo))), g, bulb,
                                 float(r));
         const float3 pos = scene.lights[0].position;
