@@ -55,4 +55,9 @@ const char* wkbSourceName(WkbSource s)
     return s == WkbSource::RandomWalk ? "random_walk" : "straight";
 }
 
+const char* wkbOrder2Name(WkbOrder2 o)
+{
+    return o == WkbOrder2::Traced ? "traced" : "kernel";
+}
+
 }  // namespace nimbus

@@ -126,6 +126,10 @@ enum class WkbKernel { Gaussian, Exact };
 // Where and how blurred the source Lblur is read for a scattering length l: Tessendorf's
 // straight line (sec. 6.3.6) or the mean displacement of an angular random walk.
 enum class WkbSource { Straight, RandomWalk };
+// How L2+'s second scattering order is computed: traced (a Monte Carlo point on the camera ray,
+// a direction from the phase function, and single's march along it; the kernel then carries
+// orders 3 and up) or, as Tessendorf's reduction does, by the angular kernel with the rest.
+enum class WkbOrder2 { Traced, Kernel };
 
 // The pixel reconstruction filter (kernels/shared/filter.h), by filter importance sampling.
 enum class PixelFilter { Box, Gaussian, BlackmanHarris };
@@ -134,6 +138,7 @@ const char* methodName(Method m);
 const char* pixelFilterName(PixelFilter f);  // "box", "gaussian", "blackman_harris"
 const char* wkbKernelName(WkbKernel k);      // "gaussian", "exact"
 const char* wkbSourceName(WkbSource s);      // "straight", "random_walk"
+const char* wkbOrder2Name(WkbOrder2 o);      // "traced", "kernel"
 
 // Samples per pixel of single and wkb when `spp` is 0 (the default).
 constexpr int kDefaultMarchSpp = 4;
@@ -159,6 +164,8 @@ struct RenderSettings {
     // wkb (docs/wkb.md has the derivation of each):
     WkbKernel wkbKernel = WkbKernel::Exact;
     WkbSource wkbSource = WkbSource::RandomWalk;
+    WkbOrder2 wkbOrder2 = WkbOrder2::Traced;  // order 2 of L2+ (docs/wkb.md "Order 2, traced")
+    int wkbOrder2Samples = 4;                 // traced order-2 samples per camera ray
     float wkbBlurK = 24.0f;         // K in the blur width s sqrt(K mu l), Tessendorf eq. 79
     float wkbLStep = 0.25f;         // l-march step, scattering lengths; grows as l_step * l past l = 1
     int wkbOrderMax = 128;          // cap on the Legendre order j of the angular sum (eq. 88)

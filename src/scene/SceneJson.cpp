@@ -59,6 +59,7 @@ public:
     void field(const std::string& key, Method m) { mJson[key] = methodName(m); }
     void field(const std::string& key, WkbKernel k) { mJson[key] = wkbKernelName(k); }
     void field(const std::string& key, WkbSource k) { mJson[key] = wkbSourceName(k); }
+    void field(const std::string& key, WkbOrder2 k) { mJson[key] = wkbOrder2Name(k); }
     void field(const std::string& key, PixelFilter f) { mJson[key] = pixelFilterName(f); }
     void rgb(const std::string& key, Rgb v) { mJson[key] = array(v); }
     template <int N>
@@ -108,6 +109,10 @@ public:
     void field(const std::string& key, WkbSource& out)
     {
         named(key, out, {WkbSource::Straight, WkbSource::RandomWalk}, wkbSourceName, "source placement");
+    }
+    void field(const std::string& key, WkbOrder2& out)
+    {
+        named(key, out, {WkbOrder2::Traced, WkbOrder2::Kernel}, wkbOrder2Name, "order-2 model");
     }
 
 private:
@@ -175,6 +180,8 @@ void visitRender(V& v, R& r)
     v.field("noise_target", r.noiseTarget);
     v.field("wkb_kernel", r.wkbKernel);
     v.field("wkb_source", r.wkbSource);
+    v.field("wkb_order2", r.wkbOrder2);
+    v.field("wkb_order2_samples", r.wkbOrder2Samples);
     v.field("wkb_blur_k", r.wkbBlurK);
     v.field("wkb_l_step", r.wkbLStep);
     v.field("wkb_order_max", r.wkbOrderMax);

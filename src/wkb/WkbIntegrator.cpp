@@ -77,7 +77,7 @@ struct WkbIntegrator::Scratch {
     std::vector<float> phaseWeights;
     std::vector<double> pieceW, nodeW;  // per volume scattering weight: of the pending piece (1/m), of the node
     std::vector<float> channels;
-    std::vector<double> coef, pj, shY, sums;
+    std::vector<double> coef, coef3, pj, shY, sums;
     Piece pending;
     bool hasPending = false;
     double muLast = kMuMax;
@@ -97,6 +97,8 @@ WkbIntegrator::WkbIntegrator(const RenderContext& ctx, const RenderPlan& plan, R
         mPhase.push_back(v->medium.phase);
     }
     mLights.build(ctx, mSetup, stats);
+    if (mSetup.tracedOrder2)
+        mOrder2 = std::make_unique<TracedOrder2>(ctx);
     mMinLightVoxel = 1e30f;
     for (const VolumeSetup& vs : mSetup.volumes)
         mMinLightVoxel = std::min(mMinLightVoxel, vs.lightVoxel);
@@ -297,6 +299,26 @@ void WkbIntegrator::evaluateNode(Scratch& sc, float3 o, float3 d, const TableEnt
         }
     }
 
+    // With order 2 traced (TracedOrder2), the lights' kernel drops its N = 1 term, the one further
+    // scattering: e^{-l} l p_j against the weight's e^{-l}(e^l - 1), so R_j -> R_j - l p_j / (e^l - 1)
+    // (AngularKernel.h). For the Gaussian kernel the p_j of that term is the Gaussian phase's own,
+    // e^{-mu j(j+1)/2} = A_j(0), so that orders 3+ vanish as l -> 0 in both kernels. Emission's
+    // sources keep every order (TracedOrder2 follows the lights' L1 only).
+    if (mOrder2) {
+        sc.coef3.resize(sc.coef.size());
+        for (int c = 0; c < 3; ++c) {
+            const double l = m.l[c];
+            const double share = l < 1e-12 ? 1.0 - 0.5 * l : l / std::expm1(l);  // l / (e^l - 1)
+            const double* k = sc.coef.data() + size_t(c) * (J + 1);
+            double* k3 = sc.coef3.data() + size_t(c) * (J + 1);
+            for (int j = 0; j <= J; ++j) {
+                const double pFirst =
+                    mSetup.kernel == KernelType::Gaussian ? std::exp(-0.5 * mu * j * (j + 1)) : sc.pj[j];
+                k3[j] = k[j] - sc.pj[j] * share * pFirst;
+            }
+        }
+    }
+
     // Where the source is read, and how blurred.
     PlacementInput in;
     in.table = &table;
@@ -330,6 +352,7 @@ void WkbIntegrator::evaluateNode(Scratch& sc, float3 o, float3 d, const TableEnt
         const SourcePlan& sp = mSetup.sources[si];
         if (sp.mode == SourceMode::Skip)
             continue;
+        const std::vector<double>& coef = mOrder2 && !sp.emission ? sc.coef3 : sc.coef;
         double S[3] = {0, 0, 0};
         if (sp.mode == SourceMode::Delta) {
             // Addition theorem: sum_m Y_jm(n) Y*_jm(N) = (2j+1)/(4 pi) P_j(n . N).
@@ -338,7 +361,7 @@ void WkbIntegrator::evaluateNode(Scratch& sc, float3 o, float3 d, const TableEnt
             for (int j = 0; j <= J; ++j, P.advance()) {
                 const double f = double(2 * j + 1) * NB_INV_4PI_D * P.value();
                 for (int c = 0; c < 3; ++c)
-                    S[c] += f * sc.coef[size_t(c) * (J + 1) + j];
+                    S[c] += f * coef[size_t(c) * (J + 1) + j];
             }
             Rgb E = splat(0.0f);
             if (exactWeight > 0.0)
@@ -354,7 +377,7 @@ void WkbIntegrator::evaluateNode(Scratch& sc, float3 o, float3 d, const TableEnt
                     const int jm = shIndex(j, mm);
                     for (int c = 0; c < 3; ++c)
                         S[c] +=
-                            sc.coef[size_t(c) * (J + 1) + j] * sc.shY[jm] * double(ch[sp.offset + 3 * jm + c]) * inv;
+                            coef[size_t(c) * (J + 1) + j] * sc.shY[jm] * double(ch[sp.offset + 3 * jm + c]) * inv;
                 }
         }
         // A truncated order sum can ring below zero where the true angular distribution is small;
@@ -368,6 +391,8 @@ void WkbIntegrator::march(float3 o, float3 d, NbRng& rng, CameraSample& out, flo
 {
     if (!mSetup.active)
         return;
+    if (mOrder2)
+        mOrder2->add(o, d, rng, out, perLight, tFar);
     thread_local Scratch sc;
     const VolumeSet& vs = mCtx->volumes;
     const size_t nv = vs.volumes().size();

@@ -10,6 +10,7 @@
 #include "../single/SingleScatter.h"
 #include "LightVolumes.h"
 #include "SourcePlacement.h"
+#include "TracedOrder2.h"
 #include "WkbPlanner.h"
 
 #include <memory>
@@ -45,7 +46,8 @@ public:
     const LightVolumes& lightVolumes() const { return mLights; }
 
     // Adds L2+ along the camera ray o + t d (d unit, t >= 0) to out.L2plus and each light's part
-    // to perLight[3 i + c] (emission's part goes to L2plus only). Draws one number from rng.
+    // to perLight[3 i + c] (emission's part goes to L2plus only): the l-march, and with
+    // setup().tracedOrder2 the lights' order 2 by TracedOrder2. Draws its numbers from rng.
     // tFar: where a holdout stops the ray (the l-march ends there), INFINITY for none.
     void march(float3 o, float3 d, NbRng& rng, CameraSample& out, float* perLight, float tFar = INFINITY) const;
 
@@ -65,6 +67,7 @@ private:
     const RenderContext* mCtx;
     WkbSetup mSetup;
     LightVolumes mLights;
+    std::unique_ptr<TracedOrder2> mOrder2;  // set with setup().tracedOrder2
     PlacementModel mModel = PlacementModel::Straight;
     float mMinLightVoxel = 1.0f;
     std::vector<Rgb> mSigmaS, mSigmaA;  // per volume, 1/m at density 1 (density scale included)

@@ -86,6 +86,7 @@ WkbSetup planWkb(const RenderContext& ctx, RenderPlan& plan)
     WkbSetup setup;
     setup.kernel = rs.wkbKernel == WkbKernel::Exact ? KernelType::Exact : KernelType::Gaussian;
     setup.randomWalk = rs.wkbSource == WkbSource::RandomWalk;
+    setup.tracedOrder2 = rs.wkbOrder2 == WkbOrder2::Traced;
     setup.blurK = std::max(0.0f, rs.wkbBlurK);
     setup.lStep = std::max(1e-3f, rs.wkbLStep);
     setup.tolerance = std::max(1e-7f, rs.tolerance);
@@ -96,6 +97,8 @@ WkbSetup planWkb(const RenderContext& ctx, RenderPlan& plan)
     wp.kernel = setup.kernel == KernelType::Gaussian ? "gaussian phase (e^l - 1) A_j(l)"
                                                      : "exact infinite medium e^{l p_j} - 1";
     wp.source = setup.randomWalk ? "random walk (mean displacement, walk variance)" : "straight line (sec. 6.3.6)";
+    if (setup.tracedOrder2)
+        wp.kernel += "; order 2 traced, the kernel from order 3";
     wp.blurK = setup.blurK;
     wp.lStep = setup.lStep;
     wp.orderCap = setup.orderCap;

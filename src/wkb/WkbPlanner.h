@@ -52,6 +52,9 @@ struct WkbSetup : IntegratorPlan {
     bool active = false;  // false: L2+ is zero for this scene (no volume, no light, or below tolerance)
     KernelType kernel = KernelType::Gaussian;
     bool randomWalk = false;
+    // Order 2 of the light sources' L2+ by TracedOrder2 (a Monte Carlo sample per camera ray); the
+    // kernel then drops its N = 1 term for them (docs/wkb.md "Order 2, traced").
+    bool tracedOrder2 = true;
     float blurK = 24.0f, lStep = 0.25f, tolerance = 0.002f;
     int orderCap = 128;
     int channels = 1;
