@@ -136,16 +136,25 @@ HandContext handContext(const Scene& scene, std::vector<std::shared_ptr<VolumeDa
         vp.name = v->name;
         hc.plan.volumes.push_back(vp);
     }
+    // What marchSingle reads (wkb's traced order 2 marches it from inside the medium): the stiff
+    // bricks and each shadow map baked on the voxels, as RenderContext::create and
+    // buildShadowMaps make them.
+    for (const auto& v : ctx->volumes.volumes())
+        ctx->stiff.push_back(StiffVoxels::find(*v, scene.render.step * v->voxelSize));
     DeepShadowMap::Settings s;
     s.resolution = scene.render.shadowMapResolution;
+    s.keepMarchSamples = true;
     for (size_t i = 0; i < scene.lights.size(); ++i) {
         LightEntry e;
         e.light = makeNbLight(scene.lights[i], int(i));
         e.aov = "light_" + scene.lights[i].name;
         e.delta = nbLightIsDelta(e.light);
         e.used = !ctx->volumes.empty();
-        if (e.delta && e.used)
+        if (e.delta && e.used) {
             e.shadowMap = DeepShadowMap::build(e.light, ctx->volumes, s);
+            e.cache = LightCache::bake(*e.shadowMap, ctx->volumes);
+            e.shadowMap->releaseMarchSamples();
+        }
         ctx->lights.push_back(std::move(e));
         LightPlan lp;
         lp.name = scene.lights[i].name;
