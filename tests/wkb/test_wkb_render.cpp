@@ -4,6 +4,7 @@
 #include "../render/HandMadeVolume.h"
 
 #include "engine/Renderer.h"
+#include "render/RenderContext.h"
 #include "scene/KernelScene.h"
 #include "wkb/AngularKernel.h"
 #include "wkb/WkbIntegrator.h"
@@ -421,14 +422,21 @@ TEST(WkbRender, ThinSceneSkipsL2plusWithItsBound)
     EXPECT_EQ(mean(aov(r.film, "L2plus")), 0.0);
 }
 
-// Energy: a homogeneous sphere of radius R, optical radius 10, albedo exactly 1, under a sun of
-// irradiance E intercepts E pi R^2 and, absorbing nothing, can send out no more. Its radiant
-// intensity I(theta) toward a far camera at angle theta from the sun's direction of travel is
-// the image-plane integral of radiance (sum of pixel radiance x pixel area at the sphere); by the
-// symmetry about the sun's axis the outgoing power is 2 pi int_{-1}^{1} I(mu) dmu, here by 6-point
-// Gauss-Legendre (Boost.Math's nodes and weights). The edge of the procedural sphere (a one-voxel
-// ramp) is counted generously: the intercepted power uses the radius plus a voxel.
-TEST(WkbEnergy, ThickConservativeSphereGivesBackAtMostWhatItReceives)
+// Energy balance (issue 13, item 6: a closed form, not a one-sided bound): a homogeneous sphere of
+// radius R, optical radius 10, albedo exactly 1, under a sun of irradiance E absorbs nothing, so
+// everything it intercepts leaves it again: the power scattered out equals the intercepted power
+// E int (1 - e^{-tau(x, z)}) dx dz over the sun's beam (tau the optical depth of the line through
+// (x, z), here from the volume itself, so the procedural sphere's one-voxel soft edge is counted
+// exactly). The scattered power is the image-plane integral of radiance (sum of pixel radiance x
+// pixel area at the sphere) toward a far camera at angle theta from the sun's direction of travel;
+// by the symmetry about the sun's axis it is 2 pi int_{-1}^{1} I(mu) dmu, here by 6-point
+// Gauss-Legendre (Boost.Math's nodes and weights). Light that crosses unscattered (e^{-20} on the
+// axis, more near the edge) is in neither: the beauty of a far camera in the sun's own direction
+// would see it as L0 only where the sun is a point, so it is left out of both sides. The target
+// is issue 13's for a thick medium (its thick half-space: within 10% of the exact answer); its
+// tighter L2plus target (+-5% on the validation scenes) is not met here: 0.945 on 2026-12-02,
+// L2plus 85% of the output, so L2plus about 6.5% low (docs/validation.md).
+TEST(WkbEnergy, ThickConservativeSphereGivesBackWhatItIntercepts)
 {
     const double R = 1.0, voxel = R / 16, E = 1.0, distance = 40.0;
     // Boost stores the non-negative half of the rule: nodes +-t[i], weights w[i].
@@ -440,6 +448,7 @@ TEST(WkbEnergy, ThickConservativeSphereGivesBackAtMostWhatItReceives)
     const double fov = 2.0 * std::atan(1.15 * R / distance) * 180.0 / M_PI;
     const double pixelArea = std::pow(2.0 * distance * std::tan(0.5 * fov * M_PI / 180.0) / res, 2.0);
     double power = 0.0, powerL2 = 0.0;
+    double intercepted = 0.0;
     for (int k = 0; k < 6; ++k) {
         // mu = cos(angle between the sun's travel direction (0,-1,0) and the direction to the camera)
         const double mu = nodes[k], st = std::sqrt(1.0 - mu * mu);
@@ -450,6 +459,19 @@ TEST(WkbEnergy, ThickConservativeSphereGivesBackAtMostWhatItReceives)
             proceduralVolume("sphere", {{"radius", R}, {"voxel_size", voxel}}, splat(10.0f), splat(0.0f), 0.5f));
         s.lights.push_back(sun(make_float3(0, -1, 0), float(E)));
         s.render.spp = 1;
+        if (k == 0) {
+            // The intercepted power: lines along the sun through a grid of (x, z), 100 per radius.
+            auto ctx = RenderContext::create(s, false);
+            const int n = 230;
+            const double h = 2.3 * R / n;
+            for (int i = 0; i < n; ++i)
+                for (int j = 0; j < n; ++j) {
+                    const float3 o = make_float3(float(-1.15 * R + (i + 0.5) * h), float(3 * R),
+                                                 float(-1.15 * R + (j + 0.5) * h));
+                    const Rgb tau = ctx->volumes.opticalDepth(o, make_float3(0, -1, 0), 0.0f, float(6 * R), 0.25f);
+                    intercepted += E * -std::expm1(-double(nbAverage(tau))) * h * h;
+                }
+        }
         RenderResult r = render(s);
         const Aov& b = aov(r.film, "beauty");
         const Aov& l2 = aov(r.film, "L2plus");
@@ -461,11 +483,12 @@ TEST(WkbEnergy, ThickConservativeSphereGivesBackAtMostWhatItReceives)
         power += 2 * M_PI * weights[k] * I;
         powerL2 += 2 * M_PI * weights[k] * I2;
     }
-    const double incident = E * M_PI * (R + voxel) * (R + voxel);
-    RecordProperty("outgoing_over_incident", std::to_string(power / incident));
+    RecordProperty("outgoing_over_intercepted", std::to_string(power / intercepted));
     RecordProperty("l2plus_share", std::to_string(powerL2 / std::max(power, 1e-30)));
-    std::printf("energy: outgoing / incident = %.3f (L2+ %.0f%% of it)\n", power / incident, 100.0 * powerL2 / power);
-    EXPECT_LE(power, incident);
+    std::printf("energy: outgoing / intercepted = %.3f (intercepted %.4f W, pi R^2 E = %.4f W; L2+ %.0f%% of the "
+                "output)\n",
+                power / intercepted, intercepted, M_PI * R * R * E, 100.0 * powerL2 / power);
+    EXPECT_NEAR(power / intercepted, 1.0, 0.10);
     EXPECT_GT(powerL2, 0.0);
 }
 
