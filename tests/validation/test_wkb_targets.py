@@ -1,0 +1,47 @@
+"""test_wkb_targets.py: issue 13's accuracy targets, asserted for WKB at its defaults.
+
+    /usr/bin/python3 tests/validation/test_wkb_targets.py NIMBUS
+
+Renders validation scenes with `wkb` at their own settings (the defaults: random_walk + exact,
+order 2 traced) and asserts issue 13's per-scene targets against the shipped path-tracer
+references (tests/validation/references/): beauty relMSE <= 0.01 and L2plus energy within +-5%
+(the metrics of `nimbus compare`, suite_tools.py). The targets are the issue's, not a measured
+value plus a margin; the scenes are the validation scenes that meet them today (2026-12-02, the
+table in docs/validation.md: `thin_cloud_spot_against` 0.0080 / -1.9%, `sphere_forward_against`
+0.0044 / +0.0%), so a change that makes WKB worse on them fails here. `scripts/validate-suite
+--targets` runs the same check on every scene (not all met yet; issue 13 stays open until they are).
+"""
+
+import os
+import sys
+import tempfile
+import unittest
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import suite_tools as st  # noqa: E402
+
+BEAUTY_TARGET = 0.01
+L2PLUS_ENERGY_TARGET = 0.05
+SCENES = ["thin_cloud_spot_against", "sphere_forward_against"]
+NIMBUS = None
+
+
+class WkbTargets(unittest.TestCase):
+    def test_scenes_meet_the_targets(self):
+        with tempfile.TemporaryDirectory() as tmp:
+            for name in SCENES:
+                with self.subTest(scene=name):
+                    ref, _ = st.read_layers(st.reference_path("validation", name))
+                    x, _ = st.render(NIMBUS, st.scene_path("validation", name), os.path.join(tmp, name + ".exr"),
+                                     "wkb", (), aovs=("beauty", "L1", "L2plus"))
+                    beauty = st.rel_mse(x["beauty"], ref["beauty"])
+                    energy = st.energy_error(x["L2plus"], ref["L2plus"])
+                    print("%s: beauty relMSE %.4f (target %g), L2plus energy %+.3f (target +-%g)"
+                          % (name, beauty, BEAUTY_TARGET, energy, L2PLUS_ENERGY_TARGET))
+                    self.assertLessEqual(beauty, BEAUTY_TARGET)
+                    self.assertLessEqual(abs(energy), L2PLUS_ENERGY_TARGET)
+
+
+if __name__ == "__main__":
+    NIMBUS = sys.argv.pop(1)
+    unittest.main()
