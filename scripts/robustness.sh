@@ -152,6 +152,38 @@ check_scene_not_regular() {
     report "${FUNCNAME}_70MiB" "exit 2, 1 line(s)" "$(outcome render "$WORK/big.json")"
 }
 
+# Cancel within a second (issue 18, item 3), through the Python module (the C ABI's session): a
+# render slow inside its tiles (render.step = 1e-5 voxels, the cloud filling the frame) is let
+# run two seconds, into its tiles, cancelled, and waited for. The C ABI test (tests/api, testCancelWithinASecond) also times the release.
+check_cancel_slow() {
+    scene
+    local m seen
+    for m in single wkb; do
+        seen=$(PYTHONPATH=${NIMBUS_PYTHONPATH:-build/python} timeout -s KILL 30 $PY -c "
+import json, sys, time, nimbus
+s = nimbus.load_dict(json.load(open(sys.argv[1])))
+s['render.method'] = sys.argv[2]
+s['render.step'] = 1e-5
+s.camera['fov'] = 5  # the cloud fills the frame: no tile is empty, and so quick
+s.commit()
+session = nimbus.Session(s)
+session.start()
+time.sleep(2)  # past loading the volumes and the shadow maps (about a second here)
+if session.state[0] != 'running':
+    sys.exit(print('not running after 2 s'))
+t = time.monotonic()
+session.cancel()
+try:
+    session.wait()
+    print('finished, not cancelled')
+except nimbus.Cancelled:
+    dt = time.monotonic() - t
+    print('cancelled in < 1 s' if dt < 1 else 'cancelled in %.1f s' % dt)" "$WORK/s.json" $m 2>&1 | tail -1)
+        [ -n "$seen" ] || seen="no answer in 30 s"
+        report "${FUNCNAME}_$m" "cancelled in < 1 s" "$seen"
+    done
+}
+
 ALL=$(declare -F | awk '{print $3}' | grep '^check_' | sed 's/^check_//')
 for name in ${@:-$ALL}; do
     "check_$name"

@@ -188,9 +188,18 @@ RenderResult render(const Scene& input, const RenderOptions& callerOptions)
     Planned planned = planPass(scene, entry, result.stats);
     const RenderPlan& plan = planned.plan;
     RenderContext& ctx = *planned.context;
+    // Cancel (RenderControl.h): between the stages here, inside the tiles through ctx.stop.
+    ctx.stop.watch(options.cancel);
+    auto checkCancel = [&] {
+        if (ctx.stop.raised())
+            throw Cancelled();
+    };
+    checkCancel();
     if (entry.traits.shadowMaps)
         ctx.buildShadowMaps(plan, result.stats);
+    checkCancel();
     std::unique_ptr<Integrator> integrator = entry.create(ctx, plan, options, result.stats);
+    checkCancel();
     auto t = std::chrono::steady_clock::now();
     if (integrator->drive() == Integrator::Drive::CameraRays) {
         renderTiles(ctx, *integrator, result.film, options);

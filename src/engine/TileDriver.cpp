@@ -41,7 +41,12 @@ void renderTiles(const RenderContext& ctx, const Integrator& integrator, Film& f
     const int tilesX = (film.x1 - film.x0 + kTile - 1) / kTile, tilesY = (film.y1 - film.y0 + kTile - 1) / kTile;
     const int tileCount = std::max(0, tilesX * tilesY);
     std::atomic<int> done{0};
-    std::atomic<bool> cancelled{false};
+    // Stop inside tiles, not only between them (issue 18, item 3): the marches poll ctx.stop
+    // (RenderControl.h); it is raised here when progress says stop, and read with the caller's
+    // cancel flag before each tile row and after each march.
+    auto stopped = [&] {
+        return ctx.stop.raised() || (control.cancel && control.cancel->load(std::memory_order_relaxed));
+    };
 
     Aov* beauty = film.find("beauty");
     Aov* L0 = film.find("L0");
@@ -154,7 +159,7 @@ void renderTiles(const RenderContext& ctx, const Integrator& integrator, Film& f
         std::vector<float> perLight;
         PixelSum px;
         for (int tile = r.begin(); tile != r.end(); ++tile) {
-            if (cancelled.load(std::memory_order_relaxed))
+            if (stopped())
                 return;
             const int tx0 = film.x0 + (tile % tilesX) * kTile, ty0 = film.y0 + (tile / tilesX) * kTile;
             const int tx1 = std::min(tx0 + kTile, film.x1), ty1 = std::min(ty0 + kTile, film.y1);
@@ -162,6 +167,8 @@ void renderTiles(const RenderContext& ctx, const Integrator& integrator, Film& f
                 skipEmpty && (!seesBricks[size_t(tile)] || tileMissesBox(cam, film.width, film.height, tx0, ty0, tx1,
                                                                          ty1, ctx.volumes.worldBounds(), margin));
             for (int y = ty0; y < ty1; ++y) {
+                if (stopped())
+                    return;
                 if (empty) {
                     for (int x = tx0; x < tx1; ++x)
                         store(x, y, background);
@@ -204,6 +211,8 @@ void renderTiles(const RenderContext& ctx, const Integrator& integrator, Film& f
                 }
                 integrator.marchRays(int(rays), origins.data(), directions.data(), holdouts ? tFar.data() : nullptr,
                                      rngs.data(), samples.data(), perLight.data());
+                if (stopped())  // the marches may have ended early: nothing of theirs is kept
+                    return;
                 for (int x = tx0, i = 0; x < tx1; ++x) {
                     px.reset(3 * nLights);
                     for (int s = 0; s < spp; ++s, ++i)
@@ -213,10 +222,10 @@ void renderTiles(const RenderContext& ctx, const Integrator& integrator, Film& f
             }
             int finished = ++done;
             if (!control.keepGoing(float(finished) / float(tileCount)))
-                cancelled = true;
+                ctx.stop.raise();
         }
     });
-    if (cancelled)
+    if (stopped())
         throw Cancelled();
 }
 

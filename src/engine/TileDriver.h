@@ -3,7 +3,8 @@
 // gives the same image; a tile row's camera rays generated first and handed to the integrator
 // together (the eight-lane marches take them eight at once), then summed into the film's AOVs.
 // Tiles whose rays can meet no occupied brick are written as the background without marching
-// (TileCulling.h) where the integrator allows it. Progress after each tile, cancel between tiles.
+// (TileCulling.h) where the integrator allows it. Progress after each tile; cancel before each
+// tile row and, through RenderContext::stop, inside the marches.
 #pragma once
 
 #include "../render/Film.h"

@@ -7,6 +7,7 @@
 #include "../scene/Scene.h"
 #include "DeepShadowMap.h"
 #include "LightCache.h"
+#include "RenderControl.h"
 #include "RenderPlan.h"
 #include "RenderStats.h"
 #include "StiffVoxels.h"
@@ -39,6 +40,9 @@ struct RenderContext {
     // Scene geometry (docs/geometry.md): null where the scene has none (no Embree device is made).
     std::shared_ptr<const EmbreeScene> geometry;
     std::shared_ptr<const HoldoutDepth> holdoutDepth;  // camera.holdout_depth; null where none
+    // Raised when the render must stop (RenderControl.h): the marches poll it inside tiles and
+    // return early, leaving partial samples the driver discards.
+    StopFlag stop;
 
     // Whether camera rays can be held out (a holdout object or a depth map): the tile driver
     // then clips each camera ray at its first holdout.

@@ -91,7 +91,10 @@ bool marchGreyDistantEight(const RenderContext& ctx, const VolumeData& vol, cons
     for (int l = 0; l < lightCount; ++l)
         L1[l] = _mm256_setzero_ps();
     __m256 k = zero, T = one, depthSum = zero, opacitySum = zero;
-    for (;;) {
+    // A stopped render (RenderControl.h) ends the lanes' march early; its film is discarded.
+    for (unsigned polled = 1;; ++polled) {
+        if (polled % kStopPollInterval == 0 && ctx.stop.raised())
+            break;
         const __m256 tk = _mm256_fmadd_ps(_mm256_add_ps(k, Jit), Dt, TIn);
         alive = _mm256_and_ps(alive, _mm256_cmp_ps(tk, TOut, _CMP_LT_OQ));
         if (lanes::none(alive))

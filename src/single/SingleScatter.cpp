@@ -209,6 +209,20 @@ inline Rgb backgroundSeen(const RenderContext& ctx, Rgb T, const Reach& reach)
     return reach.heldOut ? splat(0.0f) : T * ctx.background;
 }
 
+// The walk's per-sample step, ending the walk once the render is stopped (RenderControl.h: a
+// cancel is obeyed within a second however long one ray's march is), polled every
+// kStopPollInterval samples. The samples marched so far are left as they are: the tile driver
+// discards a stopped render's film.
+template <class Step>
+auto stoppable(const RenderContext& ctx, Step& step)
+{
+    return [&ctx, &step, n = 0u](int k, float t, const BrickGrid::Stencil& st) mutable {
+        if (++n % kStopPollInterval == 0 && ctx.stop.raised())
+            return false;
+        return step(k, t, st);
+    };
+}
+
 // The common case in a tight loop: one volume without emission, every used light shadow-mapped
 // and baked on its voxels. The march walks the density grid's occupied bricks in index space
 // (BrickWalk.h: no spans, no matrix per step); one stencil reads the density and every light's
@@ -333,9 +347,9 @@ void marchOneVolume(const RenderContext& ctx, const VolumeData& vol, float3 o, f
         return true;
     };
     if constexpr (HeldOut)
-        walkVolumeTo(vol, o, d, dt, jitter, tMax, step);
+        walkVolumeTo(vol, o, d, dt, jitter, tMax, stoppable(ctx, step));
     else
-        walkVolume(vol, o, d, dt, jitter, step);
+        walkVolume(vol, o, d, dt, jitter, stoppable(ctx, step));
     out.L1 += L1;
     if (OneDistant) {
         float* pl = perLight + 3 * first.index;
@@ -396,9 +410,9 @@ void marchGreyKeyLight(const RenderContext& ctx, const VolumeData& vol, const Li
         return true;
     };
     if constexpr (HeldOut)
-        walkVolumeTo(vol, o, d, dt, jitter, tMax, step);
+        walkVolumeTo(vol, o, d, dt, jitter, tMax, stoppable(ctx, step));
     else
-        walkVolume(vol, o, d, dt, jitter, step);
+        walkVolume(vol, o, d, dt, jitter, stoppable(ctx, step));
     // Light travels along its direction, then toward the camera (along -d).
     const Rgb weight = nbLoad3(key.light.color) * nbPhaseEval(vol.medium.phase, -dot(nbLoad3(key.light.direction), d));
     const Rgb l1 = vol.sigmaS() * weight * L1;
@@ -540,6 +554,7 @@ bool marchSingleFast(const RenderContext& ctx, float3 o, float3 d, float jitter,
     float coveredTo = -1e30f;  // stiffStepStart
 
     int kNext = 0;  // latticeStart: the first lattice sample not yet taken
+    unsigned polled = 0;  // samples since the march began, for the stop poll (stoppable above)
     for (const Span& span : spanList) {
         float len = span.t1 - span.t0;
         int n = std::max(1, int(std::ceil(len / span.step)));
@@ -550,6 +565,10 @@ bool marchSingleFast(const RenderContext& ctx, float3 o, float3 d, float jitter,
             k = std::max(kNext, int(std::ceil((span.t0 - t0) * (1.0f / dt) - jitter)));
         }
         for (; k < n && !done; ++k) {
+            if (++polled % kStopPollInterval == 0 && ctx.stop.raised()) {
+                done = true;
+                break;
+            }
             float t = t0 + (float(k) + jitter) * dt;
             if (latticeStart && !(t < span.t1))
                 break;

@@ -419,6 +419,10 @@ void WkbIntegrator::march(float3 o, float3 d, NbRng& rng, CameraSample& out, flo
     double lastB = 0.0;
 
     for (int node = 0; node < kMaxNodes; ++node) {
+        // A stopped render (RenderControl.h) ends the l-march here, and inside a node's passes
+        // below: cancel within a second however many nodes a ray has. The film is discarded.
+        if (mCtx->stop.raised())
+            break;
         const TableEntry e0 = sc.table.back();
         const double sigmaMarch = std::sqrt(std::max(0.0, 0.5 * mSetup.blurK * sc.muLast * e0.P));
         const double lTarget = e0.lhat + mSetup.lStep * std::max(1.0, e0.lhat);
@@ -426,7 +430,8 @@ void WkbIntegrator::march(float3 o, float3 d, NbRng& rng, CameraSample& out, flo
         std::fill(sc.nodeW.begin(), sc.nodeW.end(), 0.0);
         bool done = false;
         for (int pass = 0; sc.table.back().lhat < lTarget && budget > 0.0; ++pass) {
-            if (pass == kMaxPassesPerNode) {
+            if (pass == kMaxPassesPerNode ||
+                (pass % kStopPollInterval == kStopPollInterval - 1 && mCtx->stop.raised())) {
                 done = true;
                 break;
             }
