@@ -100,9 +100,15 @@ void TracedOrder2::add(float3 o, float3 d, NbRng& rng, CameraSample& out, float*
         const float len = span.t1 - span.t0;
         if (!(len > 0.0f))
             continue;
-        const int n = std::max(1, int(std::ceil(len / (kStepScale * span.step))));
+        // Steps of kStepScale L1 steps, but never under half a voxel (span.step / render.step): a
+        // finer L1 step (render.step) buys L1's shadows, not a better T b here.
+        const float voxel = span.step / std::max(ctx.scene->render.step, 1e-30f);
+        const float target = std::max(kStepScale * span.step, 0.5f * voxel);
+        const int n = std::max(1, int(std::min(std::ceil(len / target), 1e7f)));
         const float dt = len / float(n);
         for (int k = 0; k < n && !opaque; ++k) {
+            if (unsigned(k) % kStopPollInterval == kStopPollInterval - 1 && ctx.stop.raised())
+                return;
             const float t = span.t0 + float(k) * dt;
             const MediumSample m = vs.sample(o + d * (t + jitter * dt));
             Step st;
@@ -129,7 +135,7 @@ void TracedOrder2::add(float3 o, float3 d, NbRng& rng, CameraSample& out, float*
     if (!(total > 0.0))
         return;
 
-    for (int k = 0; k < mSamples; ++k)
+    for (int k = 0; k < mSamples && !ctx.stop.raised(); ++k)
         sample(o, d, rng, total, k, out, perLight);
 }
 
