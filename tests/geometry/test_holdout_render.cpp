@@ -301,7 +301,9 @@ TEST(ShadowRender, BoardOverTheWholeSlabDarkensL1AndL2plus)
         for (int x = 0; x < s.camera.width; ++x) {
             for (int c = 0; c < 3; ++c) {
                 EXPECT_LE(px(r.film, "L1", x, y)[c], 1e-30f) << x << "," << y;
-                EXPECT_EQ(px(r.film, "L2plus", x, y)[c], 0.0f) << x << "," << y;
+                // wkb's order 2 is traced through single's march (docs/wkb.md), so it carries L1's
+                // own residue (a shadow map's transmittance under the board is not exactly 0).
+                EXPECT_LE(px(r.film, "L2plus", x, y)[c], 1e-30f) << x << "," << y;
             }
             litL2 += px(lit.film, "L2plus", x, y)[0];
         }
