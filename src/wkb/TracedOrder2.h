@@ -19,8 +19,8 @@
 
 #include "../render/CameraSample.h"
 #include "../render/RenderContext.h"
+#include "../single/ScatterPoints.h"
 
-#include "../../kernels/shared/phase.h"
 #include "../../kernels/shared/rng.h"
 
 #include <vector>
@@ -36,12 +36,13 @@ public:
     void add(float3 o, float3 d, NbRng& rng, CameraSample& out, float* perLight, float tFar = INFINITY) const;
 
 private:
-    // Sample k of mSamples from the march in this thread's step table (`total` its summed weight).
-    void sample(float3 o, float3 d, NbRng& rng, double total, int k, CameraSample& out, float* perLight) const;
+    // One of mSamples draws at the traced point p (d the camera ray's direction).
+    void sample(const ScatterPoint& p, float3 d, PhaseMix& phase, NbRng& rng, CameraSample& out,
+                float* perLight) const;
 
     const RenderContext* mCtx;
-    int mSamples = 1;               // per camera ray, sharing one march
-    std::vector<NbPhase> mPhase;   // per volume
+    int mSamples = 1;              // per camera ray, sharing one march
+    std::vector<NbPhase> mPhases;  // per volume
     std::vector<int> mLobeLights;  // lights whose direction gets a sampling lobe
 };
 

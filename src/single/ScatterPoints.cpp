@@ -1,0 +1,160 @@
+#include "ScatterPoints.h"
+
+#include <algorithm>
+#include <cmath>
+
+namespace nimbus {
+
+namespace {
+
+// The march's step, in multiples of the span's L1 step: a point only needs T b to the accuracy of
+// a quadrature, and the weight is exact for the medium the march sees.
+constexpr float kStepScale = 2.0f;
+// The march stops where every channel's transmittance is under this: what lies beyond can add at
+// most this fraction of what is gathered.
+constexpr float kMinTransmittance = 1e-4f;
+
+float channel(Rgb v, int c)
+{
+    return c == 0 ? v.x : (c == 1 ? v.y : v.z);
+}
+
+// int_0^dt e^{-c u} du, without 0/0 at c dt -> 0.
+float expIntegral(float c, float dt)
+{
+    const float x = c * dt;
+    return x < 1e-4f ? dt * (1.0f - 0.5f * x) : -std::expm1(-x) / c;
+}
+
+}  // namespace
+
+bool ScatterPointSampler::march(const RenderContext& ctx, float3 o, float3 d, float tFar, NbRng& rng)
+{
+    const VolumeSet& vs = ctx.volumes;
+    mSteps.clear();
+    mTotal = 0.0;
+    vs.spans(o, d, 0.0f, std::min(tFar, 1e30f), ctx.scene->render.step, mSpans);
+    if (mSpans.empty())
+        return false;
+    const float jitter = nbRngNext(&rng);
+    float T[3] = {1.0f, 1.0f, 1.0f};
+    bool opaque = false;
+    for (const Span& span : mSpans) {
+        const float len = span.t1 - span.t0;
+        if (!(len > 0.0f))
+            continue;
+        // Steps of kStepScale L1 steps, but never under half a voxel (span.step / render.step): a
+        // finer L1 step (render.step) buys L1's shadows, not a better T b here.
+        const float voxel = span.step / std::max(ctx.scene->render.step, 1e-30f);
+        const float target = std::max(kStepScale * span.step, 0.5f * voxel);
+        const int n = std::max(1, int(std::min(std::ceil(len / target), 1e7f)));
+        const float dt = len / float(n);
+        for (int k = 0; k < n && !opaque; ++k) {
+            if (unsigned(k) % kStopPollInterval == kStopPollInterval - 1 && ctx.stop.raised())
+                return false;
+            const float t = span.t0 + float(k) * dt;
+            const MediumSample m = vs.sample(o + d * (t + jitter * dt));
+            Step st;
+            st.t = t;
+            st.dt = dt;
+            double w = 0.0;
+            for (int c = 0; c < 3; ++c) {
+                st.T[c] = T[c];
+                st.b[c] = channel(m.sigma_s, c);
+                st.c[c] = std::max(channel(m.sigma_t, c), st.b[c]);
+                w += double(T[c]) * st.b[c] * expIntegral(st.c[c], dt);
+                T[c] *= std::exp(-st.c[c] * dt);
+            }
+            if (w > 0.0) {
+                mTotal += w / 3.0;
+                st.cumulative = mTotal;
+                mSteps.push_back(st);
+            }
+            opaque = std::max(T[0], std::max(T[1], T[2])) < kMinTransmittance;
+        }
+        if (opaque)
+            break;
+    }
+    return mTotal > 0.0;
+}
+
+ScatterPoint ScatterPointSampler::draw(float3 o, float3 d, int k, int K, NbRng& rng) const
+{
+    ScatterPoint p{};
+    const double pick = (double(k) + double(nbRngNext(&rng))) / double(K) * mTotal;
+    const auto it = std::lower_bound(mSteps.begin(), mSteps.end(), pick,
+                                     [](const Step& s, double v) { return s.cumulative < v; });
+    const Step& st = it == mSteps.end() ? mSteps.back() : *it;
+    const double prevCumulative = &st == &mSteps.front() ? 0.0 : (&st - 1)->cumulative;
+    const double stepProbability = (st.cumulative - prevCumulative) / mTotal;
+    const float cMean = (st.c[0] + st.c[1] + st.c[2]) / 3.0f;
+    const float uStep = nbRngNext(&rng);
+    float u, offsetPdf;
+    if (cMean * st.dt < 1e-4f) {
+        u = uStep * st.dt;
+        offsetPdf = 1.0f / st.dt;
+    } else {
+        const float mass = -std::expm1(-cMean * st.dt);
+        u = std::min(-std::log1p(-uStep * mass) / cMean, st.dt);
+        offsetPdf = cMean * std::exp(-cMean * u) / mass;
+    }
+    const double pdf = stepProbability * double(offsetPdf);
+    double tau = 0.0;
+    for (int c = 0; c < 3; ++c) {
+        p.W[c] = pdf > 0.0 ? double(st.T[c]) * std::exp(-double(st.c[c]) * u) * st.b[c] / pdf : 0.0;
+        p.b[c] = st.b[c];
+        p.c[c] = st.c[c];
+        tau += (-std::log(std::max(double(st.T[c]), 1e-30)) + double(st.c[c]) * u) / 3.0;
+    }
+    p.tauCamera = tau;
+    p.x = o + d * (st.t + u);
+    return p;
+}
+
+std::vector<NbPhase> PhaseMix::phasesOf(const RenderContext& ctx)
+{
+    std::vector<NbPhase> phases;
+    for (auto& v : ctx.volumes.volumes())
+        phases.push_back(v->medium.phase);
+    return phases;
+}
+
+bool PhaseMix::at(const VolumeSet& vs, float3 x)
+{
+    mWeights.assign(mPhases->size(), 0.0f);
+    vs.sample(x, mWeights.data());
+    mTotal = 0.0f;
+    for (float& w : mWeights) {
+        w = std::max(w, 0.0f);
+        mTotal += w;
+    }
+    if (mTotal > 0.0f)
+        return true;
+    mWeights[0] = 1.0f;  // a stand-in where the march's step saw medium and the point none
+    mTotal = 1.0f;
+    return false;
+}
+
+float PhaseMix::eval(float cosTheta) const
+{
+    float p = 0.0f;
+    for (size_t v = 0; v < mPhases->size(); ++v)
+        if (mWeights[v] > 0.0f)
+            p += mWeights[v] * nbPhaseEval((*mPhases)[v], cosTheta);
+    return p / mTotal;
+}
+
+float3 PhaseMix::sample(float3 axis, float u0, float u1, float u2) const
+{
+    float pick = u0 * mTotal;
+    size_t v = 0;
+    for (; v + 1 < mPhases->size(); ++v) {
+        if (pick < mWeights[v])
+            break;
+        pick -= mWeights[v];
+    }
+    const float u = mWeights[v] > 0.0f ? std::min(pick / mWeights[v], 0.99999994f) : u0;
+    return nbPhaseSample((*mPhases)[v], axis, u, u1, u2);
+}
+
+}  // namespace nimbus

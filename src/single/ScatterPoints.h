@@ -1,0 +1,70 @@
+// ScatterPoints.h: points of a camera ray drawn with probability proportional to T(0,s) b(s), the
+// density of the last scattering before the camera (Tessendorf eq. 26 with a scattered source),
+// and the phase function of the medium mixture there. Shared by the terms that gather light at
+// such points: emission's L1 (EmissionScatter.h) and wkb's traced order 2 (wkb/TracedOrder2.h).
+//
+// march() walks the ray's spans in steps of constant coefficients (twice the L1 step, at least
+// half a voxel), integrating T b exactly in each, and keeps the table; draw() then picks a step by
+// its weight (stratified over the ray's K draws) and the offset inside it by e^{-c u} (c the
+// channels' mean), and returns each channel's weight T_c(s) b_c / pdf(s). The estimate of
+// int T b f ds by W f(x) is unbiased for the march's piecewise-constant medium.
+#pragma once
+
+#include "../render/RenderContext.h"
+
+#include "../../kernels/shared/phase.h"
+#include "../../kernels/shared/rng.h"
+
+#include <vector>
+
+namespace nimbus {
+
+struct ScatterPoint {
+    float3 x;
+    double W[3];         // T_c(s) b_c(s) / pdf(s), 1 (dimensionless weight of the gathered radiance)
+    double b[3], c[3];   // the medium there, 1/m
+    double tauCamera;    // optical depth (channel mean) from where the ray entered the medium
+};
+
+class ScatterPointSampler {
+public:
+    // Marches o + s d (d unit), s in [0, tFar); false if the ray meets no scattering medium or the
+    // render was stopped. Draws one number from rng.
+    bool march(const RenderContext& ctx, float3 o, float3 d, float tFar, NbRng& rng);
+    // Draw k of K (stratified), after a successful march.
+    ScatterPoint draw(float3 o, float3 d, int k, int K, NbRng& rng) const;
+
+private:
+    struct Step {
+        float t, dt;
+        float T[3];  // transmittance from the camera to t
+        float b[3], c[3];
+        double cumulative;  // sum of the steps' weights up to and including this one
+    };
+    std::vector<Step> mSteps;
+    std::vector<Span> mSpans;
+    double mTotal = 0.0;
+};
+
+// The phase function of the medium mixture at a point: the volumes weighted by their share of b.
+class PhaseMix {
+public:
+    // The volumes' phase functions, index-aligned with ctx.volumes.volumes().
+    static std::vector<NbPhase> phasesOf(const RenderContext& ctx);
+    // Mixes `phases` (kept by reference: they must outlive the next at()).
+    void use(const std::vector<NbPhase>& phases) { mPhases = &phases; }
+    // Reads the volumes' shares at x; false where no volume scatters there (then the first
+    // volume's phase function stands in).
+    bool at(const VolumeSet& vs, float3 x);
+    // p(cos theta), normalised over the sphere (1/sr).
+    float eval(float cosTheta) const;
+    // A direction whose cosine with `axis` has density eval (u0 picks the volume, then is reused).
+    float3 sample(float3 axis, float u0, float u1, float u2) const;
+
+private:
+    const std::vector<NbPhase>* mPhases = nullptr;
+    std::vector<float> mWeights;
+    float mTotal = 0.0f;
+};
+
+}  // namespace nimbus
