@@ -158,6 +158,7 @@ struct RenderSettings {
     float tolerance = 0.002f;   // deep-shadow-map transmittance error, and term cut-offs
     float shadowStep = 1.0f;    // light-ray march step for shadow maps and light sampling, voxels
     int lightSamples = 1;       // area, sphere and environment light samples per march step
+    int emissionSamples = 4;    // single, wkb: samples of emission's single scattering per camera ray
     int maxDepth = 0;           // pathtrace: the most scattering events; 0 = unbounded, 1 = single scattering
     double timeLimit = 0.0;     // pathtrace: seconds, 0 = none
     double noiseTarget = 1e-4;  // pathtrace with spp 0: stop at this beauty relMSE (from the variance AOV); 0 = none

@@ -175,6 +175,7 @@ void visitRender(V& v, R& r)
     v.field("tolerance", r.tolerance);
     v.field("shadow_step", r.shadowStep);
     v.field("light_samples", r.lightSamples);
+    v.field("emission_samples", r.emissionSamples);
     v.field("max_depth", r.maxDepth);
     v.field("time_limit", r.timeLimit);
     v.field("noise_target", r.noiseTarget);

@@ -354,6 +354,7 @@ void checkRender(const Checker& c, const RenderSettings& r)
     c.range("render.wkb_blur_k", r.wkbBlurK, Range{0, 1000, true, false, "(Tessendorf eq. 79: 24)"});
     c.range("render.wkb_l_step", r.wkbLStep, Range{0, 10, true, false, "scattering lengths"});
     c.range("render.wkb_order_max", r.wkbOrderMax, Range{0, 4096, false, false, ""});
+    c.range("render.emission_samples", r.emissionSamples, Range{1, 1024, false, false, "per camera ray"});
     c.range("render.wkb_order2_samples", r.wkbOrder2Samples, Range{1, 1024, false, false, "per camera ray"});
     c.range("render.wkb_sh_order_max", r.wkbShOrderMax, Range{0, 8, false, false, ""});
     if (r.lightVolumeResolution != 0)

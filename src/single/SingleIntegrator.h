@@ -1,9 +1,11 @@
 // SingleIntegrator.h: "method": "single", L0 + L1 (Tessendorf eqs. 26-33) by the camera-ray
-// march of SingleScatter.h over the context's deep shadow maps. The engine's tile driver feeds
+// march of SingleScatter.h over the context's deep shadow maps, and emission's L1 by
+// EmissionScatter.h. The engine's tile driver feeds
 // it tile rows of camera rays.
 #pragma once
 
 #include "../render/Integrator.h"
+#include "EmissionScatter.h"
 #include "SingleScatter.h"
 
 namespace nimbus {
@@ -20,17 +22,21 @@ inline IntegratorTraits singleTraits()
 
 class SingleIntegrator final : public Integrator {
 public:
-    explicit SingleIntegrator(const RenderContext& ctx) : mCtx(&ctx) {}
+    explicit SingleIntegrator(const RenderContext& ctx) : mCtx(&ctx), mEmission(ctx) {}
 
     Drive drive() const override { return Drive::CameraRays; }
     void marchRays(int n, const float3* o, const float3* d, const float* tFar, NbRng* rng, CameraSample* out,
                    float* perLight) const override
     {
         marchSingleRays(*mCtx, n, o, d, rng, out, perLight, tFar);
+        if (mEmission.active())
+            for (int i = 0; i < n; ++i)
+                mEmission.add(o[i], d[i], rng[i], out[i], tFar ? tFar[i] : INFINITY);
     }
 
 private:
     const RenderContext* mCtx;
+    EmissionScatter mEmission;  // emission lights the medium (L1)
 };
 
 }  // namespace nimbus

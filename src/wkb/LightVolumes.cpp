@@ -2,6 +2,7 @@
 
 #include "../../kernels/shared/rng.h"
 #include "SphericalHarmonics.h"
+#include "../single/EmissionScatter.h"
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
@@ -30,33 +31,6 @@ double secondsSince(std::chrono::steady_clock::time_point t)
 float fract(float x)
 {
     return x - std::floor(x);
-}
-
-// Emitted radiance arriving at x from direction u (i.e. travelling along -u): the integral of
-// T * emission along x + t u (Tessendorf eq. 26, the source term), midpoint steps, up to the
-// first shadow caster (emission behind an opaque surface does not reach x).
-Rgb emittedRadiance(const VolumeSet& vs, float3 x, float3 u, float stepFraction, const EmbreeScene* casters)
-{
-    thread_local std::vector<Span> spans;
-    const float tMax = casters ? std::min(1e30f, casters->shadowHit(x, u, 0.0f, INFINITY)) : 1e30f;
-    vs.spans(x, u, 0.0f, tMax, stepFraction, spans);
-    Rgb L = splat(0.0f), T = splat(1.0f);
-    for (const Span& s : spans) {
-        float len = s.t1 - s.t0;
-        int n = std::max(1, int(std::ceil(len / s.step)));
-        float dt = len / float(n);
-        for (int k = 0; k < n; ++k) {
-            MediumSample m = vs.sample(x + u * (s.t0 + (k + 0.5f) * dt));
-            Rgb w = make_float3(m.sigma_t.x > 0 ? -std::expm1(-m.sigma_t.x * dt) / m.sigma_t.x : dt,
-                                m.sigma_t.y > 0 ? -std::expm1(-m.sigma_t.y * dt) / m.sigma_t.y : dt,
-                                m.sigma_t.z > 0 ? -std::expm1(-m.sigma_t.z * dt) / m.sigma_t.z : dt);
-            L += T * w * m.emission;
-            T = T * exp(-m.sigma_t * dt);
-            if (nbMaxComponent(T) < 1e-4f)
-                return L;
-        }
-    }
-    return L;
 }
 
 }  // namespace

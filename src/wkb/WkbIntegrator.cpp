@@ -97,6 +97,7 @@ WkbIntegrator::WkbIntegrator(const RenderContext& ctx, const RenderPlan& plan, R
         mPhase.push_back(v->medium.phase);
     }
     mLights.build(ctx, mSetup, stats);
+    mEmission = std::make_unique<EmissionScatter>(ctx);
     if (mSetup.tracedOrder2)
         mOrder2 = std::make_unique<TracedOrder2>(ctx);
     mMinLightVoxel = 1e30f;
@@ -117,6 +118,7 @@ void WkbIntegrator::marchRays(int n, const float3* o, const float3* d, const flo
         float* pl = perLight + stride * size_t(i);
         const float t = tFar ? tFar[i] : INFINITY;
         marchSingle(*mCtx, o[i], d[i], rng[i], out[i], pl, t);
+        mEmission->add(o[i], d[i], rng[i], out[i], t);  // single's L1 of emission, the same draws
         march(o[i], d[i], rng[i], out[i], pl, t);
     }
 }

@@ -7,6 +7,7 @@
 #pragma once
 
 #include "../render/Integrator.h"
+#include "../single/EmissionScatter.h"
 #include "../single/SingleScatter.h"
 #include "LightVolumes.h"
 #include "SourcePlacement.h"
@@ -68,6 +69,7 @@ private:
     WkbSetup mSetup;
     LightVolumes mLights;
     std::unique_ptr<TracedOrder2> mOrder2;  // set with setup().tracedOrder2
+    std::unique_ptr<EmissionScatter> mEmission;  // emission's L1, as single's
     PlacementModel mModel = PlacementModel::Straight;
     float mMinLightVoxel = 1.0f;
     std::vector<Rgb> mSigmaS, mSigmaA;  // per volume, 1/m at density 1 (density scale included)
