@@ -34,7 +34,8 @@ struct Parser {
                 fail("frame '" + spec.substr(start, pos - start) + "...' is out of range");
         }
         if (pos == digits)
-            fail(pos < spec.size() ? "unexpected '" + std::string(1, spec[pos]) + "'" : "a number is missing at the end");
+            fail(pos < spec.size() ? "unexpected '" + std::string(1, spec[pos]) + "'"
+                                   : "a number is missing at the end");
         v = spec[start] == '-' ? -v : v;
         if (v > INT_MAX || v < INT_MIN)
             fail("frame " + std::to_string(v) + " is out of range");

@@ -26,8 +26,9 @@ TEST(FrameList, Spellings)
 
 TEST(FrameList, BadSpecsAreInputErrors)
 {
-    for (const char* bad : {"", ",", "1,", ",1", "1-", "-", "a", "1-a", "1..3", "3-1", "1-5x0", "1-5x-1", "1-5x",
-                            "1 - 3", "1,1", "1-3,2", "99999999999", "1-2000000000", "1x2", "1-3y2"}) {
+    for (const char* bad :
+         {"",      ",",      "1,",   ",1",    "1-",  "-",     "a",           "1-a",          "1..3", "3-1",
+          "1-5x0", "1-5x-1", "1-5x", "1 - 3", "1,1", "1-3,2", "99999999999", "1-2000000000", "1x2",  "1-3y2"}) {
         EXPECT_THROW(parseFrameList(bad), InputError) << "'" << bad << "'";
     }
     try {
