@@ -46,5 +46,7 @@ echo "== path tracer: the launch configuration (runtime's work-group size agains
   build/tests/pathtracer/bench_pathtrace 64 128 "" launch 5
   echo '```'
 } | section pathtrace-launch
+echo "== sequences: --frames in one process against a process per frame"
+/usr/bin/python3 tests/bench/bench_sequence.py build/bin/nimbus 12 2 | section sequence
 echo "== path tracer against Cycles: noise at equal time (skipped without blender; ~30 min with fresh references)"
 "$bench/bench_pathtrace_vs_cycles" build/bin/nimbus "$report"

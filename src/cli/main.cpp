@@ -6,6 +6,8 @@
 //   nimbus devices                     OpenCL devices for the path tracer
 //   render flags for the preview:      --preview-view VIEW, --preview-look LOOK, --exposure STOPS
 //   render flags for the path tracer:  --device N|NAME, --checkpoint SECONDS (to <name>.partial.exr)
+//   render flags for shots:            --frame N, --frames 1-240 | 1-240x2 | 1,5,9-12, --skip-missing
+//                                      (frame tokens $F, $F4, #### in paths: docs/sequences.md)
 //   nimbus default-scene               prints the default scene as JSON
 //   nimbus compare SCENE.json [--out DIR] [--minutes M] [--seeds K] [--full]   WKB vs path tracer
 //
@@ -21,14 +23,19 @@
 #include "io/TempFiles.h"
 #include "pathtracer/Pathtracer.h"
 #include "scene/DefaultScene.h"
+#include "scene/FrameList.h"
+#include "scene/FrameTokens.h"
 #include "scene/SceneJson.h"
 #include "scene/SceneValidate.h"
+#include "volume/InputFiles.h"
 
 #include <CLI/CLI.hpp>
 #include <nlohmann/json.hpp>
 
+#include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <filesystem>
 #include <cstdlib>
 #include <iostream>
 #include <string>
@@ -101,20 +108,58 @@ struct PathtraceArgs {
     double checkpointSeconds = 0;
 };
 
-int runRender(const SceneArgs& args, const OutputArgs& out, bool explain, bool quiet, const PathtraceArgs& pt)
-{
-    if (out.outputSet && out.output.empty())
-        throw InputError("-o: empty output path");
-    Scene scene = loadScene(args);
-    if (out.outputSet)
-        scene.output.file = out.output;
-    if (out.previewSet)
-        scene.output.preview = out.preview;  // "": no preview
-    validateScene(scene);
-    const bool checkpoints = pt.checkpointSeconds > 0;
-    checkOutputs(scene, checkpoints);
+// --frame, --frames, --skip-missing (docs/sequences.md).
+struct SequenceArgs {
+    int frame = 1;
+    std::string frames;
+    bool frameSet = false, framesSet = false;
+    bool skipMissing = false;
+};
 
-    Progress progress("render", 1000, ProgressOptions{quiet, {}});
+// The first file of the sequence this frame lacks: a path written with a frame token (in the
+// template) whose frame's file does not exist, as "<key>: '<path>'"; "" when none is missing.
+// Files without tokens are not the sequence's: the loaders report those as ever.
+std::string missingFrameFile(const Scene& templ, const Scene& frame)
+{
+    namespace fs = std::filesystem;
+    std::error_code ec;
+    const std::string sceneDir =
+        templ.sourcePath.empty() ? std::string() : fs::path(templ.sourcePath).parent_path().string();
+    for (size_t i = 0; i < templ.volumes.size(); ++i) {
+        if (templ.volumes[i].source.type != SourceType::Vdb || !hasFrameTokens(templ.volumes[i].source.file))
+            continue;
+        const std::string path = resolveVdbPath(frame.volumes[i].source.file, sceneDir);
+        if (!fs::exists(path, ec))
+            return "volumes[" + std::to_string(i) + "].source.file: '" + path + "'";
+    }
+    for (size_t i = 0; i < templ.geometry.size(); ++i)
+        if (templ.geometry[i].type == GeometryType::Mesh && hasFrameTokens(templ.geometry[i].file) &&
+            !fs::exists(frame.geometry[i].file, ec))
+            return "geometry[" + std::to_string(i) + "].file: '" + frame.geometry[i].file + "'";
+    if (hasFrameTokens(templ.camera.holdoutDepth.file) && !fs::exists(frame.camera.holdoutDepth.file, ec))
+        return "camera.holdout_depth.file: '" + frame.camera.holdoutDepth.file + "'";
+    return "";
+}
+
+std::vector<int> framesToRender(const Scene& templ, const SequenceArgs& seq)
+{
+    if (seq.framesSet) {
+        try {
+            return parseFrameList(seq.frames);
+        } catch (const InputError& e) {
+            throw InputError(std::string("--frames: ") + e.what());
+        }
+    }
+    return {seq.frameSet ? seq.frame : templ.render.frame};
+}
+
+// Renders one frame of the (already checked) scene and writes its outputs. Returns the render's
+// seconds.
+double renderFrame(const Scene& scene, bool explain, bool quiet, const PathtraceArgs& pt, VolumeCache& cache,
+                   const std::string& label)
+{
+    const bool checkpoints = pt.checkpointSeconds > 0;
+    Progress progress(label, 1000, ProgressOptions{quiet, {}});
     float last = 0.0f;
     RenderOptions options;
     options.outputAovsOnly = true;  // selectAovs below keeps no others
@@ -126,6 +171,7 @@ int runRender(const SceneArgs& args, const OutputArgs& out, bool explain, bool q
         return true;
     };
     options.pathtrace.device = pt.device;
+    options.volumeCache = &cache;
     const std::string checkpointFile = checkpointPath(scene.output.file);
     if (checkpoints) {
         // The running estimate, written atomically under a name that says so, its header with
@@ -148,11 +194,77 @@ int runRender(const SceneArgs& args, const OutputArgs& out, bool explain, bool q
     writeOutputs(scene, result.film);
     if (checkpoints)
         std::remove(checkpointFile.c_str());  // the frame is complete; its checkpoint is stale
-    if (!quiet) {
-        std::fprintf(stderr, "nimbus: wrote %s", scene.output.file.c_str());
+    return result.seconds;
+}
+
+int runRender(const SceneArgs& args, const OutputArgs& out, bool explain, bool quiet, const PathtraceArgs& pt,
+              const SequenceArgs& seq)
+{
+    if (out.outputSet && out.output.empty())
+        throw InputError("-o: empty output path");
+    Scene templ = loadScene(args);
+    if (out.outputSet)
+        templ.output.file = out.output;
+    if (out.previewSet)
+        templ.output.preview = out.preview;  // "": no preview
+    const std::vector<int> frames = framesToRender(templ, seq);
+    const std::string where = templ.sourcePath.empty() ? std::string() : templ.sourcePath + ": ";
+    if (frames.size() > 1) {
+        // Frames must not overwrite each other: each output path needs a token.
+        auto needsToken = [&](const std::string& key, const std::string& path) {
+            if (!path.empty() && !hasFrameTokens(path))
+                throw InputError(where + key + ": '" + path + "' has no frame token ($F, $F4, ####): the " +
+                                 std::to_string(frames.size()) + " frames of --frames would overwrite each other");
+        };
+        needsToken("output.file", templ.output.file);
+        needsToken("output.preview", templ.output.preview);
+    }
+    // Every frame is checked before the first renders: a bad output path or a missing frame file
+    // stops the sequence before anything is written.
+    const bool checkpoints = pt.checkpointSeconds > 0;
+    std::vector<Scene> scenes;
+    std::vector<std::string> missing;
+    for (int frame : frames) {
+        Scene scene = sceneAtFrame(templ, frame);
+        validateScene(scene);
+        checkOutputs(scene, checkpoints);
+        std::string lacks = missingFrameFile(templ, scene);
+        if (!lacks.empty() && !seq.skipMissing)
+            throw InputError(where + lacks + ": no such file (frame " + std::to_string(frame) +
+                             " of the sequence; --skip-missing renders the frames that have their files)");
+        scenes.push_back(std::move(scene));
+        missing.push_back(std::move(lacks));
+    }
+
+    VolumeCache cache;
+    const auto start = std::chrono::steady_clock::now();
+    size_t rendered = 0, skipped = 0;
+    for (size_t k = 0; k < frames.size(); ++k) {
+        const std::string name = "frame " + std::to_string(frames[k]);
+        if (!missing[k].empty()) {
+            std::fprintf(stderr, "nimbus: warning: %s skipped, no output: %s%s: no such file\n", name.c_str(),
+                         where.c_str(), missing[k].c_str());
+            ++skipped;
+            continue;
+        }
+        const double seconds =
+            renderFrame(scenes[k], explain, quiet, pt, cache, frames.size() > 1 ? name : std::string("render"));
+        ++rendered;
+        if (quiet)
+            continue;
+        const Scene& scene = scenes[k];
+        std::fprintf(stderr, "nimbus: %s%swrote %s", frames.size() > 1 ? name.c_str() : "",
+                     frames.size() > 1 ? ": " : "", scene.output.file.c_str());
         if (!scene.output.preview.empty())
             std::fprintf(stderr, " and %s", scene.output.preview.c_str());
-        std::fprintf(stderr, " (%s, %.2f s)\n", methodName(scene.render.method), result.seconds);
+        std::fprintf(stderr, " (%s, %.2f s", methodName(scene.render.method), seconds);
+        if (frames.size() > 1)  // the per-frame line: what the sequence kept from the frame before
+            std::fprintf(stderr, "; volumes: %zu reused, %zu built", cache.reused, cache.built);
+        std::fprintf(stderr, ")\n");
+    }
+    if (frames.size() > 1 && !quiet) {
+        const double total = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+        std::fprintf(stderr, "nimbus: %zu frame(s) rendered in %.2f s, %zu skipped\n", rendered, total, skipped);
     }
     return kOk;
 }
@@ -214,6 +326,14 @@ int main(int argc, char** argv)
                 return "";
             },
             "SECONDS"));
+    SequenceArgs seqArgs;
+    CLI::Option* frameOption =
+        render->add_option("--frame", seqArgs.frame, "Render frame N (render.frame): the frame tokens $F, $F4, #### of paths");
+    CLI::Option* framesOption = render->add_option(
+        "--frames", seqArgs.frames, "Render the frames in one process: 1-240, 1-240x2 (every 2nd), 1,5,9-12");
+    frameOption->excludes(framesOption);
+    render->add_flag("--skip-missing", seqArgs.skipMissing,
+                     "A frame whose sequence file is missing: a warning and no output, not an error");
 
     CLI::App* devices = app.add_subcommand("devices", "List the OpenCL devices the path tracer can use");
 
@@ -260,7 +380,9 @@ int main(int argc, char** argv)
         if (*render) {
             outputArgs.outputSet = outputOption->count() > 0;
             outputArgs.previewSet = previewOption->count() > 0;
-            return runRender(renderArgs, outputArgs, explain, quiet, ptArgs);
+            seqArgs.frameSet = frameOption->count() > 0;
+            seqArgs.framesSet = framesOption->count() > 0;
+            return runRender(renderArgs, outputArgs, explain, quiet, ptArgs, seqArgs);
         }
         if (*devices) {
             std::vector<std::string> list = listOpenClDevices();

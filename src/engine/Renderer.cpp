@@ -6,6 +6,7 @@
 #include "../render/FilmLayout.h"
 #include "../render/RenderPlanner.h"
 #include "../scene/CameraMatrices.h"
+#include "../scene/FrameTokens.h"
 #include "../scene/SceneJson.h"
 #include "../scene/SceneValidate.h"
 
@@ -89,10 +90,10 @@ int sppReached(const Film& film, const Scene& scene)
 }
 
 // Scenes built in code reach render() without the JSON loader: give unnamed lights their index
-// as a name (as the loader does) and run the same checks.
+// as a name (as the loader does) and run the same checks. Paths are the frame's (FrameTokens.h).
 Scene checkedScene(const Scene& scene)
 {
-    Scene named = scene;
+    Scene named = sceneAtFrame(scene, scene.render.frame);
     applyDefaultNames(named);
     validateScene(named);
     return named;
@@ -106,10 +107,10 @@ struct Planned {
 // The planning pass: the volumes loaded (the one heavy step a plan cannot do without: the
 // optical depths and brick counts it reports are the loaded grids'), the shared plan, the
 // integrator's own part. Nothing is built for rendering yet.
-Planned planPass(const Scene& scene, const IntegratorEntry& entry, RenderStats& stats)
+Planned planPass(const Scene& scene, const IntegratorEntry& entry, RenderStats& stats, VolumeCache* cache = nullptr)
 {
     auto t = std::chrono::steady_clock::now();
-    VolumeSet volumes(buildVolumes(scene), scene.render.step);
+    VolumeSet volumes(buildVolumes(scene, cache), scene.render.step);
     stats.addStage("volumes", secondsSince(t));
     Planned p;
     p.plan = planScene(scene, volumes);
@@ -132,6 +133,7 @@ void addFrameMetadata(Film& film, const Scene& scene, double seconds, bool compl
     film.set("version", NIMBUS_VERSION);
     film.set("method", methodName(scene.render.method));
     film.set("seed", std::to_string(scene.render.seed));
+    film.set("frame", scene.render.frame);
     film.set("render_time", std::to_string(seconds));
     film.set("settings", settingsSummary(scene));
     film.set("scene", sceneToJson(scene).dump());
@@ -185,7 +187,7 @@ RenderResult render(const Scene& input, const RenderOptions& callerOptions)
     RenderResult result;
     setupFilm(result.film, scene, entry.traits, options.outputAovsOnly);
 
-    Planned planned = planPass(scene, entry, result.stats);
+    Planned planned = planPass(scene, entry, result.stats, options.volumeCache);
     const RenderPlan& plan = planned.plan;
     RenderContext& ctx = *planned.context;
     // Cancel (RenderControl.h): between the stages here, inside the tiles through ctx.stop.

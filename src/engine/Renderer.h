@@ -14,6 +14,7 @@
 #include "../render/RenderPlan.h"
 #include "../render/RenderStats.h"
 #include "../scene/Scene.h"
+#include "../volume/VolumeData.h"
 
 #include <string>
 #include <vector>
@@ -26,6 +27,9 @@ struct RenderOptions : RenderControl {
     bool outputAovsOnly = false;
     // Method "pathtrace" only: device, checkpoints, statistics.
     PathtraceOptions pathtrace;
+    // A sequence's memory between frames (docs/sequences.md): volumes whose inputs did not change
+    // are reused from the last render given the same cache. Null: everything is built anew.
+    VolumeCache* volumeCache = nullptr;
 };
 
 struct RenderResult {
@@ -35,7 +39,8 @@ struct RenderResult {
     double seconds = 0;
 };
 
-// Renders the scene with scene.render.method. Throws InputError for bad input, Error for
+// Renders the scene with scene.render.method, at scene.render.frame: the frame tokens of its
+// paths (FrameTokens.h) are replaced first. Throws InputError for bad input, Error for
 // render failures, Cancelled when cancelled.
 RenderResult render(const Scene& scene, const RenderOptions& options = {});
 

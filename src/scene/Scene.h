@@ -146,6 +146,8 @@ constexpr int kDefaultMarchSpp = 4;
 struct RenderSettings {
     Method method = Method::Single;
     uint32_t seed = 1;
+    // The frame rendered: replaces the frame tokens ($F, $F4, ####) of every path (FrameTokens.h).
+    int frame = 1;
     int threads = 0;  // 0: all cores
     // Camera samples per pixel (single, wkb); path samples per pixel (pathtrace). 0: the method's
     // default, kDefaultMarchSpp for single and wkb, and for pathtrace no sample count (it renders

@@ -166,6 +166,7 @@ void visitRender(V& v, R& r)
 {
     v.field("method", r.method);
     v.field("seed", r.seed);
+    v.field("frame", r.frame);
     v.field("threads", r.threads);
     v.field("spp", r.spp);
     v.field("pixel_filter", r.pixelFilter);

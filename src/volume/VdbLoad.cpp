@@ -12,6 +12,7 @@
 #include "../core/DataFiles.h"
 #include "../core/Error.h"
 #include "../core/Log.h"
+#include "../scene/SceneJson.h"
 #include "../scene/SceneValidate.h"
 #include "PluginSource.h"
 #include "Procedural.h"
@@ -19,6 +20,7 @@
 #include "VolumeShader.h"
 #include "VoxelClamp.h"
 
+#include <nlohmann/json.hpp>
 #include <openvdb/io/File.h>
 #include <openvdb/openvdb.h>
 #include <openvdb/tools/GridTransformer.h>
@@ -217,8 +219,43 @@ typename GridT::Ptr resampleTo(const typename GridT::Ptr& grid, const openvdb::m
 
 // ---- one volume --------------------------------------------------------------------------------
 
+// " <size> <mtime ns>" of a file, "" where it cannot be read: part of a cache key, so that a file
+// rewritten between two frames is read again.
+std::string fileStamp(const std::string& path)
+{
+    std::error_code ec;
+    const auto size = fs::file_size(path, ec);
+    if (ec)
+        return "";
+    const auto time = fs::last_write_time(path, ec);
+    if (ec)
+        return "";
+    return " " + std::to_string(size) + " " + std::to_string(time.time_since_epoch().count());
+}
+
+// Everything buildVolume reads for volume i, as one string (VolumeCache); "" for a source that
+// is never kept (a plugin).
+std::string volumeKey(const Scene& scene, size_t index, const std::string& sceneDir)
+{
+    const Volume& volume = scene.volumes[index];
+    if (volume.source.type == SourceType::Plugin)
+        return "";
+    Scene one;
+    one.volumes = {volume};
+    std::string key = sceneToJson(one)["volumes"][0].dump() + "\ndir " + sceneDir;
+    if (volume.source.type == SourceType::Vdb) {
+        const std::string path = resolveVdbPath(volume.source.file, sceneDir);
+        key += "\nvdb " + path + fileStamp(path);
+    }
+    const std::string where = (scene.sourcePath.empty() ? "scene" : scene.sourcePath) + ": volumes[" +
+                              std::to_string(index) + "].shader";
+    const ShaderFile shader = findShader(volume.shader, sceneDir, where);
+    key += "\nshader " + shader.path + fileStamp(shader.path);
+    return key;
+}
+
 std::shared_ptr<VolumeData> buildVolume(const Scene& scene, size_t index, const std::string& sceneDir,
-                                        std::map<std::string, std::unique_ptr<VolumeShader>>& shaders)
+                                        std::map<std::string, std::shared_ptr<VolumeShader>>& shaders)
 {
     const Volume& volume = scene.volumes[index];
     const Where where{scene.sourcePath.empty() ? "scene" : scene.sourcePath, index};
@@ -269,9 +306,9 @@ std::shared_ptr<VolumeData> buildVolume(const Scene& scene, size_t index, const 
         if (shaderFile.path.empty())
             throw InputError(where.key(".shader") + ": the default shader 'default.ax' is not installed in " +
                              dataPath(DataFile::Shaders) + "; set NIMBUS_SHADER_PATH");
-        auto& shader = shaders[shaderFile.path];
+        auto& shader = shaders[shaderFile.path + fileStamp(shaderFile.path)];
         if (!shader) {
-            shader = std::make_unique<VolumeShader>(shaderFile.path, where.key(".shader"));
+            shader = std::make_shared<VolumeShader>(shaderFile.path, where.key(".shader"));
             logInfo("shader '" + shaderFile.path + "' compiled in " +
                     std::to_string(int(shader->compileSeconds() * 1000.0 + 0.5)) + " ms");
         }
@@ -339,16 +376,35 @@ std::string resolveVdbPath(const std::string& file, const std::string& sceneDir)
     return joined.string();
 }
 
-std::vector<std::shared_ptr<VolumeData>> buildVolumes(const Scene& scene)
+std::vector<std::shared_ptr<VolumeData>> buildVolumes(const Scene& scene, VolumeCache* cache)
 {
     openvdb::initialize();  // registers the grid types for file IO; idempotent, thread-safe
     const std::string sceneDir =
         scene.sourcePath.empty() ? std::string() : fs::path(scene.sourcePath).parent_path().string();
-    std::map<std::string, std::unique_ptr<VolumeShader>> shaders;  // one compile per file
+    std::map<std::string, std::shared_ptr<VolumeShader>> localShaders;  // one compile per file
+    auto& shaders = cache ? cache->shaders : localShaders;
+    std::map<std::string, std::shared_ptr<VolumeData>> kept;  // this scene's, for the next
     std::vector<std::shared_ptr<VolumeData>> volumes;
+    size_t reused = 0;
     for (size_t i = 0; i < scene.volumes.size(); ++i) {
         try {
+            const std::string key = cache ? volumeKey(scene, i, sceneDir) : std::string();
+            if (!key.empty()) {
+                std::shared_ptr<VolumeData> found;
+                if (auto k = kept.find(key); k != kept.end())
+                    found = k->second;
+                else if (auto c = cache->volumes.find(key); c != cache->volumes.end())
+                    found = c->second;
+                if (found) {
+                    volumes.push_back(found);
+                    kept[key] = found;
+                    ++reused;
+                    continue;
+                }
+            }
             volumes.push_back(buildVolume(scene, i, sceneDir, shaders));
+            if (!key.empty())
+                kept[key] = volumes.back();
         } catch (const Error&) {
             throw;
         } catch (const std::bad_alloc&) {
@@ -358,6 +414,11 @@ std::vector<std::shared_ptr<VolumeData>> buildVolumes(const Scene& scene)
             throw Error((scene.sourcePath.empty() ? "scene" : scene.sourcePath) + ": volumes[" + std::to_string(i) +
                         "]: " + e.what());
         }
+    }
+    if (cache) {
+        cache->volumes = std::move(kept);
+        cache->reused = reused;
+        cache->built = volumes.size() - reused;
     }
     return volumes;
 }

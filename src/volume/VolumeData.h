@@ -4,6 +4,7 @@
 #include "../scene/Scene.h"
 #include "BrickGrid.h"
 
+#include <map>
 #include <memory>
 #include <string>
 #include <vector>
@@ -31,9 +32,25 @@ struct VolumeData {
     bool hasEmission() const { return !emission.empty(); }
 };
 
+class VolumeShader;
+
+// What a sequence keeps between frames (docs/sequences.md): the last frame's volumes, each
+// under a key of everything its build reads (the volume's keys as JSON, the resolved VDB and
+// shader paths with each file's size and modification time, the scene's directory), and the
+// compiled shaders by path and stamp. A frame whose volume has the same key reuses the built
+// VolumeData (immutable once built) instead of reading and converting the file again. Plugin
+// sources are never kept: a plugin is code that may answer differently each call. Only the last
+// frame's volumes are held, so a long sequence holds at most two frames' worth.
+struct VolumeCache {
+    std::map<std::string, std::shared_ptr<VolumeData>> volumes;
+    std::map<std::string, std::shared_ptr<VolumeShader>> shaders;
+    size_t reused = 0, built = 0;  // of the last buildVolumes call
+};
+
 // Builds every volume of the scene: loads VDB files or runs the procedural generators, runs the
 // shader, clamps bad voxels (one warning per volume, with the count) and converts to bricks.
-// Throws InputError naming the file and key path for missing files or grids.
-std::vector<std::shared_ptr<VolumeData>> buildVolumes(const Scene& scene);
+// Throws InputError naming the file and key path for missing files or grids. With a cache,
+// volumes whose key the cache holds are reused, and the cache then holds this scene's volumes.
+std::vector<std::shared_ptr<VolumeData>> buildVolumes(const Scene& scene, VolumeCache* cache = nullptr);
 
 }  // namespace nimbus

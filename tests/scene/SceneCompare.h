@@ -88,6 +88,7 @@ inline void expectSceneEq(const Scene& a, const Scene& b)
     const RenderSettings &r = a.render, &s = b.render;
     EXPECT_EQ(r.method, s.method);
     EXPECT_EQ(r.seed, s.seed);
+    EXPECT_EQ(r.frame, s.frame);
     EXPECT_EQ(r.threads, s.threads);
     EXPECT_EQ(r.spp, s.spp);
     EXPECT_EQ(r.step, s.step);
