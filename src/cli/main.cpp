@@ -22,6 +22,7 @@
 #include "io/Progress.h"
 #include "io/TempFiles.h"
 #include "pathtracer/Pathtracer.h"
+#include "render/ShadowMapCache.h"
 #include "scene/DefaultScene.h"
 #include "scene/FrameList.h"
 #include "scene/FrameTokens.h"
@@ -156,7 +157,7 @@ std::vector<int> framesToRender(const Scene& templ, const SequenceArgs& seq)
 // Renders one frame of the (already checked) scene and writes its outputs. Returns the render's
 // seconds.
 double renderFrame(const Scene& scene, bool explain, bool quiet, const PathtraceArgs& pt, VolumeCache& cache,
-                   const std::string& label)
+                   ShadowMapCache& shadowMaps, const std::string& label)
 {
     const bool checkpoints = pt.checkpointSeconds > 0;
     Progress progress(label, 1000, ProgressOptions{quiet, {}});
@@ -172,6 +173,7 @@ double renderFrame(const Scene& scene, bool explain, bool quiet, const Pathtrace
     };
     options.pathtrace.device = pt.device;
     options.volumeCache = &cache;
+    options.shadowMapCache = &shadowMaps;
     const std::string checkpointFile = checkpointPath(scene.output.file);
     if (checkpoints) {
         // The running estimate, written atomically under a name that says so, its header with
@@ -237,6 +239,7 @@ int runRender(const SceneArgs& args, const OutputArgs& out, bool explain, bool q
     }
 
     VolumeCache cache;
+    ShadowMapCache shadowMaps;
     const auto start = std::chrono::steady_clock::now();
     size_t rendered = 0, skipped = 0;
     for (size_t k = 0; k < frames.size(); ++k) {
@@ -248,7 +251,7 @@ int runRender(const SceneArgs& args, const OutputArgs& out, bool explain, bool q
             continue;
         }
         const double seconds =
-            renderFrame(scenes[k], explain, quiet, pt, cache, frames.size() > 1 ? name : std::string("render"));
+            renderFrame(scenes[k], explain, quiet, pt, cache, shadowMaps, frames.size() > 1 ? name : std::string("render"));
         ++rendered;
         if (quiet)
             continue;
@@ -259,7 +262,8 @@ int runRender(const SceneArgs& args, const OutputArgs& out, bool explain, bool q
             std::fprintf(stderr, " and %s", scene.output.preview.c_str());
         std::fprintf(stderr, " (%s, %.2f s", methodName(scene.render.method), seconds);
         if (frames.size() > 1)  // the per-frame line: what the sequence kept from the frame before
-            std::fprintf(stderr, "; volumes: %zu reused, %zu built", cache.reused, cache.built);
+            std::fprintf(stderr, "; volumes: %zu reused, %zu built; shadow maps: %zu reused, %zu built", cache.reused,
+                         cache.built, shadowMaps.reused, shadowMaps.built);
         std::fprintf(stderr, ")\n");
     }
     if (frames.size() > 1 && !quiet) {

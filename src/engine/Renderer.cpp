@@ -1,5 +1,7 @@
 #include "Renderer.h"
 
+#include "../render/ShadowMapCache.h"
+
 #include "IntegratorRegistry.h"
 #include "TileDriver.h"
 
@@ -197,8 +199,11 @@ RenderResult render(const Scene& input, const RenderOptions& callerOptions)
             throw Cancelled();
     };
     checkCancel();
-    if (entry.traits.shadowMaps)
-        ctx.buildShadowMaps(plan, result.stats);
+    if (entry.traits.shadowMaps) {
+        if (options.shadowMapCache)
+            options.shadowMapCache->reused = options.shadowMapCache->built = 0;
+        ctx.buildShadowMaps(plan, result.stats, options.shadowMapCache);
+    }
     checkCancel();
     std::unique_ptr<Integrator> integrator = entry.create(ctx, plan, options, result.stats);
     checkCancel();
@@ -211,6 +216,8 @@ RenderResult render(const Scene& input, const RenderOptions& callerOptions)
         result.stats.addStage(methodName(scene.render.method), secondsSince(t));
     }
     zeroNonFinite(result.film);
+    if (options.shadowMapCache && entry.traits.shadowMaps)
+        options.shadowMapCache->keep(ctx);
     result.plan = planned.plan;
 
     result.seconds = secondsSince(start);

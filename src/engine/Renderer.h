@@ -21,6 +21,8 @@
 
 namespace nimbus {
 
+class ShadowMapCache;
+
 struct RenderOptions : RenderControl {
     // The film holds the beauty and the AOVs scene.output.aovs names, not every AOV of the
     // method (callers that write only those: the CLI). Off, a frame has them all.
@@ -30,6 +32,9 @@ struct RenderOptions : RenderControl {
     // A sequence's memory between frames (docs/sequences.md): volumes whose inputs did not change
     // are reused from the last render given the same cache. Null: everything is built anew.
     VolumeCache* volumeCache = nullptr;
+    // The same for deep shadow maps (ShadowMapCache.h): reused where the light, the settings and
+    // the (cached) volumes are unchanged. Null: built anew.
+    ShadowMapCache* shadowMapCache = nullptr;
 };
 
 struct RenderResult {

@@ -1,5 +1,7 @@
 #include "RenderContext.h"
 
+#include "ShadowMapCache.h"
+
 #include "FilmLayout.h"
 #include "RenderPlanner.h"
 
@@ -63,7 +65,7 @@ std::unique_ptr<RenderContext> RenderContext::create(const Scene& scene, bool bu
     return ctx;
 }
 
-void RenderContext::buildShadowMaps(const RenderPlan& plan, RenderStats& stats)
+void RenderContext::buildShadowMaps(const RenderPlan& plan, RenderStats& stats, ShadowMapCache* cache)
 {
     auto t1 = std::chrono::steady_clock::now();
     const Scene& s0 = *scene;
@@ -78,6 +80,12 @@ void RenderContext::buildShadowMaps(const RenderPlan& plan, RenderStats& stats)
         if (!plan.lights[i].shadowMap)
             continue;
         LightStats& ls = stats.lights[i];
+        if (cache && cache->take(*this, i)) {  // the last frame's, unchanged (ShadowMapCache.h)
+            ls.resolution = lights[i].shadowMap->resolution();
+            ls.shadowMapBytes = lights[i].shadowMap->memoryBytes();
+            ls.cacheBytes = lights[i].cache->memoryBytes();
+            continue;
+        }
         lights[i].shadowMap = DeepShadowMap::build(lights[i].light, volumes, s);
         lights[i].cache = LightCache::bake(*lights[i].shadowMap, volumes);
         ls.marchSampleBytes = lights[i].shadowMap->marchSampleBytes();

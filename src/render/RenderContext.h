@@ -20,6 +20,8 @@
 
 namespace nimbus {
 
+class ShadowMapCache;
+
 struct LightEntry {
     NbLight light;
     std::string aov;  // "light_<name>"
@@ -63,8 +65,9 @@ struct RenderContext {
     static std::unique_ptr<RenderContext> create(const Scene& scene, bool buildShadowMaps);
 
     // The plan's deep shadow maps (delta lights that reach a volume), each baked on the voxels;
-    // sizes and times go to stats.
-    void buildShadowMaps(const RenderPlan& plan, RenderStats& stats);
+    // sizes and times go to stats. With a cache, a light's map from the last frame is reused
+    // where nothing it depends on changed (ShadowMapCache.h).
+    void buildShadowMaps(const RenderPlan& plan, RenderStats& stats, ShadowMapCache* cache = nullptr);
 
     // Transmittance-weighted light arriving at p from light i, as L_i / pdf (see light.h), and
     // the direction toward the light. Uses the shadow map where there is one, else a shadow ray.

@@ -129,12 +129,23 @@ class Sequences(unittest.TestCase):
         code, _, err = run("render", shot, "--frames", "1-3")
         self.assertEqual(code, 0, err)
         self.assertIn("frame 1: wrote", err)
-        self.assertIn("volumes: 0 reused, 1 built", err)  # frame 1
-        self.assertEqual(err.count("volumes: 1 reused, 0 built"), 2, err)  # frames 2 and 3
+        self.assertIn("volumes: 0 reused, 1 built; shadow maps: 0 reused, 1 built", err)  # frame 1
+        # frames 2 and 3: the volume and the key light's deep shadow map (ShadowMapCache.h)
+        self.assertEqual(err.count("volumes: 1 reused, 0 built; shadow maps: 1 reused, 0 built"), 2, err)
         code, _, err = run("render", shot, "--frame", "3", "-q", "-o", self.path("alone", "cloud.$F.exr"))
         self.assertEqual(code, 0, err)
         reused, _ = read_exr(self.path("out", "cloud.0003.exr"))
         built, _ = read_exr(self.path("alone", "cloud.3.exr"))
+        self.assertEqual(reused.tobytes(), built.tobytes())
+        # wkb reads the kept maps too (its light volumes' E): still the frame rendered alone.
+        code, _, err = run("render", shot, "--frames", "1-2", "-q", "--method", "wkb", "-o",
+                           self.path("wkb", "cloud.$F.exr"))
+        self.assertEqual(code, 0, err)
+        code, _, err = run("render", shot, "--frame", "2", "-q", "--method", "wkb", "-o",
+                           self.path("wkbalone", "cloud.$F.exr"))
+        self.assertEqual(code, 0, err)
+        reused, _ = read_exr(self.path("wkb", "cloud.2.exr"))
+        built, _ = read_exr(self.path("wkbalone", "cloud.2.exr"))
         self.assertEqual(reused.tobytes(), built.tobytes())
 
     def test_render_frame_key_and_frame_flag(self):
