@@ -43,10 +43,9 @@ bool ScatterPointSampler::march(const RenderContext& ctx, float3 o, float3 d, fl
         const float len = span.t1 - span.t0;
         if (!(len > 0.0f))
             continue;
-        // Steps of kStepScale L1 steps, but never under half a voxel (span.step / render.step): a
-        // finer L1 step (render.step) buys L1's shadows, not a better T b here.
-        const float voxel = span.step / std::max(ctx.scene->render.step, 1e-30f);
-        const float target = std::max(kStepScale * span.step, 0.5f * voxel);
+        // Steps of kStepScale L1 steps, but never under half the smallest voxel: a finer L1 step
+        // (render.step, down to denormals) buys L1's shadows, not a better T b here.
+        const float target = std::max(kStepScale * span.step, 0.5f * vs.minVoxelSize());
         const int n = std::max(1, int(std::min(std::ceil(len / target), 1e7f)));
         const float dt = len / float(n);
         for (int k = 0; k < n && !opaque; ++k) {
