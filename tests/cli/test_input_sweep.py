@@ -171,12 +171,12 @@ def keys():
     box = {"type": "procedural", "generator": "box", "size": 1, "voxel_size": 0.25}
     sph = {"type": "procedural", "generator": "sphere", "radius": 1, "voxel_size": 0.25}
     cloud = {"type": "procedural", "generator": "cloud", "radius": 1, "voxel_size": 0.25, "octaves": 1, "puffs": 0}
-    for source, rows in ((box, [("size", 0, None, True, False), ("size_x", 0, None, True, False),
-                                ("size_y", 0, None, True, False), ("size_z", 0, None, True, False),
-                                ("voxel_size", 0, None, True, False), ("density", 0, 1e30, False, False)]),
-                         (sph, [("radius", 0, None, True, False), ("voxel_size", 0, None, True, False),
+    for source, rows in ((box, [("size", 1e-4, 1e30, False, False), ("size_x", 1e-4, 1e30, False, False),
+                                ("size_y", 1e-4, 1e30, False, False), ("size_z", 1e-4, 1e30, False, False),
+                                ("voxel_size", 1e-4, 1e30, False, False), ("density", 0, 1e30, False, False)]),
+                         (sph, [("radius", 1e-4, 1e30, False, False), ("voxel_size", 1e-4, 1e30, False, False),
                                 ("density", 0, 1e30, False, False), ("falloff", 0, 1e30, False, False)]),
-                         (cloud, [("radius", 0, None, True, False), ("voxel_size", 0, None, True, False),
+                         (cloud, [("radius", 1e-4, 1e30, False, False), ("voxel_size", 1e-4, 1e30, False, False),
                                   ("density", 0, 1e30, False, False), ("seed", 0, 2147483647, False, False),
                                   ("octaves", 1, 12, False, False), ("frequency", 0, None, True, False),
                                   ("detail", 0, 2, False, False), ("softness", 0, None, True, False),
@@ -220,17 +220,15 @@ def keys():
 
 def sweep_values(key):
     """The numbers tried for one key: its ends, just outside them, and the edge cases of floats."""
-    values = [0.0, -0.0, 1e-310, -1e-310, 1e-45, 1e30, -1e30, 1e300, -1e300, FLOAT_MAX, -FLOAT_MAX, 1.0, 0.5]
+    values = [0.0, -0.0, 1e-310, 1e-45, 1e30, -1e30, 1e300]
     for end, outward in ((key.lo, -1), (key.hi, +1)):
         if end is None:
             continue
         values.append(float(end))
         step = 1 if key.integer else max(abs(end) * 1e-6, 1e-6)
         values.append(float(end) + outward * step)
-        if not key.integer and end != 0:
-            values.append(math.nextafter(float(end), outward * math.inf))
     if key.integer:
-        values += [2147483647.0, 2147483648.0, 4294967296.0, -1.0]
+        values += [2147483648.0]
     seen, unique = set(), []
     for v in values:
         tag = (v, math.copysign(1, v))
@@ -249,6 +247,7 @@ def number_text(v):
 
 
 # Spellings JSON has no number for: --set takes them as text, a string where a number belongs.
+# One per key (the path is the same for every key), all of them for camera.fov.
 NON_NUMBERS = ["nan", "NaN", "inf", "-inf", "Infinity", "-Infinity", "1e", "0x10"]
 
 
@@ -311,7 +310,7 @@ def run_case(case):
 
 
 def cases_for(key, workdir):
-    texts = [number_text(v) for v in sweep_values(key)] + NON_NUMBERS
+    texts = [number_text(v) for v in sweep_values(key)] + (NON_NUMBERS if key.name == "camera.fov" else ["nan"])
     return [(key, text, method, workdir) for text in texts for method in key.methods]
 
 
@@ -432,11 +431,13 @@ class InputSweep(unittest.TestCase):
                     if result is None:
                         refused.add((case[0].name, case[1]))
                     elif isinstance(result, str):
+                        print("FAIL", result, file=sys.stderr, flush=True)
                         failures.append(result)
                 rest = [c for c in rest if (c[0].name, c[1]) not in refused]
                 for case, result in zip(rest, pool.map(run_case, rest)):
                     ran += 1
                     if isinstance(result, str):
+                        print("FAIL", result, file=sys.stderr, flush=True)
                         failures.append(result)
         print(f"{len(chosen)} keys, {ran} cases, {len(failures)} failures", file=sys.stderr)
         self.assertEqual(failures, [], "\n" + "\n".join(failures))
