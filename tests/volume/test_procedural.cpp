@@ -151,7 +151,7 @@ TEST(Procedural, ParameterErrorsNameTheKey)
 TEST(Procedural, LengthsAtTheEdgesOfFloatNameTheirKey)
 {
     auto err = [](const std::string& g, std::map<std::string, double> p) { return inputError(proceduralScene(g, p)); };
-    EXPECT_NE(err("box", {{"size_x", 1e-45}}).find("volumes[0].source.size_x: the voxel edge would be"),
+    EXPECT_NE(err("box", {{"size_x", 1e-45}, {"voxel_size", 0.25}}).find("volumes[0].source.size_x: the voxel edge would be"),
               std::string::npos);
     EXPECT_NE(err("box", {{"size", 1e-30}}).find("volumes[0].source.size: the voxel edge would be"),
               std::string::npos);
