@@ -39,6 +39,12 @@ static_assert(std::is_same<VdbFloatGrid, FloatGrid>::value, "Procedural.h spells
 // Beyond this a grid would need gigabytes as bricks (4 bytes x 729/512 per voxel, before the
 // emission and majorant arrays); a scene asking for it almost certainly has a unit error.
 constexpr double kMaxVoxels = 2e8;
+// Lengths (metres) a generator accepts: at most 1e30, so that they and the voxel edge fit a
+// float; a voxel edge of at least 1e-4 m, because below about 1.5e-5 m OpenVDB's transform
+// refuses the scale as zero ("Non-zero scale values required", a render failure before issue
+// 18's sweep) and a tenth of a millimetre is far below any volume nimbus is for.
+constexpr double kMaxLength = 1e30;
+constexpr double kMinVoxelEdge = 1e-4;
 
 std::string formatNumber(double v)
 {
@@ -83,6 +89,24 @@ public:
         return v;
     }
 
+    // A length in metres: (0, kMaxLength].
+    double length(const char* name, double fallback) const
+    {
+        double v = positive(name, fallback);
+        if (!(v <= kMaxLength))
+            throw InputError(key(name) + ": must be at most " + formatNumber(kMaxLength) + " m, got " +
+                             formatNumber(v));
+        return v;
+    }
+
+    // The voxel edge `edge` that parameter `name` led to must be representable (kMinVoxelEdge).
+    void voxelEdge(const char* name, double edge) const
+    {
+        if (!(edge >= kMinVoxelEdge))
+            throw InputError(key(name) + ": the voxel edge would be " + formatNumber(edge) + " m, below the " +
+                             formatNumber(kMinVoxelEdge) + " m nimbus grids can hold");
+    }
+
     double positive(const char* name, double fallback) const
     {
         auto it = mSource.params.find(name);
@@ -105,12 +129,14 @@ private:
     std::string mKeyPath;
 };
 
-void checkVoxelCount(const Params& p, const CoordBBox& voxels)
+// `extent` names the parameters that set the grid's size, for the message.
+void checkVoxelCount(const Params& p, const CoordBBox& voxels, const std::string& extent)
 {
     double n = double(voxels.dim().x()) * voxels.dim().y() * voxels.dim().z();
     if (n > kMaxVoxels)
         throw InputError(p.key("voxel_size") + ": the grid would have " + formatNumber(n) +
-                         " voxels, more than the limit of " + formatNumber(kMaxVoxels) + "; use a larger voxel size");
+                         " voxels, more than the limit of " + formatNumber(kMaxVoxels) +
+                         "; use a larger voxel size or a smaller " + extent);
 }
 
 // ---- noise -----------------------------------------------------------------------------------
@@ -261,14 +287,15 @@ CoordBBox voxelBox(const Vec3d& lo, const Vec3d& hi, double h)
 // `radius` and the ball's volume is 4/3 pi radius^3 to first order in w.
 FloatGrid::Ptr makeSphere(const Params& p)
 {
-    const double r = p.positive("radius", 1.0);
-    const double h = p.positive("voxel_size", r / 48.0);
+    const double r = p.length("radius", 1.0);
+    const double h = p.length("voxel_size", r / 48.0);
+    p.voxelEdge(p.has("voxel_size") ? "voxel_size" : "radius", h);
     const double d = p.number("density", 1.0, 0.0, 1e30);
-    const double falloff = p.number("falloff", 0.0, 0.0, 1e30);
+    const double falloff = p.number("falloff", 0.0, 0.0, kMaxLength);
     const double w = std::max(falloff, h);
     const double outer = r + 0.5 * w, inner = r - 0.5 * w;
     const CoordBBox voxels = voxelBox(Vec3d(-outer), Vec3d(outer), h);
-    checkVoxelCount(p, voxels);
+    checkVoxelCount(p, voxels, "radius or falloff");
 
     auto classify = [=](const Vec3d& c, double radius) {
         double dist = c.length();
@@ -294,16 +321,23 @@ FloatGrid::Ptr makeSphere(const Params& p)
 // a voxel inside, exactly density/2 on a face, and 0 from half a voxel outside.
 FloatGrid::Ptr makeBox(const Params& p)
 {
-    const double size = p.positive("size", 1.0);
-    const double sx = p.positive("size_x", size), sy = p.positive("size_y", size), sz = p.positive("size_z", size);
-    const double h = p.positive("voxel_size", std::min({sx, sy, sz}) / 32.0);
+    const double size = p.length("size", 1.0);
+    const double sx = p.length("size_x", size), sy = p.length("size_y", size), sz = p.length("size_z", size);
+    const double h = p.length("voxel_size", std::min({sx, sy, sz}) / 32.0);
     const double d = p.number("density", 1.0, 0.0, 1e30);
     Coord n(std::max(1, int(std::lround(std::min(sx / h, 1e9)))), std::max(1, int(std::lround(std::min(sy / h, 1e9)))),
             std::max(1, int(std::lround(std::min(sz / h, 1e9)))));
     CoordBBox voxels(Coord(0), n - Coord(1));
-    checkVoxelCount(p, voxels);
+    checkVoxelCount(p, voxels, "size (size_x, size_y, size_z)");
 
     Vec3d edge(sx / n.x(), sy / n.y(), sz / n.z());
+    // An axis of one voxel has the axis's size as its edge: name the key that made it small.
+    const char* axisKeys[3] = {"size_x", "size_y", "size_z"};
+    for (int a = 0; a < 3; ++a) {
+        const char* culprit = n[a] > 1 ? (p.has("voxel_size") ? "voxel_size" : "size")
+                                        : (p.has(axisKeys[a]) ? axisKeys[a] : "size");
+        p.voxelEdge(culprit, edge[a]);
+    }
     auto xform = openvdb::math::Transform::createLinearTransform(1.0);
     xform->preScale(edge);
     xform->postTranslate(
@@ -324,7 +358,7 @@ FloatGrid::Ptr makeBox(const Params& p)
 class CloudShape {
 public:
     explicit CloudShape(const Params& p)
-        : mRadius(p.positive("radius", 2.0)), mVoxel(p.positive("voxel_size", mRadius / 64.0)),
+        : mRadius(p.length("radius", 2.0)), mVoxel(p.length("voxel_size", mRadius / 64.0)),
           mDensity(float(p.number("density", 1.0, 0.0, 1e30))), mOctaves(p.integer("octaves", 5, 1, 12)),
           mFrequency(p.positive("frequency", 2.5) / mRadius), mAmplitude(p.number("detail", 0.5, 0.0, 2.0) * mRadius),
           mSoftness(p.positive("softness", 0.05) * mRadius), mBase(p.number("base", -0.35, -10.0, 1.0) * mRadius),
@@ -447,8 +481,9 @@ private:
 FloatGrid::Ptr makeCloud(const Params& p)
 {
     CloudShape cloud(p);
+    p.voxelEdge(p.has("voxel_size") ? "voxel_size" : "radius", cloud.voxelSize());
     CoordBBox voxels = cloud.voxels();
-    checkVoxelCount(p, voxels);
+    checkVoxelCount(p, voxels, "radius");
     return buildBlocks(
         voxels, openvdb::math::Transform::createLinearTransform(cloud.voxelSize()), cloud.voxelSize(), cloud.density(),
         [&](const Vec3d& c, double radius) { return cloud.classify(c, radius); },

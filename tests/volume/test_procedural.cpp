@@ -146,6 +146,28 @@ TEST(Procedural, ParameterErrorsNameTheKey)
         EXPECT_EQ(e.find('\n'), std::string::npos);
 }
 
+// Issue 18's sweep: a box edge of 1e-45 m failed in OpenVDB's transform (exit 1), a voxel size of
+// 1e300 m was reported as a singular volume transform and a huge radius named only voxel_size.
+TEST(Procedural, LengthsAtTheEdgesOfFloatNameTheirKey)
+{
+    auto err = [](const std::string& g, std::map<std::string, double> p) { return inputError(proceduralScene(g, p)); };
+    EXPECT_NE(err("box", {{"size_x", 1e-45}, {"voxel_size", 0.25}}).find("volumes[0].source.size_x: the voxel edge would be"),
+              std::string::npos);
+    EXPECT_NE(err("box", {{"size", 1e-30}}).find("volumes[0].source.size: the voxel edge would be"),
+              std::string::npos);
+    EXPECT_NE(err("box", {{"voxel_size", 1e-5}, {"size", 1e-4}}).find("volumes[0].source.voxel_size: the voxel edge"),
+              std::string::npos);
+    EXPECT_NE(err("sphere", {{"voxel_size", 1e-6}, {"radius", 1e-4}}).find("volumes[0].source.voxel_size"),
+              std::string::npos);
+    EXPECT_NE(err("cloud", {{"radius", 1e-7}}).find("volumes[0].source.radius: the voxel edge"), std::string::npos);
+    EXPECT_NE(err("sphere", {{"voxel_size", 1e300}}).find("volumes[0].source.voxel_size: must be at most 1e+30 m"),
+              std::string::npos);
+    EXPECT_NE(err("sphere", {{"radius", 1e30}, {"voxel_size", 1}}).find("smaller radius or falloff"),
+              std::string::npos);
+    EXPECT_NE(err("box", {{"size_z", 1e30}}).find("smaller size (size_x, size_y, size_z)"), std::string::npos);
+    EXPECT_EQ(err("box", {{"size", 1e-4}, {"voxel_size", 1e-4}}), "");  // the smallest edge builds
+}
+
 TEST(Procedural, ZeroDensityBoxIsEmpty)
 {
     auto v = buildOne(proceduralScene("box", {{"density", 0}}));
