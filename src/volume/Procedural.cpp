@@ -40,11 +40,12 @@ static_assert(std::is_same<VdbFloatGrid, FloatGrid>::value, "Procedural.h spells
 // emission and majorant arrays); a scene asking for it almost certainly has a unit error.
 constexpr double kMaxVoxels = 2e8;
 // Lengths (metres) a generator accepts: at most 1e30, so that they and the voxel edge fit a
-// float; a voxel edge of at least 1e-4 m, because below about 1.5e-5 m OpenVDB's transform
+// float; a voxel edge of at least 2e-5 m, because below about 1.5e-5 m OpenVDB's transform
 // refuses the scale as zero ("Non-zero scale values required", a render failure before issue
-// 18's sweep) and a tenth of a millimetre is far below any volume nimbus is for.
+// 18's sweep). Millimetre-sized volumes stay renderable (WkbStability's scale invariance renders
+// a 1 mm sphere with 6.25e-5 m voxels).
 constexpr double kMaxLength = 1e30;
-constexpr double kMinVoxelEdge = 1e-4;
+constexpr double kMinVoxelEdge = 2e-5;
 
 std::string formatNumber(double v)
 {
