@@ -98,14 +98,11 @@ ScatterPoint ScatterPointSampler::draw(float3 o, float3 d, int k, int K, NbRng& 
         offsetPdf = cMean * std::exp(-cMean * u) / mass;
     }
     const double pdf = stepProbability * double(offsetPdf);
-    double tau = 0.0;
     for (int c = 0; c < 3; ++c) {
         p.W[c] = pdf > 0.0 ? double(st.T[c]) * std::exp(-double(st.c[c]) * u) * st.b[c] / pdf : 0.0;
         p.b[c] = st.b[c];
         p.c[c] = st.c[c];
-        tau += (-std::log(std::max(double(st.T[c]), 1e-30)) + double(st.c[c]) * u) / 3.0;
     }
-    p.tauCamera = tau;
     p.x = o + d * (st.t + u);
     return p;
 }

@@ -23,7 +23,6 @@ struct ScatterPoint {
     float3 x;
     double W[3];         // T_c(s) b_c(s) / pdf(s), 1 (dimensionless weight of the gathered radiance)
     double b[3], c[3];   // the medium there, 1/m
-    double tauCamera;    // optical depth (channel mean) from where the ray entered the medium
 };
 
 class ScatterPointSampler {

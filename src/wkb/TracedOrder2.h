@@ -1,5 +1,5 @@
-// TracedOrder2.h: the second scattering order of L2+, by one Monte Carlo sample per camera ray
-// (docs/wkb.md "Order 2, traced"; the research note's remedy 6, "low orders exactly").
+// TracedOrder2.h: the second scattering order of the lights' L2+, by Monte Carlo samples per
+// camera ray (docs/wkb.md "Order 2, traced"; the research note's remedy 6, "low orders exactly").
 //
 // Along the camera ray o + s d (d unit), light that scattered exactly twice reaches the camera as
 //
@@ -8,11 +8,11 @@
 //                                                                               as the source)
 // where L1(x, w') is the single-scattered radiance arriving at x from direction w' (the radiance
 // single's march gathers along the ray x + t w'), and p(w' . d) the phase function for light
-// travelling along -w' scattered into -d. One sample: s with probability proportional to
-// T(0,s) b(s) (a march over the ray's spans with the exact exponential in each step, then one
-// draw per sample), w' by one-sample multiple importance sampling between the phase lobe about d and, for
-// each light with a position or direction, the phase lobe about the direction toward that light
-// (where forward-scattered L1 is brightest), then marchSingle along x + t w'. The estimate is
+// travelling along -w' scattered into -d. Per camera ray, render.wkb_order2_samples samples: s
+// with probability proportional to T(0,s) b(s) (ScatterPoints.h: one march, stratified draws), w'
+// by one-sample multiple importance sampling between the phase lobe about d and, for each light
+// with a position or direction, the phase lobe about the direction toward that light (where
+// forward-scattered L1 is brightest), then marchSingle along x + t w'. The estimate is
 // unbiased for the piecewise-constant medium of the march (the quadrature every march here uses),
 // and the straight-line reduction's error at order 2 (no boundary, no curvature) is gone.
 #pragma once
@@ -31,8 +31,8 @@ class TracedOrder2 {
 public:
     explicit TracedOrder2(const RenderContext& ctx);
 
-    // Adds render.wkb_order2_samples samples of order 2 (averaged) along o + s d, s in [0, tFar), to out.L2plus and each light's part
-    // to perLight[3 i + c]. Draws its numbers from rng.
+    // Adds the mean of render.wkb_order2_samples samples of order 2 along o + s d, s in [0, tFar),
+    // to out.L2plus and each light's part to perLight[3 i + c]. Draws its numbers from rng.
     void add(float3 o, float3 d, NbRng& rng, CameraSample& out, float* perLight, float tFar = INFINITY) const;
 
 private:
