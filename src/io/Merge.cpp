@@ -226,10 +226,10 @@ MergeSummary mergeParts(const std::string& output, const std::vector<std::string
                     throw partError(p, range(p) + " overlap " + quoted(q.path) + "'s " + range(q) +
                                            ": the parts overlap");
             }
-            if (group.size() > 1 && !p.hasState)
+            if (pooled && group.size() > 1 && !p.hasState)
                 throw partError(p, "has no running estimate (state AOVs) to pool: render sample splits with "
                                    "--samples A-B");
-            if (group.size() > 1 && p.lightAovs != a.lightAovs)
+            if (pooled && group.size() > 1 && p.lightAovs != a.lightAovs)
                 throw partError(p, "its running estimate has other lights than " + quoted(a.path) + "'s");
         }
         std::vector<std::tuple<long long, long long, long long>> samples;
