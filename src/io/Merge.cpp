@@ -56,7 +56,7 @@ const int* metaInt(const Film& film, const std::string& key)
 
 std::string range(const Part& p)
 {
-    return "samples [" + std::to_string(p.start) + ", " + std::to_string(p.start + p.n) + ") of seed " +
+    return "samples " + std::to_string(p.start) + "-" + std::to_string(p.start + p.n - 1) + " of seed " +
            std::to_string(p.seed);
 }
 
