@@ -10,6 +10,7 @@
 //                                      (frame tokens $F, $F4, #### in paths: docs/sequences.md)
 //   render flags for farms:            --tile I/N, --samples A-B (pathtrace), --resume (pathtrace)
 //   nimbus merge OUT.exr PARTS...      tiles and sample splits back into the frame (docs/farm.md)
+//   nimbus farm plan SCENE.json --frames 1-24 [--tiles N] [--sample-splits K]   the job as JSON
 //   nimbus default-scene               prints the default scene as JSON
 //   nimbus compare SCENE.json [--out DIR] [--minutes M] [--seeds K] [--full]   WKB vs path tracer
 //
@@ -19,6 +20,7 @@
 #include "core/Error.h"
 #include "core/Log.h"
 #include "engine/Renderer.h"
+#include "farm/FarmPlan.h"
 #include "io/ExrWriter.h"
 #include "io/Merge.h"
 #include "io/Outputs.h"
@@ -365,6 +367,46 @@ int runRender(const SceneArgs& args, const OutputArgs& out, bool explain, bool q
     return kOk;
 }
 
+struct FarmArgs {
+    std::string frames, output, nimbus;
+    FarmPlanOptions options;
+};
+
+// `nimbus farm plan`: the shot's tasks as engine-neutral JSON on stdout (docs/farm.md).
+int runFarmPlan(const SceneArgs& args, FarmArgs farm)
+{
+    Scene templ = loadScene(args);
+    if (!farm.output.empty())
+        templ.output.file = farm.output;
+    if (farm.frames.empty())
+        farm.options.frames = {templ.render.frame};
+    else {
+        try {
+            farm.options.frames = parseFrameList(farm.frames);
+        } catch (const InputError& e) {
+            throw InputError(std::string("--frames: ") + e.what());
+        }
+    }
+    namespace fs = std::filesystem;
+    std::error_code ec;
+    farm.options.cwd = fs::current_path(ec).string();
+    farm.options.nimbus = farm.nimbus.empty() ? fs::read_symlink("/proc/self/exe", ec).string() : farm.nimbus;
+    if (farm.options.nimbus.empty())
+        farm.options.nimbus = "nimbus";
+    // The commands name the scene as this one was named, absolutely: they may run anywhere.
+    std::vector<std::string>& s = farm.options.sceneArgs;
+    if (args.useDefault)
+        s.push_back("--default");
+    else
+        s.push_back(fs::absolute(args.file, ec).string());
+    for (const std::string& set : args.sets)
+        s.insert(s.end(), {"--set", set});
+    if (!args.method.empty())
+        s.insert(s.end(), {"--method", args.method});
+    std::cout << planFarm(templ, farm.options).dump(2) << "\n";
+    return kOk;
+}
+
 int runInfo(const SceneArgs& args)
 {
     Scene scene = loadScene(args);
@@ -448,6 +490,28 @@ int main(int argc, char** argv)
     merge->add_option("parts", partFiles, "The parts' EXRs")->required();
     merge->add_flag("-q,--quiet", quiet, "No info line");
 
+    SceneArgs farmArgs;
+    FarmArgs farmOptions;
+    CLI::App* farm = app.add_subcommand("farm", "Render farms: the job description of a shot (docs/farm.md)");
+    farm->require_subcommand(1);
+    CLI::App* farmPlan =
+        farm->add_subcommand("plan", "Print the shot's tasks (renders, merges, dependencies) as engine-neutral JSON");
+    addSceneArgs(farmPlan, farmArgs);
+    farmPlan->add_option("--frames", farmOptions.frames, "Frames: 1-240, 1-240x2, 1,5,9-12 (default render.frame)");
+    farmPlan->add_option("-o,--output", farmOptions.output, "EXR output path of each frame (overrides output.file)");
+    farmPlan->add_option("--tiles", farmOptions.options.tiles, "Tiles per frame (--tile I/N), merged by a merge task")
+        ->check(CLI::Range(1, 1 << 20));
+    farmPlan
+        ->add_option("--sample-splits", farmOptions.options.sampleSplits,
+                     "pathtrace: sample splits per tile (--samples A-B of render.spp), merged by a merge task")
+        ->check(CLI::Range(1, 1 << 20));
+    farmPlan->add_option("--checkpoint", farmOptions.options.checkpointSeconds,
+                         "pathtrace: the tasks' checkpoint interval in seconds (default 60)")
+        ->check(CLI::Range(1e-3, 1e9));
+    farmPlan->add_option("--retries", farmOptions.options.retries, "How often a failed task may be rerun (default 2)")
+        ->check(CLI::Range(0, 1000));
+    farmPlan->add_option("--nimbus", farmOptions.nimbus, "The nimbus binary the tasks run (default this one)");
+
     CLI::App* devices = app.add_subcommand("devices", "List the OpenCL devices the path tracer can use");
 
     CLI::App* info = app.add_subcommand("info", "Print the scene summary and the render plan");
@@ -497,6 +561,8 @@ int main(int argc, char** argv)
             seqArgs.framesSet = framesOption->count() > 0;
             return runRender(renderArgs, outputArgs, explain, quiet, ptArgs, seqArgs, splitArgs);
         }
+        if (*farmPlan)
+            return runFarmPlan(farmArgs, farmOptions);
         if (*merge) {
             const MergeSummary m = mergeParts(mergeOutput, partFiles);
             if (!quiet)
