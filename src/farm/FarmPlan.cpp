@@ -21,7 +21,8 @@ namespace fs = std::filesystem;
 std::string padded(int frame)
 {
     char text[32];
-    std::snprintf(text, sizeof text, frame < 0 ? "m%04d" : "%04d", frame < 0 ? -frame : frame);
+    const long long f = frame;
+    std::snprintf(text, sizeof text, f < 0 ? "m%04lld" : "%04lld", f < 0 ? -f : f);
     return text;
 }
 
