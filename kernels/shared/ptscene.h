@@ -29,7 +29,7 @@ typedef struct {
     NbGridDesc emission; /* 3 channels: emitted radiance per metre W/(m^3 sr); or absent */
 } NbVolumeDesc;
 
-/* Per-launch parameters, 192 bytes. */
+/* Per-launch parameters, 196 bytes. */
 typedef struct {
     NbCamera camera;
     float background[4]; /* radiance seen by camera rays that leave the volumes (L0) */
@@ -48,6 +48,9 @@ typedef struct {
                         * it are counted in counters[NB_COUNTER_DEPTH_CAP] */
     int filterType;    /* NB_FILTER_* (filter.h) */
     float filterWidth; /* pixels */
+    nb_uint accStart;  /* the sample index the accumulator's running means start from: 0, or the
+                        * first sample of a sample split (--samples A-B: A). Sample s is the
+                        * (s - accStart + 1)-th the means have seen. */
 } NbPtParams;
 
 /* The kernel's event counters (one int each). */
