@@ -16,6 +16,8 @@ namespace nimbus {
 namespace {
 
 constexpr int kTile = 16;
+// The most camera rays a worker marches at once (a multiple of eight: MarchEightRays groups).
+constexpr size_t kBatchRays = 4096;
 
 // The camera's unit view axis at shutter time `time`, as nbCameraRay interpolates it (camera.h):
 // what a depth image's Z is measured along.
@@ -157,7 +159,7 @@ void renderTiles(const RenderContext& ctx, const Integrator& integrator, Film& f
         std::vector<NbRng> rngs;
         std::vector<CameraSample> samples;
         std::vector<float> perLight;
-        PixelSum px;
+        std::vector<PixelSum> rowSums;
         for (int tile = r.begin(); tile != r.end(); ++tile) {
             if (stopped())
                 return;
@@ -174,51 +176,62 @@ void renderTiles(const RenderContext& ctx, const Integrator& integrator, Film& f
                         store(x, y, background);
                     continue;
                 }
-                const size_t rays = size_t(tx1 - tx0) * size_t(spp);
-                origins.resize(rays), directions.resize(rays), rngs.resize(rays);
-                samples.assign(rays, CameraSample());
-                perLight.assign(rays * perLightStride, 0.0f);
-                for (int x = tx0, i = 0; x < tx1; ++x) {
-                    nb_uint pixelIndex = nb_uint(y) * nb_uint(film.width) + nb_uint(x);
-                    for (int s = 0; s < spp; ++s, ++i) {
-                        NbRng& rng = rngs[size_t(i)];
+                // The row's samples in batches of at most kBatchRays rays (a multiple of eight, so
+                // the eight-ray marches group the same rays as one batch would): the buffers do not
+                // grow with spp (issue 18, item 4), and each pixel's sum adds its samples in the
+                // same order as ever, so the image does not depend on the batch size.
+                const int width = tx1 - tx0;
+                const size_t rowRays = size_t(width) * size_t(spp);
+                rowSums.resize(size_t(width));
+                for (PixelSum& sum : rowSums)
+                    sum.reset(3 * nLights);
+                for (size_t first = 0; first < rowRays; first += kBatchRays) {
+                    const size_t rays = std::min(kBatchRays, rowRays - first);
+                    origins.resize(rays), directions.resize(rays), rngs.resize(rays);
+                    samples.assign(rays, CameraSample());
+                    perLight.assign(rays * perLightStride, 0.0f);
+                    if (holdoutDepth)
+                        sampleX.resize(rays), sampleY.resize(rays), sampleTime.resize(rays);
+                    for (size_t i = 0; i < rays; ++i) {
+                        const size_t k = first + i;  // the row's sample k: pixel k / spp, sample k % spp
+                        const int x = tx0 + int(k / size_t(spp)), s = int(k % size_t(spp));
+                        nb_uint pixelIndex = nb_uint(y) * nb_uint(film.width) + nb_uint(x);
+                        NbRng& rng = rngs[i];
                         rng = nbRngStart(scene.render.seed, pixelIndex, nb_uint(s));
                         // The pixel filter by importance sampling (filter.h): an offset from the centre.
                         float jx = nbFilterSample(filterType, filterWidth, nbRngNext(&rng));
                         float jy = nbFilterSample(filterType, filterWidth, nbRngNext(&rng));
                         float time = nbRngNext(&rng);
                         nbCameraRay(cam, float(x) + 0.5f + jx, float(y) + 0.5f + jy, film.width, film.height, time,
-                                    &origins[size_t(i)], &directions[size_t(i)]);
+                                    &origins[i], &directions[i]);
                         if (holdoutDepth) {
-                            sampleX.resize(rays), sampleY.resize(rays), sampleTime.resize(rays);
-                            sampleX[size_t(i)] = float(x) + 0.5f + jx, sampleY[size_t(i)] = float(y) + 0.5f + jy;
-                            sampleTime[size_t(i)] = time;
+                            sampleX[i] = float(x) + 0.5f + jx, sampleY[i] = float(y) + 0.5f + jy;
+                            sampleTime[i] = time;
                         }
                     }
+                    if (holdouts) {
+                        tFar.assign(rays, INFINITY);
+                        if (holdoutGeometry)
+                            holdoutGeometry->holdoutHits(int(rays), origins.data(), directions.data(), tFar.data());
+                        if (holdoutDepth)
+                            for (size_t i = 0; i < rays; ++i) {
+                                // Z along the view axis to t along the ray (d unit).
+                                const float z = holdoutDepth->depthAt(sampleX[i], sampleY[i]);
+                                const float cosAxis = dot(directions[i], viewAxisAt(cam, sampleTime[i]));
+                                if (z < INFINITY && cosAxis > 0.0f)
+                                    tFar[i] = std::min(tFar[i], z / cosAxis);
+                            }
+                    }
+                    integrator.marchRays(int(rays), origins.data(), directions.data(),
+                                         holdouts ? tFar.data() : nullptr, rngs.data(), samples.data(),
+                                         perLight.data());
+                    if (stopped())  // the marches may have ended early: nothing of theirs is kept
+                        return;
+                    for (size_t i = 0; i < rays; ++i)
+                        rowSums[(first + i) / size_t(spp)].add(samples[i], perLight.data() + perLightStride * i);
                 }
-                if (holdouts) {
-                    tFar.assign(rays, INFINITY);
-                    if (holdoutGeometry)
-                        holdoutGeometry->holdoutHits(int(rays), origins.data(), directions.data(), tFar.data());
-                    if (holdoutDepth)
-                        for (size_t i = 0; i < rays; ++i) {
-                            // Z along the view axis to t along the ray (d unit).
-                            const float z = holdoutDepth->depthAt(sampleX[i], sampleY[i]);
-                            const float cosAxis = dot(directions[i], viewAxisAt(cam, sampleTime[i]));
-                            if (z < INFINITY && cosAxis > 0.0f)
-                                tFar[i] = std::min(tFar[i], z / cosAxis);
-                        }
-                }
-                integrator.marchRays(int(rays), origins.data(), directions.data(), holdouts ? tFar.data() : nullptr,
-                                     rngs.data(), samples.data(), perLight.data());
-                if (stopped())  // the marches may have ended early: nothing of theirs is kept
-                    return;
-                for (int x = tx0, i = 0; x < tx1; ++x) {
-                    px.reset(3 * nLights);
-                    for (int s = 0; s < spp; ++s, ++i)
-                        px.add(samples[size_t(i)], perLight.data() + perLightStride * size_t(i));
-                    store(x, y, px);
-                }
+                for (int x = tx0; x < tx1; ++x)
+                    store(x, y, rowSums[size_t(x - tx0)]);
             }
             int finished = ++done;
             if (!control.keepGoing(float(finished) / float(tileCount)))

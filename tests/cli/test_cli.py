@@ -186,6 +186,27 @@ class Cli(unittest.TestCase):
             f.write(b"earlier render")
         self.expect_bad_input(["render", "--default", "-o", self.out, "--set", "camera.fov=1e-40"], "camera.fov")
 
+    # Failure 5 of issue 18: single and wkb marched tile width x spp rays per worker at once
+    # (spp 1e7 on a 4x4 image: 4.1 GB). Batches of at most 4096 rays now: peak memory must not
+    # follow spp. The render is killed after 12 s; its peak RSS is read from
+    # a separate process's RUSAGE_CHILDREN so that no other test's child counts (the old buffers passed
+    # 1.4 GiB within 8 s on this loaded 2-core machine; batched, the peak is about 240 MiB).
+    def test_camera_ray_buffers_do_not_grow_with_spp(self):
+        probe = (
+            "import resource, subprocess, sys\n"
+            "try:\n"
+            "    subprocess.run(sys.argv[1:], timeout=12, capture_output=True)\n"
+            "except subprocess.TimeoutExpired:\n"
+            "    pass\n"
+            "print(resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss)\n")
+        for method in ("single", "wkb"):
+            p = subprocess.run([sys.executable, "-c", probe, NIMBUS, "render", "--default", "-q", "--method", method,
+                                "-o", self.out, "--preview", "", "--set", "render.spp=10000000",
+                                "--set", "camera.resolution=[4,4]"], capture_output=True, text=True, timeout=60)
+            peak_mib = int(p.stdout.strip().splitlines()[-1]) / 1024.0
+            # Tile-wide buffers at this spp would take over 4000 MiB; the scene itself ~100.
+            self.assertLess(peak_mib, 768.0, f"{method}: peak {peak_mib:.0f} MiB at spp 1e7 on 4x4 pixels")
+
     # Failure 8 of issue 18, the minor items.
     def test_bad_checkpoint_interval_is_one_line(self):
         for value in ("nan", "-1", "0", "inf", "soon"):
