@@ -12,6 +12,7 @@
 #include "brickgrid.h"
 #include "camera.h"
 #include "filter.h"
+#include "geometry.h"
 #include "phase.h"
 
 /* 224 bytes. Coefficients in 1/m with the density scale folded in: sigma at a point is
@@ -29,7 +30,7 @@ typedef struct {
     NbGridDesc emission; /* 3 channels: emitted radiance per metre W/(m^3 sr); or absent */
 } NbVolumeDesc;
 
-/* Per-launch parameters, 192 bytes. */
+/* Per-launch parameters, 224 bytes. */
 typedef struct {
     NbCamera camera;
     float background[4]; /* radiance seen by camera rays that leave the volumes (L0) */
@@ -48,6 +49,9 @@ typedef struct {
                         * it are counted in counters[NB_COUNTER_DEPTH_CAP] */
     int filterType;    /* NB_FILTER_* (filter.h) */
     float filterWidth; /* pixels */
+    NbGeomScene geom;  /* the geometry's BVH and planes (geometry.h); all 0 without geometry */
+    int holdoutDepthWidth, holdoutDepthHeight; /* camera.holdout_depth's image (holdoutdepth.h) */
+    float holdoutDepthScale[2];                /* its pixels per camera pixel, x and y */
 } NbPtParams;
 
 /* The kernel's event counters (one int each). */
