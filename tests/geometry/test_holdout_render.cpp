@@ -422,10 +422,10 @@ void usePathtraceKernelCache()
 // not only inside the pixel. A sphere's silhouette is an ellipse of radius ~8 pixels here: it
 // cannot slip between grid points 0.44 pixels apart by more than their sagitta (0.003 pixels),
 // well inside the quarter-pixel widening.
-Cover supportCover(const Scene& s, int x, int y, const std::function<bool(float3, float3)>& hit)
+Cover supportCover(const Scene& s, int x, int y, const std::function<bool(float3, float3)>& hit, float extra = 0.0f)
 {
     const NbCamera cam = makeNbCamera(s.camera);
-    const float reach = 0.5f * s.render.filterWidth + 0.25f;
+    const float reach = 0.5f * s.render.filterWidth + 0.25f + extra;
     int n = 0;
     for (int j = 0; j < 9; ++j)
         for (int i = 0; i < 9; ++i) {
@@ -571,4 +571,62 @@ TEST(ShadowRender, HoldoutOnlyBoardDoesNotBlockLightPathtrace)
     EXPECT_EQ(compared, plain.camera.width * plain.camera.height);
     EXPECT_GT(plainL1, 10.0);
     EXPECT_EQ(casterL1, 0.0);
+}
+
+// A depth-map holdout through the path tracer: the sphere of SphereInFrontOfCloudPathtrace as its
+// camera-space Z (analytic, per pixel centre, written to an EXR) instead of as an object. Every
+// depth the lookup returns on the sphere lies in front of the cloud, so pixels whose filter
+// support lies on the sphere are exactly 0 (beauty, alpha), and pixels whose support stays more
+// than 1.5 pixels off its silhouette (the lookup reads the four nearest pixel centres) are the
+// render without it.
+TEST(HoldoutRender, DepthMapHoldoutPathtrace)
+{
+    usePathtraceKernelCache();
+    TempDir dir;
+    Scene plain = cloudScene(Method::Pathtrace);
+    plain.render.spp = 8;
+    const float3 c = make_float3(0.3f, 0.1f, 2.5f);
+    const float r = 0.45f;
+    const int w = plain.camera.width, h = plain.camera.height;
+    const NbCamera cam = makeNbCamera(plain.camera);
+    const float3 forward = normalize(plain.camera.to - plain.camera.from);
+    std::vector<float> z(size_t(w) * h);
+    for (int y = 0; y < h; ++y)
+        for (int x = 0; x < w; ++x) {
+            float3 o, d;
+            nbCameraRay(cam, x + 0.5f, y + 0.5f, w, h, 0.0f, &o, &d);
+            const double t = sphereHit(o, d, c, r);
+            z[size_t(y) * w + x] = t < INFINITY ? float(t * dot(d, forward)) : 0.0f;  // 0: no holdout
+        }
+    const std::string path = dir / "z.exr";
+    {
+        OIIO::ImageSpec spec(w, h, 1, OIIO::TypeDesc::FLOAT);
+        spec.channelnames = {"Z"};
+        auto out = OIIO::ImageOutput::create(path);
+        ASSERT_TRUE(out && out->open(path, spec));
+        ASSERT_TRUE(out->write_image(OIIO::TypeDesc::FLOAT, z.data()));
+        out->close();
+    }
+    Scene held = plain;
+    held.camera.holdoutDepth.file = path;
+    const RenderResult a = render(plain), b = render(held);
+    auto onSphere = [&](float3 o, float3 d) { return sphereHit(o, d, c, r) < INFINITY; };
+    int inside = 0, outside = 0;
+    for (int y = 0; y < h; ++y)
+        for (int x = 0; x < w; ++x) {
+            if (supportCover(plain, x, y, onSphere) == Cover::All) {
+                ++inside;
+                for (int k = 0; k < 4; ++k)
+                    EXPECT_EQ(px(b.film, "beauty", x, y)[k], 0.0f) << x << "," << y;
+                EXPECT_EQ(*px(b.film, "alpha", x, y), 0.0f) << x << "," << y;
+            } else if (supportCover(plain, x, y, onSphere, 1.5f) == Cover::None) {
+                ++outside;
+                for (const char* aov : {"beauty", "alpha", "L1", "L2plus"}) {
+                    const float u = px(a.film, aov, x, y)[0], v = px(b.film, aov, x, y)[0];
+                    EXPECT_NEAR(u, v, 1e-5f * std::fabs(u) + 1e-7f) << aov << " " << x << "," << y;
+                }
+            }
+        }
+    EXPECT_GT(inside, 20);
+    EXPECT_GT(outside, 1000);
 }
