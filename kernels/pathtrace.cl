@@ -446,8 +446,9 @@ __kernel void nbPathtrace(__global const NbPtParams* P, __global const NbLight* 
         }
 
         /* Running means (Skanberg eq. 39) and Welford's M2: after n samples,
-         * variance of the mean = M2 / (n (n - 1)). */
-        const float inv = 1.0f / (float)(sampleIndex + 1u);
+         * variance of the mean = M2 / (n (n - 1)). A sample split's means count from its
+         * first sample (accStart). */
+        const float inv = 1.0f / (float)(sampleIndex - P->accStart + 1u);
         for (int k = 0; k < 3; ++k) {
             float3 L = r.L[k];
             a[3 * k + 0] += (L.x - a[3 * k + 0]) * inv;

@@ -8,6 +8,9 @@
 //   render flags for the path tracer:  --device N|NAME, --checkpoint SECONDS (to <name>.partial.exr)
 //   render flags for shots:            --frame N, --frames 1-240 | 1-240x2 | 1,5,9-12, --skip-missing
 //                                      (frame tokens $F, $F4, #### in paths: docs/sequences.md)
+//   render flags for farms:            --tile I/N, --samples A-B (pathtrace), --resume (pathtrace)
+//   nimbus merge OUT.exr PARTS...      tiles and sample splits back into the frame (docs/farm.md)
+//   nimbus farm plan SCENE.json --frames 1-24 [--tiles N] [--sample-splits K]   the job as JSON
 //   nimbus default-scene               prints the default scene as JSON
 //   nimbus compare SCENE.json [--out DIR] [--minutes M] [--seeds K] [--full]   WKB vs path tracer
 //
@@ -17,10 +20,14 @@
 #include "core/Error.h"
 #include "core/Log.h"
 #include "engine/Renderer.h"
+#include "farm/FarmPlan.h"
 #include "io/ExrWriter.h"
+#include "io/Merge.h"
 #include "io/Outputs.h"
 #include "io/Progress.h"
+#include "io/Resume.h"
 #include "io/TempFiles.h"
+#include "pathtracer/PathtraceState.h"
 #include "pathtracer/Pathtracer.h"
 #include "render/ShadowMapCache.h"
 #include "scene/DefaultScene.h"
@@ -39,6 +46,7 @@
 #include <filesystem>
 #include <cstdlib>
 #include <iostream>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -107,7 +115,47 @@ struct OutputArgs {
 struct PathtraceArgs {
     std::string device;
     double checkpointSeconds = 0;
+    bool resume = false;
 };
+
+// --tile I/N and --samples A-B (docs/farm.md): one part of a frame.
+struct SplitArgs {
+    std::string tile, samples;
+    int tileIndex = 0, tileCount = 0;    // 0/0: the whole frame
+    bool split = false;                  // --samples given
+    long long sampleBegin = 0, sampleEnd = 0;  // [begin, end): "A-B" is A .. B inclusive
+};
+
+// A whole non-negative decimal number up to `limit`, or -1.
+long long parseCount(const std::string& text, long long limit)
+{
+    if (text.empty() || text.size() > 12 || text.find_first_not_of("0123456789") != std::string::npos)
+        return -1;
+    const long long v = std::stoll(text);
+    return v <= limit ? v : -1;
+}
+
+void parseSplitArgs(SplitArgs& a)
+{
+    if (!a.tile.empty()) {
+        const size_t slash = a.tile.find('/');
+        const long long i = slash == std::string::npos ? -1 : parseCount(a.tile.substr(0, slash), 1 << 20);
+        const long long n = slash == std::string::npos ? -1 : parseCount(a.tile.substr(slash + 1), 1 << 20);
+        if (i < 1 || n < 1 || i > n)
+            throw InputError("--tile: want I/N, tile I of N with 1 <= I <= N (N up to 1048576), got '" + a.tile + "'");
+        a.tileIndex = int(i), a.tileCount = int(n);
+    }
+    if (!a.samples.empty()) {
+        const size_t dash = a.samples.find('-');
+        const long long first = dash == std::string::npos ? -1 : parseCount(a.samples.substr(0, dash), 0x7ffffffe);
+        const long long last = dash == std::string::npos ? -1 : parseCount(a.samples.substr(dash + 1), 0x7ffffffe);
+        if (first < 0 || last < first)
+            throw InputError("--samples: want A-B, the samples A to B (both included, counted from 0) of the "
+                             "seed's sequence, 0 <= A <= B < 2147483647, got '" + a.samples + "'");
+        a.split = true;
+        a.sampleBegin = first, a.sampleEnd = last + 1;
+    }
+}
 
 // --frame, --frames, --skip-missing (docs/sequences.md).
 struct SequenceArgs {
@@ -156,8 +204,8 @@ std::vector<int> framesToRender(const Scene& templ, const SequenceArgs& seq)
 
 // Renders one frame of the (already checked) scene and writes its outputs. Returns the render's
 // seconds.
-double renderFrame(const Scene& scene, bool explain, bool quiet, const PathtraceArgs& pt, VolumeCache& cache,
-                   ShadowMapCache& shadowMaps, const std::string& label)
+double renderFrame(const Scene& scene, bool explain, bool quiet, const PathtraceArgs& pt, const SplitArgs& split,
+                   VolumeCache& cache, ShadowMapCache& shadowMaps, const std::string& label)
 {
     const bool checkpoints = pt.checkpointSeconds > 0;
     Progress progress(label, 1000, ProgressOptions{quiet, {}});
@@ -174,7 +222,28 @@ double renderFrame(const Scene& scene, bool explain, bool quiet, const Pathtrace
     options.pathtrace.device = pt.device;
     options.volumeCache = &cache;
     options.shadowMapCache = &shadowMaps;
+    options.tileIndex = split.tileIndex;
+    options.tileCount = split.tileCount;
+    if (split.split) {
+        options.pathtrace.sampleBegin = split.sampleBegin;
+        options.pathtrace.sampleEnd = split.sampleEnd;
+    }
+    // A checkpoint holds the running estimate (to resume), a sample split too (to merge).
+    options.pathtrace.keepState = checkpoints || split.split;
     const std::string checkpointFile = checkpointPath(scene.output.file);
+    std::optional<ResumePoint> resumed;
+    if (pt.resume) {
+        resumed = loadCheckpoint(scene, checkpointFile, {split.tileIndex, split.tileCount, split.split, split.sampleBegin});
+        if (resumed) {
+            options.pathtrace.resumeFrom = &resumed->film;
+            options.pathtrace.resumeSamples = resumed->samples;
+            options.pathtrace.resumeSeconds = resumed->seconds;
+            if (!quiet)
+                std::fprintf(stderr, "nimbus: resuming from %s at %lld samples per pixel\n", checkpointFile.c_str(),
+                             resumed->samples);
+        } else if (!quiet)
+            std::fprintf(stderr, "nimbus: no checkpoint %s: rendering from the start\n", checkpointFile.c_str());
+    }
     if (checkpoints) {
         // The running estimate, written atomically under a name that says so, its header with
         // nimbus:complete 0 and the spp reached (the engine adds those). The final name is written
@@ -192,16 +261,25 @@ double renderFrame(const Scene& scene, bool explain, bool quiet, const Pathtrace
     progress.finish();
     if (explain)
         std::cout << result.plan.describe() << result.stats.describe(result.plan);
+    // The running estimate stays in a sample split's EXR (merge pools it), in no other.
+    std::vector<Aov> state, others;
+    for (Aov& aov : result.film.aovs)
+        (isStateAov(aov.name) ? state : others).push_back(std::move(aov));
+    result.film.aovs = std::move(others);
     selectAovs(scene, result.film);
+    if (split.split)
+        for (Aov& aov : state)
+            result.film.aovs.push_back(std::move(aov));
     writeOutputs(scene, result.film);
-    if (checkpoints)
+    if (checkpoints || resumed)
         std::remove(checkpointFile.c_str());  // the frame is complete; its checkpoint is stale
     return result.seconds;
 }
 
 int runRender(const SceneArgs& args, const OutputArgs& out, bool explain, bool quiet, const PathtraceArgs& pt,
-              const SequenceArgs& seq)
+              const SequenceArgs& seq, SplitArgs split)
 {
+    parseSplitArgs(split);
     if (out.outputSet && out.output.empty())
         throw InputError("-o: empty output path");
     Scene templ = loadScene(args);
@@ -226,10 +304,26 @@ int runRender(const SceneArgs& args, const OutputArgs& out, bool explain, bool q
     const bool checkpoints = pt.checkpointSeconds > 0;
     std::vector<Scene> scenes;
     std::vector<std::string> missing;
+    if (templ.render.method != Method::Pathtrace) {
+        if (split.split)
+            throw InputError("--samples: only the path tracer splits a frame's samples (method " +
+                             std::string(methodName(templ.render.method)) + " splits it into tiles: --tile I/N)");
+        if (pt.resume)
+            throw InputError(std::string("--resume: only the path tracer writes checkpoints (method ") +
+                             methodName(templ.render.method) + ")");
+    }
     for (int frame : frames) {
         Scene scene = sceneAtFrame(templ, frame);
         validateScene(scene);
-        checkOutputs(scene, checkpoints);
+        checkOutputs(scene, checkpoints || pt.resume);
+        if (split.tileCount > 0) {  // the tile has rows: checked on the film's header alone
+            const Camera& c = scene.camera;
+            Film window;
+            window.height = c.height;
+            window.y0 = std::max(0, int(std::floor(c.crop[2] * c.height)));
+            window.y1 = std::min(c.height, int(std::ceil(c.crop[3] * c.height)));
+            applyTile(window, split.tileIndex, split.tileCount);
+        }
         std::string lacks = missingFrameFile(templ, scene);
         if (!lacks.empty() && !seq.skipMissing)
             throw InputError(where + lacks + ": no such file (frame " + std::to_string(frame) +
@@ -251,7 +345,7 @@ int runRender(const SceneArgs& args, const OutputArgs& out, bool explain, bool q
             continue;
         }
         const double seconds =
-            renderFrame(scenes[k], explain, quiet, pt, cache, shadowMaps, frames.size() > 1 ? name : std::string("render"));
+            renderFrame(scenes[k], explain, quiet, pt, split, cache, shadowMaps, frames.size() > 1 ? name : std::string("render"));
         ++rendered;
         if (quiet)
             continue;
@@ -270,6 +364,46 @@ int runRender(const SceneArgs& args, const OutputArgs& out, bool explain, bool q
         const double total = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
         std::fprintf(stderr, "nimbus: %zu frame(s) rendered in %.2f s, %zu skipped\n", rendered, total, skipped);
     }
+    return kOk;
+}
+
+struct FarmArgs {
+    std::string frames, output, nimbus;
+    FarmPlanOptions options;
+};
+
+// `nimbus farm plan`: the shot's tasks as engine-neutral JSON on stdout (docs/farm.md).
+int runFarmPlan(const SceneArgs& args, FarmArgs farm)
+{
+    Scene templ = loadScene(args);
+    if (!farm.output.empty())
+        templ.output.file = farm.output;
+    if (farm.frames.empty())
+        farm.options.frames = {templ.render.frame};
+    else {
+        try {
+            farm.options.frames = parseFrameList(farm.frames);
+        } catch (const InputError& e) {
+            throw InputError(std::string("--frames: ") + e.what());
+        }
+    }
+    namespace fs = std::filesystem;
+    std::error_code ec;
+    farm.options.cwd = fs::current_path(ec).string();
+    farm.options.nimbus = farm.nimbus.empty() ? fs::read_symlink("/proc/self/exe", ec).string() : farm.nimbus;
+    if (farm.options.nimbus.empty())
+        farm.options.nimbus = "nimbus";
+    // The commands name the scene as this one was named, absolutely: they may run anywhere.
+    std::vector<std::string>& s = farm.options.sceneArgs;
+    if (args.useDefault)
+        s.push_back("--default");
+    else
+        s.push_back(fs::absolute(args.file, ec).string());
+    for (const std::string& set : args.sets)
+        s.insert(s.end(), {"--set", set});
+    if (!args.method.empty())
+        s.insert(s.end(), {"--method", args.method});
+    std::cout << planFarm(templ, farm.options).dump(2) << "\n";
     return kOk;
 }
 
@@ -339,6 +473,45 @@ int main(int argc, char** argv)
     render->add_flag("--skip-missing", seqArgs.skipMissing,
                      "A frame whose sequence file is missing: a warning and no output, not an error");
 
+    render->add_flag("--resume", ptArgs.resume,
+                     "pathtrace: continue from the checkpoint <name>.partial.exr if there is one (docs/farm.md)");
+    SplitArgs splitArgs;
+    render->add_option("--tile", splitArgs.tile,
+                       "Render tile I of N (horizontal bands of the data window, 1 <= I <= N); merge with `nimbus merge`");
+    render->add_option("--samples", splitArgs.samples,
+                       "pathtrace: render the samples A to B (included, from 0) of the seed's sequence; merge with "
+                       "`nimbus merge`");
+
+    std::string mergeOutput;
+    std::vector<std::string> partFiles;
+    CLI::App* merge = app.add_subcommand(
+        "merge", "Merge the tiles and sample splits of a frame (from --tile, --samples) into OUT.exr");
+    merge->add_option("output", mergeOutput, "The merged EXR")->required();
+    merge->add_option("parts", partFiles, "The parts' EXRs")->required();
+    merge->add_flag("-q,--quiet", quiet, "No info line");
+
+    SceneArgs farmArgs;
+    FarmArgs farmOptions;
+    CLI::App* farm = app.add_subcommand("farm", "Render farms: the job description of a shot (docs/farm.md)");
+    farm->require_subcommand(1);
+    CLI::App* farmPlan =
+        farm->add_subcommand("plan", "Print the shot's tasks (renders, merges, dependencies) as engine-neutral JSON");
+    addSceneArgs(farmPlan, farmArgs);
+    farmPlan->add_option("--frames", farmOptions.frames, "Frames: 1-240, 1-240x2, 1,5,9-12 (default render.frame)");
+    farmPlan->add_option("-o,--output", farmOptions.output, "EXR output path of each frame (overrides output.file)");
+    farmPlan->add_option("--tiles", farmOptions.options.tiles, "Tiles per frame (--tile I/N), merged by a merge task")
+        ->check(CLI::Range(1, 1 << 20));
+    farmPlan
+        ->add_option("--sample-splits", farmOptions.options.sampleSplits,
+                     "pathtrace: sample splits per tile (--samples A-B of render.spp), merged by a merge task")
+        ->check(CLI::Range(1, 1 << 20));
+    farmPlan->add_option("--checkpoint", farmOptions.options.checkpointSeconds,
+                         "pathtrace: the tasks' checkpoint interval in seconds (default 60)")
+        ->check(CLI::Range(1e-3, 1e9));
+    farmPlan->add_option("--retries", farmOptions.options.retries, "How often a failed task may be rerun (default 2)")
+        ->check(CLI::Range(0, 1000));
+    farmPlan->add_option("--nimbus", farmOptions.nimbus, "The nimbus binary the tasks run (default this one)");
+
     CLI::App* devices = app.add_subcommand("devices", "List the OpenCL devices the path tracer can use");
 
     CLI::App* info = app.add_subcommand("info", "Print the scene summary and the render plan");
@@ -386,7 +559,16 @@ int main(int argc, char** argv)
             outputArgs.previewSet = previewOption->count() > 0;
             seqArgs.frameSet = frameOption->count() > 0;
             seqArgs.framesSet = framesOption->count() > 0;
-            return runRender(renderArgs, outputArgs, explain, quiet, ptArgs, seqArgs);
+            return runRender(renderArgs, outputArgs, explain, quiet, ptArgs, seqArgs, splitArgs);
+        }
+        if (*farmPlan)
+            return runFarmPlan(farmArgs, farmOptions);
+        if (*merge) {
+            const MergeSummary m = mergeParts(mergeOutput, partFiles);
+            if (!quiet)
+                std::fprintf(stderr, "nimbus: merged %d part(s) (%d tile(s), %d per tile; %lld spp) into %s\n", m.parts,
+                             m.tiles, m.splitsPerTile, m.spp, mergeOutput.c_str());
+            return kOk;
         }
         if (*devices) {
             std::vector<std::string> list = listOpenClDevices();

@@ -12,6 +12,7 @@
 #include "../scene/SceneJson.h"
 #include "../scene/SceneValidate.h"
 
+#include "../core/Error.h"
 #include "../core/Log.h"
 
 #include <nlohmann/json.hpp>
@@ -152,6 +153,22 @@ void addFrameMetadata(Film& film, const Scene& scene, double seconds, bool compl
     film.set("worldToNDC", worldToNdcMatrix(scene.camera));
 }
 
+void applyTile(Film& film, int index, int count)
+{
+    if (count == 0 && index == 0)
+        return;
+    if (count < 1 || index < 1 || index > count)
+        throw InputError("--tile " + std::to_string(index) + "/" + std::to_string(count) +
+                         ": want I/N with 1 <= I <= N");
+    const long long h = film.y1 - film.y0;
+    if (count > h)
+        throw InputError("--tile " + std::to_string(index) + "/" + std::to_string(count) + ": the data window has " +
+                         std::to_string(h) + " rows, fewer than " + std::to_string(count) + " tiles");
+    const int y0 = film.y0;
+    film.y0 = y0 + int((index - 1) * h / count);
+    film.y1 = y0 + int(index * h / count);
+}
+
 std::vector<std::string> aovNames(const Scene& scene, Method method)
 {
     return aovNames(scene, integratorEntry(method).traits);
@@ -179,6 +196,9 @@ RenderResult render(const Scene& input, const RenderOptions& callerOptions)
         options.pathtrace.onCheckpoint = [&](const Film& running) {
             Film checkpoint = running;
             addFrameMetadata(checkpoint, scene, secondsSince(start), false);
+            if (callerOptions.tileCount > 0)
+                checkpoint.set("tile", std::to_string(callerOptions.tileIndex) + "/" +
+                                           std::to_string(callerOptions.tileCount));
             callerOptions.pathtrace.onCheckpoint(checkpoint);
         };
     std::unique_ptr<tbb::global_control> threads;
@@ -188,6 +208,7 @@ RenderResult render(const Scene& input, const RenderOptions& callerOptions)
     const IntegratorEntry& entry = integratorEntry(scene.render.method);
     RenderResult result;
     setupFilm(result.film, scene, entry.traits, options.outputAovsOnly);
+    applyTile(result.film, options.tileIndex, options.tileCount);
 
     Planned planned = planPass(scene, entry, result.stats, options.volumeCache);
     const RenderPlan& plan = planned.plan;
@@ -222,6 +243,8 @@ RenderResult render(const Scene& input, const RenderOptions& callerOptions)
 
     result.seconds = secondsSince(start);
     addFrameMetadata(result.film, scene, result.seconds, true);
+    if (options.tileCount > 0)
+        result.film.set("tile", std::to_string(options.tileIndex) + "/" + std::to_string(options.tileCount));
     return result;
 }
 

@@ -27,6 +27,12 @@ struct RenderOptions : RenderControl {
     // The film holds the beauty and the AOVs scene.output.aovs names, not every AOV of the
     // method (callers that write only those: the CLI). Off, a frame has them all.
     bool outputAovsOnly = false;
+    // Render one tile of the frame (docs/farm.md): tile tileIndex (1-based) of tileCount horizontal
+    // bands of the data window, rows [y0 + (i - 1) H / N, y0 + i H / N) (integer division, H its
+    // height); the film keeps the full frame's size with the band as its data window, and its
+    // header says "tile" = "I/N". Every pixel draws the same samples as in the whole frame, so the
+    // tiles put together are the frame bit for bit. 0: the whole data window.
+    int tileIndex = 0, tileCount = 0;
     // Method "pathtrace" only: device, checkpoints, statistics.
     PathtraceOptions pathtrace;
     // A sequence's memory between frames (docs/sequences.md): volumes whose inputs did not change
@@ -54,6 +60,10 @@ RenderResult render(const Scene& scene, const RenderOptions& options = {});
 // it is `complete` (false: a checkpoint) and the camera as OpenEXR's worldToCamera and
 // worldToNDC. render() adds it to its film and to every checkpoint's.
 void addFrameMetadata(Film& film, const Scene& scene, double seconds, bool complete);
+
+// Narrows the film's data window to tile `index` (1-based) of `count` (RenderOptions::tileIndex).
+// Throws InputError naming --tile when the tile is out of range or has no rows.
+void applyTile(Film& film, int index, int count);
 
 // The plan alone (the planning pass: loads the volumes, builds no shadow map): `nimbus info`.
 RenderPlan planRender(const Scene& scene);

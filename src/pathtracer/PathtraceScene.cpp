@@ -9,7 +9,7 @@ namespace nimbus {
 
 static_assert(sizeof(NbGridDesc) == 48, "NbGridDesc layout is shared with OpenCL");
 static_assert(sizeof(NbVolumeDesc) == 224, "NbVolumeDesc layout is shared with OpenCL");
-static_assert(sizeof(NbPtParams) == 224, "NbPtParams layout is shared with OpenCL");
+static_assert(sizeof(NbPtParams) == 228, "NbPtParams layout is shared with OpenCL");
 static_assert(sizeof(NbLight) == 96, "NbLight layout is shared with OpenCL");
 
 namespace {

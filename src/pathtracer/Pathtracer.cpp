@@ -9,6 +9,7 @@
 #include "LaunchSize.h"
 #include "OpenCl.h"
 #include "PathtraceScene.h"
+#include "PathtraceState.h"
 
 #include <algorithm>
 #include <chrono>
@@ -40,55 +41,6 @@ constexpr int kSafetyMaxDepth = 1000000;
 // The noise target is not trusted before this many samples per pixel: the variance of a
 // heavy-tailed estimator is underestimated from few samples.
 constexpr long long kMinNoiseTargetSpp = 64;
-
-// Copies the running estimate into the film's AOVs.
-void resolve(const std::vector<float>& acc, int stride, long long n, const PathtraceScene& ps, const RenderContext& ctx,
-             Film& film)
-{
-    Aov* beauty = film.find("beauty");
-    Aov* L[3] = {film.find("L0"), film.find("L1"), film.find("L2plus")};
-    Aov* alpha = film.find("alpha");
-    Aov* depth = film.find("depth");
-    Aov* variance = film.find("variance");
-    std::vector<Aov*> lightAov;
-    for (int entry : ps.lightEntry)
-        lightAov.push_back(film.find(ctx.lights[size_t(entry)].aov));
-    const int cropWidth = film.x1 - film.x0;
-    const double varianceScale = n > 1 ? 1.0 / (double(n) * double(n - 1)) : 0.0;
-    for (int y = film.y0; y < film.y1; ++y)
-        for (int x = film.x0; x < film.x1; ++x) {
-            const float* a = acc.data() + (size_t(y - film.y0) * cropWidth + (x - film.x0)) * stride;
-            float b[3] = {0, 0, 0};
-            for (int k = 0; k < 3; ++k) {
-                for (int c = 0; c < 3; ++c)
-                    b[c] += a[3 * k + c];
-                if (L[k]) {
-                    float* p = film.pixel(*L[k], x, y);
-                    p[0] = a[3 * k], p[1] = a[3 * k + 1], p[2] = a[3 * k + 2];
-                }
-            }
-            const float al = 1.0f - a[NB_ACC_TRANSMITTANCE];
-            if (beauty) {
-                float* p = film.pixel(*beauty, x, y);
-                p[0] = b[0], p[1] = b[1], p[2] = b[2];
-                if (beauty->channels == 4)
-                    p[3] = al;
-            }
-            if (alpha)
-                *film.pixel(*alpha, x, y) = al;
-            if (depth)
-                *film.pixel(*depth, x, y) =
-                    a[NB_ACC_DEPTH_HITS] > 0 ? a[NB_ACC_DEPTH_SUM] / a[NB_ACC_DEPTH_HITS] : 0.0f;
-            if (variance)
-                *film.pixel(*variance, x, y) = float(double(a[NB_ACC_M2_Y]) * varianceScale);
-            for (size_t i = 0; i < lightAov.size(); ++i)
-                if (lightAov[i]) {
-                    float* p = film.pixel(*lightAov[i], x, y);
-                    const float* q = a + NB_ACC_LIGHTS + 3 * i;
-                    p[0] = q[0], p[1] = q[1], p[2] = q[2];
-                }
-        }
-}
 
 // The beauty's relMSE from its own noise: the mean over pixels of var / (y^2 + eps), y the
 // channel average of the running mean and var the variance of that mean (M2 / (n (n - 1))),
@@ -176,6 +128,28 @@ void renderPathtrace(const RenderContext& ctx, Film& film, const RenderControl& 
 
     const PathtraceScene ps = buildPathtraceScene(ctx);
     const int stride = NB_ACC_STRIDE(int(ps.lights.size()));
+    // The accumulator's light slots are the kernel's lights, by their AOV names.
+    std::vector<std::string> lightAovs;
+    for (int entry : ps.lightEntry)
+        lightAovs.push_back(ctx.lights[size_t(entry)].aov);
+    if (pt.keepState)
+        addStateAovs(film, lightAovs);
+    const bool split = pt.sampleEnd > 0;
+    if (split && (pt.sampleBegin < 0 || pt.sampleEnd <= pt.sampleBegin || pt.sampleEnd > 0x7fffffffLL))
+        throw Error("path tracer: sample range [" + std::to_string(pt.sampleBegin) + ", " +
+                    std::to_string(pt.sampleEnd) + ") is empty or beyond 2^31 - 1");
+    const long long first = split ? pt.sampleBegin : 0;  // the sample index the running means start at
+    std::vector<float> resumed;
+    if (pt.resumeFrom) {
+        const Film& from = *pt.resumeFrom;
+        if (from.x0 != film.x0 || from.x1 != film.x1 || from.y0 != film.y0 || from.y1 != film.y1 ||
+            from.width != film.width || from.height != film.height)
+            throw Error("path tracer: the checkpoint's data window differs from the render's");
+        if (!readState(from, lightAovs, resumed))
+            throw Error("path tracer: the checkpoint lacks the running estimate (state AOVs) of this scene's lights");
+        if (pt.resumeSamples < 0)
+            throw Error("path tracer: the checkpoint's sample count is negative");
+    }
 
     const ocl::DeviceInfo device = ocl::selectDevice(pt.device);
     ocl::Context cl(device);
@@ -202,6 +176,7 @@ void renderPathtrace(const RenderContext& ctx, Film& film, const RenderControl& 
     params.rrDepth = kRussianRouletteDepth;
     params.filterType = nbFilterType(scene.render.pixelFilter);
     params.filterWidth = scene.render.filterWidth;
+    params.accStart = nb_uint(first);
     params.lightCount = int(ps.lights.size());
     params.volumeCount = int(ps.volumes.size());
     params.geom = ps.geometry.scene;
@@ -217,6 +192,8 @@ void renderPathtrace(const RenderContext& ctx, Film& film, const RenderControl& 
     ocl::Mem poolBuf = cl.upload(ps.pools);
     ocl::Mem majorantBuf = cl.upload(ps.majorants);
     ocl::Mem accBuf = cl.allocate(size_t(pixelCount) * stride * sizeof(float));
+    if (!resumed.empty())
+        cl.write(accBuf, resumed.data(), resumed.size() * sizeof(float));
     ocl::Mem counterBuf = cl.allocate(NB_COUNTER_COUNT * sizeof(cl_int));
     // Geometry and depth map: one placeholder element where the scene has none (OpenCL has no
     // empty buffers); the kernel compiled without them never reads it.
@@ -240,8 +217,11 @@ void renderPathtrace(const RenderContext& ctx, Film& film, const RenderControl& 
     // Stopping rules: spp samples if set; else the noise target; and the time limit either way.
     // An unvalidated scene with none of them renders one sample.
     const double timeLimit = scene.render.timeLimit;
-    const double noiseTarget = scene.render.spp > 0 ? 0.0 : scene.render.noiseTarget;
-    const long long sppTarget = scene.render.spp > 0 ? scene.render.spp : (timeLimit > 0 || noiseTarget > 0 ? 0 : 1);
+    // A sample split renders its range: its length is the target, and the noise target is off.
+    const double noiseTarget = split || scene.render.spp > 0 ? 0.0 : scene.render.noiseTarget;
+    const long long sppTarget = split ? pt.sampleEnd - pt.sampleBegin
+                                      : scene.render.spp > 0 ? scene.render.spp
+                                                             : (timeLimit > 0 || noiseTarget > 0 ? 0 : 1);
     std::vector<float> acc;
     auto readAccumulator = [&] {
         acc.resize(size_t(pixelCount) * stride);
@@ -249,24 +229,25 @@ void renderPathtrace(const RenderContext& ctx, Film& film, const RenderControl& 
     };
     auto readBack = [&](long long n) {
         readAccumulator();
-        resolve(acc, stride, n, ps, ctx, film);
+        resolveState(acc, n, lightAovs, film);
     };
     double noise = INFINITY;
 
     const auto start = Clock::now();
     auto lastCheckpoint = start;
-    long long done = 0;
+    long long done = pt.resumeFrom ? pt.resumeSamples : 0;  // samples in the running means
+    const double startSeconds = pt.resumeFrom ? std::max(0.0, pt.resumeSeconds) : 0.0;
     int passes = 0;
     int perPass = pt.samplesPerPass > 0 ? pt.samplesPerPass : 1;
     for (;;) {
         if (sppTarget > 0 && done >= sppTarget)
             break;
-        if (done >= 0xffffffffLL)
+        if (first + done >= 0xffffffffLL)
             break;  // the RNG's sample index is 32 bits
         int n = perPass;
         if (sppTarget > 0)
             n = int(std::min<long long>(n, sppTarget - done));
-        params.sampleStart = nb_uint(done);
+        params.sampleStart = nb_uint(first + done);
         params.samples = n;
         cl.write(paramBuf, &params, sizeof params);
         const auto passStart = Clock::now();
@@ -277,7 +258,7 @@ void renderPathtrace(const RenderContext& ctx, Film& film, const RenderControl& 
         const auto now = Clock::now();
         done += n;
         ++passes;
-        const double elapsed = secondsBetween(start, now);
+        const double elapsed = startSeconds + secondsBetween(start, now);
         if (pt.samplesPerPass <= 0) {
             const double passSeconds = std::max(1e-4, secondsBetween(passStart, now));
             const double ideal = n * kTargetPassSeconds / passSeconds;
@@ -306,6 +287,8 @@ void renderPathtrace(const RenderContext& ctx, Film& film, const RenderControl& 
             secondsBetween(lastCheckpoint, now) >= pt.checkpointSeconds && !(sppTarget > 0 && done >= sppTarget)) {
             readBack(done);
             film.set("pathtrace_spp", std::to_string(done));
+            if (split)
+                film.set("sample_start", int(first));
             pt.onCheckpoint(film);
             lastCheckpoint = Clock::now();
         }
@@ -324,6 +307,8 @@ void renderPathtrace(const RenderContext& ctx, Film& film, const RenderControl& 
 
     film.set("pathtrace_spp", std::to_string(done));
     film.set("pathtrace_device", device.name);
+    if (split)
+        film.set("sample_start", int(first));
     if (pt.stats) {
         PathtraceStats& s = *pt.stats;
         s.samplesPerPixel = done;

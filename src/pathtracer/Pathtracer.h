@@ -45,6 +45,20 @@ struct PathtraceOptions {
     // checkpointSeconds (after the launch that crosses the interval). The CLI writes its EXR.
     double checkpointSeconds = 0;
     std::function<void(const Film&)> onCheckpoint;
+    // A sample split (docs/farm.md): sampleEnd > 0 renders the sample indices [sampleBegin,
+    // sampleEnd) of the seed's sequence per pixel instead of scene.render.spp (the time limit still
+    // applies, the noise target not), its running means counting from sampleBegin; the film gets
+    // "sample_start". Splits of one seed merge into exactly the samples of one longer render.
+    long long sampleBegin = 0, sampleEnd = 0;
+    // Keep the running estimate in the film as its state AOVs (PathtraceState.h): what a
+    // checkpoint needs to resume and a sample split to merge.
+    bool keepState = false;
+    // Resume (docs/farm.md): a checkpoint's film, with its state AOVs over the same data window;
+    // the render continues after its resumeSamples samples (sample index sampleBegin +
+    // resumeSamples) and counts resumeSeconds towards the time limit. Checked: Error otherwise.
+    const Film* resumeFrom = nullptr;
+    long long resumeSamples = 0;
+    double resumeSeconds = 0;
     size_t localSize = 0;               // OpenCL work-group size; 0: chosen from the device (LaunchSize.h)
     bool runtimeWorkGroupSize = false;  // benchmarks: a null local size, the runtime's choice
     int samplesPerPass = 0;             // samples per pixel per launch; 0: adaptive, ~0.5 s launches

@@ -1,5 +1,8 @@
 #include "FrameTokens.h"
 
+#include "../core/Error.h"
+#include "../core/Log.h"
+
 #include <algorithm>
 #include <cctype>
 
@@ -100,6 +103,7 @@ Scene sceneAtFrame(const Scene& scene, int frame)
 {
     Scene s = scene;
     s.render.frame = frame;
+    evaluateAnimation(s);
     forEachPath(s, [frame](std::string& path) { path = expandFrameTokens(path, frame); });
     return s;
 }
@@ -109,6 +113,72 @@ bool sceneHasFrameTokens(const Scene& scene)
     bool any = false;
     forEachPath(scene, [&any](const std::string& path) { any = any || hasFrameTokens(path); });
     return any;
+}
+
+namespace {
+
+bool sameValue(float a, float b) { return a == b; }
+bool sameValue(float3 a, float3 b) { return a.x == b.x && a.y == b.y && a.z == b.z; }
+bool sameValue(const Transform& a, const Transform& b) { return a.rowMajor() == b.rowMajor(); }
+
+}  // namespace
+
+void evaluateAnimation(Scene& s)
+{
+    const double frame = double(s.render.frame);
+    Camera& c = s.camera;
+    const double open = frame + double(c.shutterOpen), close = frame + double(c.shutterClose);
+    const double centre = 0.5 * (open + close);
+    const bool shutterOpen = c.shutterClose > c.shutterOpen;
+    std::vector<std::string> moving;  // animated during the shutter but not blurred
+    auto at = [&](auto& value, auto& keys, double time, const std::string& what) {
+        if (!keys.animated())
+            return;
+        value = evaluateKeys(keys, time);
+        if (shutterOpen && !what.empty() &&
+            !sameValue(evaluateKeys(keys, open), evaluateKeys(keys, close)))
+            moving.push_back(what);
+        keys = {};
+    };
+    const bool poseAnimated = c.fromKeys.animated() || c.toKeys.animated() || c.upKeys.animated();
+    if (poseAnimated) {
+        if (c.hasMotion)
+            throw InputError("camera: both animation keys and a motion pose; give one");
+        if (shutterOpen) {
+            c.hasMotion = true;
+            c.fromClose = c.fromKeys.animated() ? evaluateKeys(c.fromKeys, close) : c.from;
+            c.toClose = c.toKeys.animated() ? evaluateKeys(c.toKeys, close) : c.to;
+            c.upClose = c.upKeys.animated() ? evaluateKeys(c.upKeys, close) : c.up;
+        }
+        at(c.from, c.fromKeys, open, "");
+        at(c.to, c.toKeys, open, "");
+        at(c.up, c.upKeys, open, "");
+        if (!shutterOpen)
+            c.fromClose = c.from, c.toClose = c.to, c.upClose = c.up;
+    }
+    at(c.fov, c.fovKeys, centre, "camera.fov");
+    for (size_t i = 0; i < s.lights.size(); ++i) {
+        Light& l = s.lights[i];
+        const std::string where = "lights[" + std::to_string(i) + "]";
+        at(l.direction, l.directionKeys, centre, where + ".direction");
+        at(l.position, l.positionKeys, centre, where + ".position");
+        at(l.center, l.centerKeys, centre, where + ".center");
+        at(l.normal, l.normalKeys, centre, where + ".normal");
+        at(l.up, l.upKeys, centre, where + ".up");
+    }
+    for (size_t i = 0; i < s.volumes.size(); ++i)
+        at(s.volumes[i].transform, s.volumes[i].transformKeys, centre, "volumes[" + std::to_string(i) + "].transform");
+    for (size_t i = 0; i < s.geometry.size(); ++i)
+        at(s.geometry[i].transform, s.geometry[i].transformKeys, centre,
+           "geometry[" + std::to_string(i) + "].transform");
+    if (!moving.empty()) {
+        std::string list;
+        for (const std::string& m : moving)
+            list += (list.empty() ? "" : ", ") + m;
+        logWarning("frame " + std::to_string(s.render.frame) + ": " + list +
+                   " move during the shutter but only the camera is motion-blurred; they are placed at the "
+                   "shutter's centre");
+    }
 }
 
 }  // namespace nimbus

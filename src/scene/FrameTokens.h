@@ -30,7 +30,8 @@ std::string expandFrameTokens(const std::string& path, long long frame);
 // Whether the path holds a frame token.
 bool hasFrameTokens(const std::string& path);
 
-// The scene of one frame: render.frame set to `frame` and the tokens of every path replaced:
+// The scene of one frame: render.frame set to `frame`, its animation keys evaluated at the frame
+// (evaluateAnimation below), and the tokens of every path replaced:
 // each volume's source file and shader, each mesh file, the camera's holdout depth file, the
 // output file and preview. Plugin libraries and their parameters are the plugin's own and are
 // left as written.
@@ -38,5 +39,12 @@ Scene sceneAtFrame(const Scene& scene, int frame);
 
 // Whether any path sceneAtFrame replaces holds a frame token.
 bool sceneHasFrameTokens(const Scene& scene);
+
+// Evaluates the scene's animation keys (Animation.h) at render.frame and clears them, leaving
+// the frame's static scene. The camera's from, to, up are read at frame + shutter open and, with
+// an open shutter, at frame + shutter close as its motion-blur pose; fov, lights, volume and
+// geometry transforms at the shutter's centre (they are not blurred within the shutter: one
+// warning where they move during it). Throws InputError if a camera has both keys and motion.
+void evaluateAnimation(Scene& scene);
 
 }  // namespace nimbus

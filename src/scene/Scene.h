@@ -10,6 +10,7 @@
 #include "../../kernels/shared/phase.h"
 #include "../core/Transform.h"
 #include "../core/Vec.h"
+#include "Animation.h"
 
 #include <map>
 #include <string>
@@ -39,6 +40,10 @@ struct Camera {
     bool hasMotion = false;
     float3 fromClose = make_float3(0, 0, 5), toClose = make_float3(0, 0, 0), upClose = make_float3(0, 1, 0);
     HoldoutDepthFile holdoutDepth;
+    // Animation (Animation.h): key lists in place of from, to, up, fov; the values above then
+    // hold the first key's until sceneAtFrame evaluates them at the frame (and the shutter).
+    Keys<float3> fromKeys, toKeys, upKeys;
+    Keys<float> fovKeys;
 };
 
 enum class LightType { Distant, Point, Spot, Rect, Sphere, Environment };
@@ -65,6 +70,8 @@ struct Light {
     // rect, sphere, environment
     Rgb radiance = splat(1.0f);  // W/(m^2 sr)
     float radius = 0.5f;         // sphere
+    // Animation (Animation.h) of the placement keys: direction, position, center, normal, up.
+    Keys<float3> directionKeys, positionKeys, centerKeys, normalKeys, upKeys;
 };
 
 struct Medium {
@@ -94,6 +101,7 @@ struct Volume {
     std::string name;
     VolumeSource source;
     Transform transform;  // worldFromVolume, applied after the grid's own index-to-world
+    Keys<Transform> transformKeys;  // animated transform (Animation.h); empty: static
     Medium medium;
     std::string shader;  // file in shaders/ or a path; empty: the default shader
 };
@@ -114,6 +122,7 @@ struct Geometry {
     float size[2] = {1, 1};
     bool bounded = false;
     Transform transform;   // worldFromObject
+    Keys<Transform> transformKeys;  // animated transform (Animation.h); empty: static
     bool holdout = true;   // camera rays stop at it; it renders black with alpha 0
     bool shadows = true;   // it blocks light (shadow maps, light volumes, light samples)
 };

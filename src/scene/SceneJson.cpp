@@ -19,7 +19,9 @@
 #include <cstdint>
 #include <cstdio>
 #include <cstdlib>
+#include <algorithm>
 #include <cstring>
+#include <type_traits>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
@@ -74,15 +76,81 @@ public:
     static json array(float3 v) { return {shortestDecimal(v.x), shortestDecimal(v.y), shortestDecimal(v.z)}; }
     nlohmann::json& doc() { return mJson; }
 
+    // The value, or its key list where it is animated (Animation.h).
+    template <class T>
+    void animated(const std::string& key, const T& value, const Keys<T>& keys)
+    {
+        if (!keys.animated()) {
+            if constexpr (std::is_same_v<T, Transform>)
+                mJson[key] = value.rowMajor();
+            else
+                field(key, value);
+            return;
+        }
+        json list = json::array();
+        for (size_t i = 0; i < keys.frames.size(); ++i) {
+            json v;
+            if constexpr (std::is_same_v<T, Transform>)
+                v = keys.values[i].rowMajor();
+            else if constexpr (std::is_same_v<T, float3>)
+                v = array(keys.values[i]);
+            else
+                v = shortestDecimal(keys.values[i]);
+            list.push_back({{"frame", keys.frames[i]}, {"value", v}});
+        }
+        mJson[key] = list;
+    }
+
 private:
     nlohmann::json mJson = nlohmann::json::object();
 };
+
+Transform readTransform(const JsonValue& v);
+
+// A key list (Animation.h): a non-empty array whose first element is an object. Values are
+// arrays of numbers or objects of another shape, so the first element tells them apart.
+bool isKeyList(const json& v)
+{
+    return v.is_array() && !v.empty() && v.front().is_object();
+}
 
 // The reader side, with the Scene's enums.
 class SceneReader : public JsonReader {
 public:
     using JsonReader::field;
     using JsonReader::JsonReader;
+
+    // key: a value, or a key list [{"frame": f, "value": v}, ...] (Animation.h). A key list
+    // fills keys (sorted, frames distinct) and sets value to the first key's.
+    void animated(const std::string& key, float3& value, Keys<float3>& keys)
+    {
+        animatedWith(key, value, keys, [](SceneReader& k) {
+            float3 v = k.get("value").vec3();
+            k.field("value", v);
+            return v;
+        });
+    }
+    void animated(const std::string& key, float& value, Keys<float>& keys)
+    {
+        animatedWith(key, value, keys, [](SceneReader& k) {
+            (void)k.get("value");
+            float v = 0.0f;
+            k.field("value", v);
+            return v;
+        });
+    }
+    void animated(const std::string& key, Transform& value, Keys<Transform>& keys)
+    {
+        animatedWith(key, value, keys, [](SceneReader& k) {
+            const Transform t = readTransform(k.get("value"));
+            try {
+                (void)splitTrs(t);  // interpolable: translate x rotate x scale
+            } catch (const std::invalid_argument& e) {
+                k.fail("value", e.what());
+            }
+            return t;
+        });
+    }
 
     void field(const std::string& key, Method& out)
     {
@@ -116,6 +184,42 @@ public:
     }
 
 private:
+    template <class T, class ReadValue>
+    void animatedWith(const std::string& key, T& value, Keys<T>& keys, ReadValue readValue)
+    {
+        const json* v = find(key);
+        if (!v)
+            return;
+        if (!isKeyList(*v)) {
+            if constexpr (std::is_same_v<T, Transform>)
+                value = readTransform(JsonValue{*v, keyPath(key), file()});
+            else
+                field(key, value);
+            return;
+        }
+        std::vector<std::pair<double, T>> list;
+        for (size_t i = 0; i < v->size(); ++i) {
+            const std::string path = keyPath(key) + "[" + std::to_string(i) + "]";
+            if (!(*v)[i].is_object())
+                JsonValue{(*v)[i], path, file()}.typeError("a key {\"frame\": number, \"value\": ...}");
+            SceneReader k((*v)[i], path, file());
+            const double frame = k.get("frame").number();
+            T item = readValue(k);
+            k.finish(" in an animation key (frame, value)");
+            for (const auto& [f, unused] : list)
+                if (f == frame)
+                    JsonValue{(*v)[i], path, file()}.fail("a second key at frame " + nlohmann::json(frame).dump());
+            list.emplace_back(frame, item);
+        }
+        std::stable_sort(list.begin(), list.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
+        keys = Keys<T>{};
+        for (auto& [f, item] : list) {
+            keys.frames.push_back(f);
+            keys.values.push_back(item);
+        }
+        value = keys.values.front();
+    }
+
     template <class E>
     void named(const std::string& key, E& out, std::initializer_list<E> values, const char* (*name)(E),
                const char* what)
@@ -208,10 +312,10 @@ void visitOutput(V& v, O& o)
 template <class V, class C>
 void visitCamera(V& v, C& c)
 {
-    v.field("from", c.from);
-    v.field("to", c.to);
-    v.field("up", c.up);
-    v.field("fov", c.fov);
+    v.animated("from", c.from, c.fromKeys);
+    v.animated("to", c.to, c.toKeys);
+    v.animated("up", c.up, c.upKeys);
+    v.animated("fov", c.fov, c.fovKeys);
     v.field("crop", c.crop);
 }
 
@@ -232,6 +336,9 @@ Camera readCamera(SceneReader r, const std::string& sourcePath)
     if (const json* v = r.find("motion")) {
         // The pose at shutter close; what it leaves out stays as at shutter open.
         SceneReader m(*v, r.keyPath("motion"), r.file());
+        if (c.fromKeys.animated() || c.toKeys.animated() || c.upKeys.animated())
+            r.fail("motion", "give the camera's motion either as animation keys of from, to, up or as this pose at "
+                       "shutter close, not both");
         c.hasMotion = true;
         c.fromClose = c.from, c.toClose = c.to, c.upClose = c.up;
         m.field("from", c.fromClose);
@@ -283,30 +390,30 @@ void visitLight(V& v, L& l)
 {
     switch (l.type) {
     case LightType::Distant:
-        v.field("direction", l.direction);
+        v.animated("direction", l.direction, l.directionKeys);
         v.rgb("irradiance", l.irradiance);
         v.field("angle", l.angle);
         break;
     case LightType::Point:
-        v.field("position", l.position);
+        v.animated("position", l.position, l.positionKeys);
         v.rgb("intensity", l.intensity);
         break;
     case LightType::Spot:
-        v.field("position", l.position);
-        v.field("direction", l.direction);
+        v.animated("position", l.position, l.positionKeys);
+        v.animated("direction", l.direction, l.directionKeys);
         v.rgb("intensity", l.intensity);
         v.field("cone_angle", l.coneAngle);
         v.field("cone_softness", l.coneSoftness);
         break;
     case LightType::Rect:
-        v.field("center", l.center);
-        v.field("normal", l.normal);
-        v.field("up", l.up);
+        v.animated("center", l.center, l.centerKeys);
+        v.animated("normal", l.normal, l.normalKeys);
+        v.animated("up", l.up, l.upKeys);
         v.field("size", l.size);
         v.rgb("radiance", l.radiance);
         break;
     case LightType::Sphere:
-        v.field("position", l.position);
+        v.animated("position", l.position, l.positionKeys);
         v.field("radius", l.radius);
         v.rgb("radiance", l.radiance);
         break;
@@ -513,8 +620,7 @@ Volume readVolume(SceneReader r, size_t index, const std::string& sourcePath)
     v.name = "volume" + std::to_string(index);
     r.field("name", v.name);
     v.source = readSource(SceneReader(r.get("source").value, r.keyPath("source"), r.file()), sourcePath);
-    if (const json* t = r.find("transform"))
-        v.transform = readTransform(JsonValue{*t, r.keyPath("transform"), r.file()});
+    r.animated("transform", v.transform, v.transformKeys);
     if (const json* m = r.find("medium"))
         v.medium = readMedium(SceneReader(*m, r.keyPath("medium"), r.file()));
     r.field("shader", v.shader);
@@ -528,7 +634,9 @@ json writeVolume(const Volume& v)
     visitMedium(medium, v.medium);
     medium.doc()["phase"] = writePhase(v.medium.phase);
     json j = {{"name", v.name}, {"source", writeSource(v.source)}, {"medium", medium.doc()}};
-    j["transform"] = v.transform.rowMajor();
+    JsonWriter placement;
+    placement.animated("transform", v.transform, v.transformKeys);
+    j["transform"] = placement.doc()["transform"];
     if (!v.shader.empty())
         j["shader"] = v.shader;
     return j;
@@ -560,8 +668,7 @@ Geometry readGeometry(SceneReader r, size_t index, const std::string& sourcePath
         r.field("size", g.size);
         break;
     }
-    if (const json* t = r.find("transform"))
-        g.transform = readTransform(JsonValue{*t, r.keyPath("transform"), r.file()});
+    r.animated("transform", g.transform, g.transformKeys);
     r.field("holdout", g.holdout);
     r.field("shadows", g.shadows);
     r.finish(" for a " + type);
@@ -581,7 +688,7 @@ json writeGeometry(const Geometry& g)
             w.field("size", g.size);
         break;
     }
-    w.doc()["transform"] = g.transform.rowMajor();
+    w.animated("transform", g.transform, g.transformKeys);
     w.field("holdout", g.holdout);
     w.field("shadows", g.shadows);
     return w.doc();

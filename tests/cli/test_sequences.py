@@ -212,6 +212,73 @@ class Sequences(unittest.TestCase):
         self.assertEqual(code, 0, err)
         self.assertEqual(self.outputs(), ["b.exr"])
 
+    # ---- animation keys (issue 16, item 2; docs/scene-format.md "Animation") ----
+
+    def animated_shot(self, output):
+        s = scene({"type": "procedural", "generator": "cloud", "radius": 1.0, "voxel_size": 0.08}, output)
+        s["camera"]["from"] = [{"frame": 1, "value": [0, 0, 6]}, {"frame": 5, "value": [4, 1, 6]}]
+        s["lights"][0]["direction"] = [{"frame": 1, "value": [0.3, -1, -0.2]}, {"frame": 5, "value": [-0.5, -1, 0.1]}]
+        s["volumes"][0]["transform"] = [{"frame": 1, "value": {"translate": [0, 0, 0]}},
+                                        {"frame": 5, "value": {"rotate": [60, 0, 1, 0], "translate": [0.4, 0, 0]}}]
+        return s
+
+    def test_animated_frames_equal_the_static_scenes_of_their_values(self):
+        s = self.animated_shot(self.path("out", "anim.$F.exr"))
+        shot = self.scene_file(s)
+        code, _, err = run("render", shot, "--frames", "1-3", "-q")
+        self.assertEqual(code, 0, err)
+        # Frame 3 is halfway: the same scene written with the halfway values renders the same bits.
+        static = scene({"type": "procedural", "generator": "cloud", "radius": 1.0, "voxel_size": 0.08},
+                       self.path("static", "s.exr"))
+        static["camera"]["from"] = [2, 0.5, 6]
+        static["lights"][0]["direction"] = [-0.1, -1, -0.05]
+        static["volumes"][0]["transform"] = {"rotate": [30, 0, 1, 0], "translate": [0.2, 0, 0]}
+        code, _, err = run("render", self.scene_file(static, "static.json"), "-q")
+        self.assertEqual(code, 0, err)
+        frame3, meta = read_exr(self.path("out", "anim.3.exr"))
+        reference, _ = read_exr(self.path("static", "s.exr"))
+        np.testing.assert_allclose(frame3, reference, rtol=0, atol=1e-6)
+        # The header's scene is the frame's: plain values, no keys.
+        header = json.loads(meta["nimbus:scene"])
+        self.assertEqual(len(header["camera"]["from"]), 3)
+        self.assertTrue(all(isinstance(v, (int, float)) for v in header["camera"]["from"]))
+        # Frames differ (the camera moved), and the moving volume was not taken from the cache.
+        frame1, _ = read_exr(self.path("out", "anim.1.exr"))
+        self.assertGreater(float(np.abs(frame1 - frame3).max()), 1e-3)
+
+    def test_camera_keys_blur_over_the_shutter_as_motion_does(self):
+        s = scene({"type": "procedural", "generator": "cloud", "radius": 1.0, "voxel_size": 0.08},
+                  self.path("out", "keys.exr"))
+        s["camera"]["from"] = [{"frame": 1, "value": [0, 0, 6]}, {"frame": 3, "value": [2, 0, 6]}]
+        s["camera"]["shutter"] = [0, 0.5]
+        s["render"]["frame"] = 2
+        code, _, err = run("render", self.scene_file(s), "-q")
+        self.assertEqual(code, 0, err)
+        m = scene({"type": "procedural", "generator": "cloud", "radius": 1.0, "voxel_size": 0.08},
+                  self.path("out", "motion.exr"))
+        m["camera"]["from"] = [1, 0, 6]
+        m["camera"]["shutter"] = [0, 0.5]
+        m["camera"]["motion"] = {"from": [1.5, 0, 6]}
+        m["render"]["frame"] = 2
+        code, _, err = run("render", self.scene_file(m, "motion.json"), "-q")
+        self.assertEqual(code, 0, err)
+        keys, _ = read_exr(self.path("out", "keys.exr"))
+        motion, _ = read_exr(self.path("out", "motion.exr"))
+        np.testing.assert_allclose(keys, motion, rtol=0, atol=1e-6)
+
+    def test_lights_moving_in_the_shutter_warn_and_bad_keys_are_one_line(self):
+        s = self.animated_shot(self.path("out", "w.exr"))
+        s["camera"]["shutter"] = [0, 0.5]
+        s["render"]["frame"] = 2
+        code, _, err = run("render", self.scene_file(s), "-q")
+        self.assertEqual(code, 0, err)
+        self.assertIn("lights[0].direction", err)
+        self.assertIn("volumes[0].transform", err)
+        self.assertIn("shutter", err)
+        s["camera"]["from"] = [{"frame": 1, "value": [0, 0, 6]}, {"frame": 1, "value": [1, 0, 6]}]
+        self.expect_bad_input(["render", self.scene_file(s, "bad.json")], "bad.json", "camera.from[1]",
+                              "second key at frame 1")
+
 
 if __name__ == "__main__":
     NIMBUS = os.path.abspath(sys.argv.pop(1))
