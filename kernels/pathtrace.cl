@@ -42,13 +42,23 @@
  *    cap far beyond any plausible depth with countDepthCap set, and paths reaching it are counted
  *    (the host warns: each one is energy lost).
  *
+ *  - Scene geometry (docs/geometry.md, geometry.h): opaque, absorbing, unshaded. The camera ray
+ *    ends at the first holdout (or the depth-map holdout's depth): the pixel keeps the volume
+ *    in front and sees no background there. Holdouts affect camera visibility only: path
+ *    segments after a scattering event and shadow rays pass holdout-only surfaces. Shadow
+ *    casters end every path segment after the first scattering event that reaches them (the
+ *    path is absorbed) and block every light sample (an any-hit ray before ratio tracking);
+ *    the camera ray passes a caster that is not a holdout (invisible to the camera).
+ *
  * Specialisation (the host's defines): NB_NUM_VOLUMES, NB_NUM_LIGHTS, NB_HAS_LIGHT_<TYPE>,
- * NB_HAS_EMISSION, NB_TWO_LOBE, NB_CHROMATIC, NB_GLOBAL_MAJORANT. Code for what a scene lacks is
- * not compiled.
+ * NB_HAS_EMISSION, NB_TWO_LOBE, NB_CHROMATIC, NB_GLOBAL_MAJORANT, NB_GEOM_HOLDOUTS,
+ * NB_GEOM_SHADOW_CASTERS, NB_HOLDOUT_DEPTH. Code for what a scene lacks is not compiled.
  */
 #include "shared/brickgrid.h"
 #include "shared/camera.h"
 #include "shared/compat.h"
+#include "shared/geometry.h"
+#include "shared/holdoutdepth.h"
 #include "shared/light.h"
 #include "shared/majorant.h"
 #include "shared/phase.h"
@@ -63,6 +73,15 @@
 #endif
 #ifndef NB_CHROMATIC
 #define NB_CHROMATIC 1
+#endif
+#ifndef NB_GEOM_HOLDOUTS
+#define NB_GEOM_HOLDOUTS 0
+#endif
+#ifndef NB_GEOM_SHADOW_CASTERS
+#define NB_GEOM_SHADOW_CASTERS 0
+#endif
+#ifndef NB_HOLDOUT_DEPTH
+#define NB_HOLDOUT_DEPTH 0
 #endif
 
 /* Uniform in (0, 1]: safe for -log. */
@@ -197,9 +216,11 @@ typedef struct {
 #endif
 } NbPathSample;
 
-NB_FN void nbTracePath(float3 o, float3 d, __global const NbPtParams* P, __global const NbLight* lights,
+/* tCamera: where the camera ray ends at a holdout (INFINITY: nowhere). */
+NB_FN void nbTracePath(float3 o, float3 d, float tCamera, __global const NbPtParams* P, __global const NbLight* lights,
                        __global const NbVolumeDesc* vols, __global const int* tables, __global const float* pools,
-                       __global const float* majorants, __global int* counters, __private NbRng* rng,
+                       __global const float* majorants, __global const NbBvhNode* bvhNodes,
+                       __global const NbGeomPrim* geomPrims, __global int* counters, __private NbRng* rng,
                        __private NbPathSample* out)
 {
     const int volumeCount = P->volumeCount;
@@ -208,9 +229,15 @@ NB_FN void nbTracePath(float3 o, float3 d, __global const NbPtParams* P, __globa
     float rho[NB_NUM_VOLUMES];
 
     for (;;) {
-        /* Free flight from o along d. */
+        /* Free flight from o along d, up to the first surface that ends this segment: a holdout
+         * for the camera ray, a shadow caster after a scattering event. */
+        float tEnd = order == 0 ? tCamera : NB_INF;
+#if NB_GEOM_SHADOW_CASTERS
+        if (order > 0)
+            tEnd = nbGeomTrace(bvhNodes, geomPrims, P->geom, o, d, 0.0f, NB_INF, NB_GEOM_SHADOWS, 0);
+#endif
         NbMajorantIter it;
-        nbMajorantInit(&it, vols, volumeCount, o, d, 0.0f, NB_INF);
+        nbMajorantInit(&it, vols, volumeCount, o, d, 0.0f, tEnd);
         float tau = -log(nbRngOpen(rng));
         float segEnd, mu;
         int scatterVolume = -1;
@@ -271,12 +298,15 @@ NB_FN void nbTracePath(float3 o, float3 d, __global const NbPtParams* P, __globa
 
         if (scatterVolume < 0) {
             if (order == 0) {
-                /* The camera ray left the volumes: E[w] is its transmittance per channel. */
+                /* The camera ray left the volumes, or reached a holdout: E[w] is its
+                 * transmittance per channel up to there. A holdout is black with alpha 0 and
+                 * hides the background: the pixel keeps the volume in front only. */
                 float3 bg = make_float3(P->background[0], P->background[1], P->background[2]);
-                out->L[0] += w * bg;
+                if (!(tEnd < NB_INF))
+                    out->L[0] += w * bg;
                 out->transmittance = nbAverage(w);
             }
-            return;
+            return; /* escaped, or absorbed by a shadow caster */
         }
         if (order >= P->maxDepth)
             return; /* a path with one more event than allowed */
@@ -318,6 +348,12 @@ NB_FN void nbTracePath(float3 o, float3 d, __global const NbPtParams* P, __globa
             }
             if (!(nbMaxComponent(s.weight) > 0.0f) || !(f > 0.0f))
                 continue;
+#if NB_GEOM_SHADOW_CASTERS
+            /* Geometry first: one any-hit ray is cheaper than ratio tracking, and a blocked
+             * sample needs neither. */
+            if (nbGeomTrace(bvhNodes, geomPrims, P->geom, p, s.wi, 0.0f, s.distance, NB_GEOM_SHADOWS, 1) < NB_INF)
+                continue;
+#endif
             float3 T = nbRatioTransmittance(p, s.wi, s.distance, vols, volumeCount, tables, pools, majorants, rng);
             float3 c = w * s.weight * T * f;
             out->L[nb] += c;
@@ -346,7 +382,9 @@ NB_FN void nbTracePath(float3 o, float3 d, __global const NbPtParams* P, __globa
 
 __kernel void nbPathtrace(__global const NbPtParams* P, __global const NbLight* lights,
                           __global const NbVolumeDesc* vols, __global const int* tables, __global const float* pools,
-                          __global const float* majorants, __global float* acc, __global int* counters)
+                          __global const float* majorants, __global float* acc, __global int* counters,
+                          __global const NbBvhNode* bvhNodes, __global const NbGeomPrim* geomPrims,
+                          __global const float* holdoutDepth)
 {
     const int gid = (int)get_global_id(0);
     if (gid >= P->pixelCount)
@@ -364,7 +402,23 @@ __kernel void nbPathtrace(__global const NbPtParams* P, __global const NbLight* 
         float jy = nbFilterSample(P->filterType, P->filterWidth, nbRngNext(&rng));
         float time = nbRngNext(&rng);
         float3 o, d;
-        nbCameraRay(cam, (float)px + 0.5f + jx, (float)py + 0.5f + jy, P->width, P->height, time, &o, &d);
+        const float sx = (float)px + 0.5f + jx, sy = (float)py + 0.5f + jy;
+        nbCameraRay(cam, sx, sy, P->width, P->height, time, &o, &d);
+        /* Holdouts: the camera ray ends at the nearer of the first holdout object and the
+         * depth map's depth (Z along the view axis, so t = Z / cos to it). */
+        float tCamera = NB_INF;
+#if NB_GEOM_HOLDOUTS
+        tCamera = nbGeomTrace(bvhNodes, geomPrims, P->geom, o, d, 0.0f, NB_INF, NB_GEOM_HOLDOUT, 0);
+#endif
+#if NB_HOLDOUT_DEPTH
+        {
+            const float z = nbHoldoutDepthAt(holdoutDepth, P->holdoutDepthWidth, P->holdoutDepthHeight,
+                                             P->holdoutDepthScale[0], P->holdoutDepthScale[1], sx, sy);
+            const float cosAxis = dot(d, nbCameraViewAxis(cam, time));
+            if (z < NB_INF && cosAxis > 0.0f)
+                tCamera = fmin(tCamera, z / cosAxis);
+        }
+#endif
 
         NbPathSample r;
         r.L[0] = r.L[1] = r.L[2] = make_float3(0.0f, 0.0f, 0.0f);
@@ -375,7 +429,7 @@ __kernel void nbPathtrace(__global const NbPtParams* P, __global const NbLight* 
         for (int i = 0; i < NB_NUM_LIGHTS; ++i)
             r.perLight[i] = make_float3(0.0f, 0.0f, 0.0f);
 #endif
-        nbTracePath(o, d, P, lights, vols, tables, pools, majorants, counters, &rng, &r);
+        nbTracePath(o, d, tCamera, P, lights, vols, tables, pools, majorants, bvhNodes, geomPrims, counters, &rng, &r);
 
         /* A non-finite sample (a bug or a float overflow) would poison the pixel for good:
          * count it and drop it. */

@@ -46,4 +46,13 @@ NB_FN void nbCameraRay(NbCamera cam, float x, float y, int width, int height, fl
     *dir = normalize(f + r * sx + u * sy);
 }
 
+/* The view axis at shutter time t: the direction depth maps measure along (holdoutdepth.h). */
+NB_FN float3 nbCameraViewAxis(NbCamera cam, float t)
+{
+    float3 f = nbLoad3(cam.forwardOpen);
+    if (cam.hasMotion > 0.5f)
+        f = normalize(f + (nbLoad3(cam.forwardClose) - f) * t);
+    return f;
+}
+
 #endif

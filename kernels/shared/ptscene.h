@@ -12,6 +12,7 @@
 #include "brickgrid.h"
 #include "camera.h"
 #include "filter.h"
+#include "geometry.h"
 #include "phase.h"
 
 /* 224 bytes. Coefficients in 1/m with the density scale folded in: sigma at a point is
@@ -29,7 +30,7 @@ typedef struct {
     NbGridDesc emission; /* 3 channels: emitted radiance per metre W/(m^3 sr); or absent */
 } NbVolumeDesc;
 
-/* Per-launch parameters, 196 bytes. */
+/* Per-launch parameters, 228 bytes. */
 typedef struct {
     NbCamera camera;
     float background[4]; /* radiance seen by camera rays that leave the volumes (L0) */
@@ -51,6 +52,9 @@ typedef struct {
     nb_uint accStart;  /* the sample index the accumulator's running means start from: 0, or the
                         * first sample of a sample split (--samples A-B: A). Sample s is the
                         * (s - accStart + 1)-th the means have seen. */
+    NbGeomScene geom;  /* the geometry's BVH and planes (geometry.h); all 0 without geometry */
+    int holdoutDepthWidth, holdoutDepthHeight; /* camera.holdout_depth's image (holdoutdepth.h) */
+    float holdoutDepthScale[2];                /* its pixels per camera pixel, x and y */
 } NbPtParams;
 
 /* The kernel's event counters (one int each). */

@@ -19,16 +19,6 @@ constexpr int kTile = 16;
 // The most camera rays a worker marches at once (a multiple of eight: MarchEightRays groups).
 constexpr size_t kBatchRays = 4096;
 
-// The camera's unit view axis at shutter time `time`, as nbCameraRay interpolates it (camera.h):
-// what a depth image's Z is measured along.
-float3 viewAxisAt(const NbCamera& cam, float time)
-{
-    float3 f = nbLoad3(cam.forwardOpen);
-    if (cam.hasMotion > 0.5f)
-        f = normalize(f + (nbLoad3(cam.forwardClose) - f) * time);
-    return f;
-}
-
 }  // namespace
 
 void renderTiles(const RenderContext& ctx, const Integrator& integrator, Film& film, const RenderControl& control)
@@ -217,7 +207,7 @@ void renderTiles(const RenderContext& ctx, const Integrator& integrator, Film& f
                             for (size_t i = 0; i < rays; ++i) {
                                 // Z along the view axis to t along the ray (d unit).
                                 const float z = holdoutDepth->depthAt(sampleX[i], sampleY[i]);
-                                const float cosAxis = dot(directions[i], viewAxisAt(cam, sampleTime[i]));
+                                const float cosAxis = dot(directions[i], nbCameraViewAxis(cam, sampleTime[i]));
                                 if (z < INFINITY && cosAxis > 0.0f)
                                     tFar[i] = std::min(tFar[i], z / cosAxis);
                             }

@@ -1,6 +1,6 @@
 // GeometrySet.h: the scene's geometry (docs/geometry.md) loaded and placed in world space, the one
-// description every tracer of it reads: Embree for the CPU integrators (EmbreeScene.h) and, to
-// come, the path tracer's own BVH (issue 14, item 3), which flattens the same arrays.
+// description every tracer of it reads: Embree for the CPU integrators (EmbreeScene.h) and
+// the path tracer's own BVH (KernelBvh.h), which flattens the same arrays.
 //
 // Representation, per object type:
 // - mesh: its file's triangles, transformed to world space once.

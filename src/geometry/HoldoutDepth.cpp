@@ -3,6 +3,8 @@
 #include "../core/Error.h"
 #include "../core/Log.h"
 
+#include "../../kernels/shared/holdoutdepth.h"
+
 #include <OpenImageIO/imageio.h>
 
 #include <algorithm>
@@ -84,21 +86,7 @@ std::unique_ptr<HoldoutDepth> HoldoutDepth::load(const Scene& scene)
 
 float HoldoutDepth::depthAt(float x, float y) const
 {
-    // Pixel centres of this image at integers.
-    const float fx = x * mScaleX - 0.5f, fy = y * mScaleY - 0.5f;
-    auto at = [&](int ix, int iy) {
-        ix = std::min(std::max(ix, 0), mWidth - 1);
-        iy = std::min(std::max(iy, 0), mHeight - 1);
-        return mDepth[size_t(iy) * size_t(mWidth) + size_t(ix)];
-    };
-    const int x0 = int(std::floor(fx)), y0 = int(std::floor(fy));
-    const float wx = fx - float(x0), wy = fy - float(y0);
-    const float a = at(x0, y0), b = at(x0 + 1, y0), c = at(x0, y0 + 1), d = at(x0 + 1, y0 + 1);
-    if (std::isfinite(a) && std::isfinite(b) && std::isfinite(c) && std::isfinite(d)) {
-        const float top = a + wx * (b - a), bottom = c + wx * (d - c);
-        return top + wy * (bottom - top);
-    }
-    return at(int(std::floor(x * mScaleX)), int(std::floor(y * mScaleY)));  // the pixel holding (x, y)
+    return nbHoldoutDepthAt(mDepth.data(), mWidth, mHeight, mScaleX, mScaleY, x, y);
 }
 
 }  // namespace nimbus

@@ -28,8 +28,13 @@ public:
     // An image made in code (tests): width x height depths, row by row from the top.
     HoldoutDepth(int width, int height, std::vector<float> depth, int cameraWidth, int cameraHeight);
 
-    // Z at image position (x, y) of the camera's image (pixels); INFINITY where nothing holds out.
+    // Z at image position (x, y) of the camera's image (pixels); INFINITY where nothing holds out
+    // (kernels/shared/holdoutdepth.h, the path tracer's copy of the same lookup).
     float depthAt(float x, float y) const;
+    // The image as the lookup reads it (INFINITY for none), and its pixels per camera pixel.
+    const std::vector<float>& depths() const { return mDepth; }
+    float scaleX() const { return mScaleX; }
+    float scaleY() const { return mScaleY; }
 
     int width() const { return mWidth; }
     int height() const { return mHeight; }

@@ -9,7 +9,7 @@ namespace nimbus {
 
 static_assert(sizeof(NbGridDesc) == 48, "NbGridDesc layout is shared with OpenCL");
 static_assert(sizeof(NbVolumeDesc) == 224, "NbVolumeDesc layout is shared with OpenCL");
-static_assert(sizeof(NbPtParams) == 196, "NbPtParams layout is shared with OpenCL");
+static_assert(sizeof(NbPtParams) == 228, "NbPtParams layout is shared with OpenCL");
 static_assert(sizeof(NbLight) == 96, "NbLight layout is shared with OpenCL");
 
 namespace {
@@ -96,6 +96,18 @@ PathtraceScene buildPathtraceScene(const RenderContext& ctx)
         s.lightEntry.push_back(int(i));
         s.lightTypes |= 1u << e.light.type;
     }
+    if (ctx.geometry) {
+        s.geometry = buildKernelBvh(ctx.geometry->geometry());
+        s.holdouts = ctx.geometry->hasHoldouts();
+        s.shadowCasters = ctx.geometry->hasShadowCasters();
+    }
+    if (ctx.holdoutDepth) {
+        s.holdoutDepth = ctx.holdoutDepth->depths();
+        s.holdoutDepthWidth = ctx.holdoutDepth->width();
+        s.holdoutDepthHeight = ctx.holdoutDepth->height();
+        s.holdoutDepthScale[0] = ctx.holdoutDepth->scaleX();
+        s.holdoutDepthScale[1] = ctx.holdoutDepth->scaleY();
+    }
     return s;
 }
 
@@ -107,7 +119,9 @@ std::string PathtraceScene::defines(bool globalMajorant) const
     for (int t = 0; t < 6; ++t)
         o << " -D NB_HAS_LIGHT_" << names[t] << "=" << ((lightTypes >> t) & 1u);
     o << " -D NB_HAS_EMISSION=" << (emission ? 1 : 0) << " -D NB_TWO_LOBE=" << (twoLobe ? 1 : 0)
-      << " -D NB_CHROMATIC=" << (chromatic ? 1 : 0) << " -D NB_GLOBAL_MAJORANT=" << (globalMajorant ? 1 : 0);
+      << " -D NB_CHROMATIC=" << (chromatic ? 1 : 0) << " -D NB_GLOBAL_MAJORANT=" << (globalMajorant ? 1 : 0)
+      << " -D NB_GEOM_HOLDOUTS=" << (holdouts ? 1 : 0) << " -D NB_GEOM_SHADOW_CASTERS=" << (shadowCasters ? 1 : 0)
+      << " -D NB_HOLDOUT_DEPTH=" << (holdoutDepth.empty() ? 0 : 1);
     return o.str();
 }
 

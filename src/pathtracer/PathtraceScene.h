@@ -8,6 +8,7 @@
 
 #include "../../kernels/shared/light.h"
 #include "../../kernels/shared/ptscene.h"
+#include "../geometry/KernelBvh.h"
 #include "../render/RenderContext.h"
 
 #include <cstdint>
@@ -30,8 +31,17 @@ struct PathtraceScene {
     bool twoLobe = false;         // some phase function has a second lobe
     bool chromatic = false;       // some medium's coefficients differ between channels
     uint32_t lightTypes = 0;      // bit NB_LIGHT_<TYPE> set for each type present
+    // Scene geometry (docs/geometry.md): the BVH the kernel traverses; empty without geometry.
+    KernelBvh geometry;
+    bool holdouts = false;       // some object is a holdout (camera rays trace the BVH)
+    bool shadowCasters = false;  // some object is a shadow caster (paths and light samples do)
+    // camera.holdout_depth: the image (INFINITY for none), its size and pixels per camera pixel.
+    std::vector<float> holdoutDepth;
+    int holdoutDepthWidth = 0, holdoutDepthHeight = 0;
+    float holdoutDepthScale[2] = {1.0f, 1.0f};
 
-    // "-D NB_NUM_VOLUMES=2 -D NB_HAS_LIGHT_DISTANT=1 ..." for buildProgram.
+    // "-D NB_NUM_VOLUMES=2 -D NB_HAS_LIGHT_DISTANT=1 ..." for buildProgram. A scene without
+    // geometry or depth map compiles none of their code (NB_GEOM_*, NB_HOLDOUT_DEPTH 0).
     std::string defines(bool globalMajorant) const;
 };
 

@@ -179,6 +179,11 @@ void renderPathtrace(const RenderContext& ctx, Film& film, const RenderControl& 
     params.accStart = nb_uint(first);
     params.lightCount = int(ps.lights.size());
     params.volumeCount = int(ps.volumes.size());
+    params.geom = ps.geometry.scene;
+    params.holdoutDepthWidth = ps.holdoutDepthWidth;
+    params.holdoutDepthHeight = ps.holdoutDepthHeight;
+    params.holdoutDepthScale[0] = ps.holdoutDepthScale[0];
+    params.holdoutDepthScale[1] = ps.holdoutDepthScale[1];
 
     ocl::Mem paramBuf = cl.allocate(sizeof params);
     ocl::Mem lightBuf = cl.upload(ps.lights);
@@ -190,8 +195,17 @@ void renderPathtrace(const RenderContext& ctx, Film& film, const RenderControl& 
     if (!resumed.empty())
         cl.write(accBuf, resumed.data(), resumed.size() * sizeof(float));
     ocl::Mem counterBuf = cl.allocate(NB_COUNTER_COUNT * sizeof(cl_int));
-    const cl_mem args[] = {paramBuf.get(), lightBuf.get(),    volumeBuf.get(), tableBuf.get(),
-                           poolBuf.get(),  majorantBuf.get(), accBuf.get(),    counterBuf.get()};
+    // Geometry and depth map: one placeholder element where the scene has none (OpenCL has no
+    // empty buffers); the kernel compiled without them never reads it.
+    auto uploadOrPlaceholder = [&](const auto& v, size_t elementBytes) {
+        return v.empty() ? cl.allocate(elementBytes) : cl.upload(v);
+    };
+    ocl::Mem nodeBuf = uploadOrPlaceholder(ps.geometry.nodes, sizeof(NbBvhNode));
+    ocl::Mem primBuf = uploadOrPlaceholder(ps.geometry.prims, sizeof(NbGeomPrim));
+    ocl::Mem depthBuf = uploadOrPlaceholder(ps.holdoutDepth, sizeof(float));
+    const cl_mem args[] = {paramBuf.get(), lightBuf.get(),   volumeBuf.get(), tableBuf.get(),
+                           poolBuf.get(),  majorantBuf.get(), accBuf.get(),    counterBuf.get(),
+                           nodeBuf.get(),  primBuf.get(),     depthBuf.get()};
     for (cl_uint i = 0; i < sizeof args / sizeof args[0]; ++i)
         ocl::check(clSetKernelArg(kernel.get(), i, sizeof(cl_mem), &args[i]), "clSetKernelArg");
 
@@ -310,6 +324,8 @@ void renderPathtrace(const RenderContext& ctx, Film& film, const RenderControl& 
         s.noiseRelMse = noiseTarget > 0 ? noise : 0;
         s.device = device.describe();
         s.defines = defines;
+        s.geometryBuildSeconds = ps.geometry.buildSeconds;
+        s.geometryBytes = ps.geometry.memoryBytes();
     }
 }
 

@@ -32,6 +32,8 @@ struct PathtraceStats {
                                 // (infinite below 64 spp, where it is not measured)
     std::string device;
     std::string defines;
+    double geometryBuildSeconds = 0;  // the kernel's BVH (KernelBvh.h): Embree's builder and flattening
+    size_t geometryBytes = 0;         // its nodes and primitives on the device
     double pathsPerSecond() const { return renderSeconds > 0 ? double(pathSamples) / renderSeconds : 0.0; }
 };
 

@@ -305,12 +305,8 @@ void checkVolumes(const Checker& c, const std::vector<Volume>& volumes)
     }
 }
 
-void checkGeometry(const Checker& c, const std::vector<Geometry>& geometry, Method method)
+void checkGeometry(const Checker& c, const std::vector<Geometry>& geometry)
 {
-    // Until the path tracer's kernel traverses a BVH of its own (issue 14, item 3), geometry
-    // renders through single and wkb only: a stated gap, not a silent omission.
-    if (method == Method::Pathtrace && !geometry.empty())
-        c.fail("geometry", "is not yet supported by pathtrace (render geometry with method single or wkb)");
     for (size_t i = 0; i < geometry.size(); ++i) {
         const Geometry& g = geometry[i];
         std::string p = "geometry[" + std::to_string(i) + "].";
@@ -386,10 +382,7 @@ void validateScene(const Scene& scene)
     checkCamera(c, scene.camera);
     checkLights(c, scene.lights);
     checkVolumes(c, scene.volumes);
-    checkGeometry(c, scene.geometry, scene.render.method);
-    if (scene.render.method == Method::Pathtrace && !scene.camera.holdoutDepth.file.empty())
-        c.fail("camera.holdout_depth", "is not yet supported by pathtrace (render depth-map holdouts with method single "
-                                       "or wkb)");
+    checkGeometry(c, scene.geometry);
     checkRender(c, scene.render);
     checkOutput(c, scene.output);
     c.nonNegative("background", scene.background);

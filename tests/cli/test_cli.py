@@ -483,9 +483,19 @@ class Cli(unittest.TestCase):
         path = self.scene_file(small_scene(geometry=[{"type": "sphere", "radius": 1, "size": [1, 1]}]))
         self.expect_bad_input(["render", path], "scene.json", "geometry[0]", "size")
 
-    def test_geometry_with_pathtrace_is_bad_input(self):
-        path = self.scene_file(small_scene(geometry=[{"type": "sphere", "radius": 0.2}]))
-        self.expect_bad_input(["render", path, "--method", "pathtrace"], "geometry", "not yet supported by pathtrace")
+    # Issue 14 item 3: pathtrace renders geometry; a holdout sphere in front of the ball, on the
+    # camera's axis, leaves the pixels around the image centre black with alpha 0.
+    def test_geometry_with_pathtrace_holds_out(self):
+        s = small_scene(geometry=[{"type": "sphere", "radius": 0.3,
+                                   "transform": {"translate": [0, 0, 3]}, "shadows": False}])
+        s["output"]["file"] = self.out
+        code, _, err = run("render", self.scene_file(s), "-q", "--method", "pathtrace", "--preview", "")
+        self.assertEqual(code, 0, err)
+        names, px, _ = read_exr(self.out)
+        for x, y in ((15, 11), (16, 11), (15, 12), (16, 12)):
+            self.assertEqual(px[y, x, names.index("A")], 0.0, (x, y))
+            self.assertEqual(px[y, x, names.index("R")], 0.0, (x, y))
+        self.assertGreater(px[12, 20, names.index("A")], 0.5)  # the ball beside the sphere
 
     def write_depth(self, name, w, h, z):
         spec = oiio.ImageSpec(w, h, 1, oiio.FLOAT)

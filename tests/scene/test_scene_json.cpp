@@ -426,7 +426,6 @@ TEST(SceneJson, GeometryKeyErrors)
               std::string::npos);
     EXPECT_NE(error(R"({"camera": {"holdout_depth": {"file": "z.exr", "scale": 2}}})").find("camera.holdout_depth"),
               std::string::npos);
-    EXPECT_NE(error(R"({"geometry": [{"type": "sphere"}], "render": {"method": "pathtrace", "spp": 4}})")
-                  .find("geometry: is not yet supported by pathtrace"),
-              std::string::npos);
+    // The path tracer renders geometry and depth maps too (issue 14, item 3): no error.
+    EXPECT_EQ(error(R"({"geometry": [{"type": "sphere"}], "render": {"method": "pathtrace", "spp": 4}})"), "");
 }
