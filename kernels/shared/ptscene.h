@@ -11,6 +11,7 @@
 
 #include "brickgrid.h"
 #include "camera.h"
+#include "envmap.h"
 #include "filter.h"
 #include "phase.h"
 
@@ -29,7 +30,7 @@ typedef struct {
     NbGridDesc emission; /* 3 channels: emitted radiance per metre W/(m^3 sr); or absent */
 } NbVolumeDesc;
 
-/* Per-launch parameters, 192 bytes. */
+/* Per-launch parameters, 224 bytes. */
 typedef struct {
     NbCamera camera;
     float background[4]; /* radiance seen by camera rays that leave the volumes (L0) */
@@ -48,6 +49,9 @@ typedef struct {
                         * it are counted in counters[NB_COUNTER_DEPTH_CAP] */
     int filterType;    /* NB_FILTER_* (filter.h) */
     float filterWidth; /* pixels */
+    NbEnvMap envMap;   /* the environment light's map (envmap.h), its data in the envData buffer */
+    int envLight;      /* index in the light list of the light with that map; -1: none */
+    int envPad[3];
 } NbPtParams;
 
 /* The kernel's event counters (one int each). */

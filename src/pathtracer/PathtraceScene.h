@@ -30,6 +30,9 @@ struct PathtraceScene {
     bool twoLobe = false;         // some phase function has a second lobe
     bool chromatic = false;       // some medium's coefficients differ between channels
     uint32_t lightTypes = 0;      // bit NB_LIGHT_<TYPE> set for each type present
+    int envLight = -1;            // the light (in `lights`) with an environment map, or -1
+    NbEnvMap envMap{};
+    std::vector<float> envData;   // envmap.h's layout; empty without a map
 
     // "-D NB_NUM_VOLUMES=2 -D NB_HAS_LIGHT_DISTANT=1 ..." for buildProgram.
     std::string defines(bool globalMajorant) const;

@@ -204,6 +204,8 @@ void renderPathtrace(const RenderContext& ctx, Film& film, const RenderControl& 
     params.filterWidth = scene.render.filterWidth;
     params.lightCount = int(ps.lights.size());
     params.volumeCount = int(ps.volumes.size());
+    params.envMap = ps.envMap;
+    params.envLight = ps.envLight;
 
     ocl::Mem paramBuf = cl.allocate(sizeof params);
     ocl::Mem lightBuf = cl.upload(ps.lights);
@@ -211,10 +213,11 @@ void renderPathtrace(const RenderContext& ctx, Film& film, const RenderControl& 
     ocl::Mem tableBuf = cl.upload(ps.tables);
     ocl::Mem poolBuf = cl.upload(ps.pools);
     ocl::Mem majorantBuf = cl.upload(ps.majorants);
+    ocl::Mem envBuf = cl.upload(ps.envData.empty() ? std::vector<float>(1, 0.0f) : ps.envData);
     ocl::Mem accBuf = cl.allocate(size_t(pixelCount) * stride * sizeof(float));
     ocl::Mem counterBuf = cl.allocate(NB_COUNTER_COUNT * sizeof(cl_int));
-    const cl_mem args[] = {paramBuf.get(), lightBuf.get(),    volumeBuf.get(), tableBuf.get(),
-                           poolBuf.get(),  majorantBuf.get(), accBuf.get(),    counterBuf.get()};
+    const cl_mem args[] = {paramBuf.get(),    lightBuf.get(), volumeBuf.get(),   tableBuf.get(), poolBuf.get(),
+                           majorantBuf.get(), envBuf.get(),   accBuf.get(),      counterBuf.get()};
     for (cl_uint i = 0; i < sizeof args / sizeof args[0]; ++i)
         ocl::check(clSetKernelArg(kernel.get(), i, sizeof(cl_mem), &args[i]), "clSetKernelArg");
 

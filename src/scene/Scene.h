@@ -65,6 +65,12 @@ struct Light {
     // rect, sphere, environment
     Rgb radiance = splat(1.0f);  // W/(m^2 sr)
     float radius = 0.5f;         // sphere
+    // environment: an HDR latitude-longitude map (kernels/shared/envmap.h has the orientation),
+    // resolved against the scene file's directory as VDB files are; empty: uniform. The radiance
+    // from world direction w is intensity * radiance * map(w).
+    std::string map;
+    float rotate = 0.0f;     // the map's turn about +y, degrees, counter-clockwise seen from above
+    float mapIntensity = 1.0f;  // JSON "intensity" of an environment light: a scalar on the radiance
 };
 
 struct Medium {

@@ -168,7 +168,7 @@ bool marchGreyDistantEight(const RenderContext& ctx, const VolumeData& vol, cons
             pl[0] += l1.x, pl[1] += l1.y, pl[2] += l1.z;
         }
         if (!(tFar && tFar[i] < INFINITY))  // a held-out ray sees no background
-            out[i].L0 += Ts[i] * ctx.background;
+            out[i].L0 += Ts[i] * ctx.backgroundAlong(d[i]);
         out[i].transmittance = splat(Ts[i]);
         out[i].depth = opacitySums[i] > 0.0f ? depthSums[i] / opacitySums[i] : 0.0f;
         out[i].opacity = opacitySums[i];

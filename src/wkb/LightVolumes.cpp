@@ -1,7 +1,7 @@
 #include "LightVolumes.h"
 
 #include "../../kernels/shared/rng.h"
-#include "SphericalHarmonics.h"
+#include "../render/SphericalHarmonics.h"
 #include "../single/EmissionScatter.h"
 
 #include <tbb/blocked_range.h>
