@@ -72,6 +72,72 @@ std::vector<Cell> makeCells(const EnvironmentMap& map, Rgb colour, int order)
     return out;
 }
 
+// The centre of octant s of a cell of side 1 centred at the origin.
+float3 octant(int s)
+{
+    return make_float3(s & 1 ? 0.25f : -0.25f, s & 2 ? 0.25f : -0.25f, s & 4 ? 0.25f : -0.25f);
+}
+
+// A volume's density averaged over each sky-grid node's cell (eight octant samples), for the
+// grid's shadow rays: light reaching a node's cell is resolved at the node spacing anyway, and
+// marching this small dense array costs a fraction of the full-resolution brick walk.
+struct CoarseDensity {
+    const VolumeData* vol = nullptr;
+    float3 origin = splat(0.0f);
+    float spacing = 1.0f, invSpacing = 1.0f;
+    int nx = 0, ny = 0, nz = 0;
+    std::vector<float> rho;
+    Rgb sigmaT = splat(0.0f);
+
+    float at(int i, int j, int k) const { return rho[(size_t(k) * ny + j) * nx + i]; }
+    // Trilinear in node units f (inside [0, n-1]^3).
+    float sample(float3 f) const
+    {
+        const int i = std::min(int(f.x), nx - 2), j = std::min(int(f.y), ny - 2), k = std::min(int(f.z), nz - 2);
+        const float tx = f.x - i, ty = f.y - j, tz = f.z - k;
+        auto lerp = [](float a, float b, float t) { return a + (b - a) * t; };
+        const float c00 = lerp(at(i, j, k), at(i + 1, j, k), tx), c10 = lerp(at(i, j + 1, k), at(i + 1, j + 1, k), tx);
+        const float c01 = lerp(at(i, j, k + 1), at(i + 1, j, k + 1), tx),
+                    c11 = lerp(at(i, j + 1, k + 1), at(i + 1, j + 1, k + 1), tx);
+        return lerp(lerp(c00, c10, ty), lerp(c01, c11, ty), tz);
+    }
+    // Optical depth (RGB) from world point p along unit world direction w out of the grid, by
+    // the midpoint rule at `step` nodes.
+    Rgb opticalDepth(float3 p, float3 w, float step) const
+    {
+        if (nx < 2 || ny < 2 || nz < 2)
+            return splat(0.0f);
+        const float3 f0 = (vol->indexFromWorld.point(p) - origin) * invSpacing;
+        const float3 df = vol->indexFromWorld.vector(w) * invSpacing;  // nodes per metre
+        float t0 = 0.0f, t1 = 1e30f;
+        const float lo[3] = {0, 0, 0}, hi[3] = {float(nx - 1), float(ny - 1), float(nz - 1)};
+        const float o[3] = {f0.x, f0.y, f0.z}, d[3] = {df.x, df.y, df.z};
+        for (int a = 0; a < 3; ++a) {
+            if (d[a] == 0.0f) {
+                if (o[a] < lo[a] || o[a] > hi[a])
+                    return splat(0.0f);
+                continue;
+            }
+            float ta = (lo[a] - o[a]) / d[a], tb = (hi[a] - o[a]) / d[a];
+            if (ta > tb)
+                std::swap(ta, tb);
+            t0 = std::max(t0, ta), t1 = std::min(t1, tb);
+        }
+        if (!(t1 > t0))
+            return splat(0.0f);
+        const float dt = step / length(df);  // metres per step
+        const int n = std::max(1, int(std::ceil((t1 - t0) / dt)));
+        const float h = (t1 - t0) / float(n);
+        double tau = 0.0;
+        for (int s = 0; s < n; ++s) {
+            float3 f = f0 + df * (t0 + (float(s) + 0.5f) * h);
+            f = make_float3(clamp(f.x, 0.0f, hi[0]), clamp(f.y, 0.0f, hi[1]), clamp(f.z, 0.0f, hi[2]));
+            tau += sample(f);
+        }
+        return sigmaT * float(tau * h);
+    }
+};
+
 }  // namespace
 
 SkyLight SkyLight::build(const VolumeSet& volumes, const EmbreeScene* casters, const EnvironmentMap* map, Rgb colour,
@@ -91,24 +157,60 @@ SkyLight SkyLight::build(const VolumeSet& volumes, const EmbreeScene* casters, c
     }
     const std::vector<Cell> cells = makeCells(*map, colour, sky.mOrder);
 
-    for (const auto& vp : volumes.volumes()) {
-        const VolumeData& vol = *vp;
+    // Phase 1: each volume's grid and its coarse density.
+    const auto& vols = volumes.volumes();
+    std::vector<CoarseDensity> coarse(vols.size());
+    for (size_t v = 0; v < vols.size(); ++v) {
+        const VolumeData& vol = *vols[v];
         Grid g;
         const Bbox b = vol.density.activeIndexBounds();
-        if (b.empty()) {
-            sky.mGrids.push_back(std::move(g));
-            continue;
+        if (!b.empty()) {
+            const float3 ext = b.hi - b.lo;
+            const float largest = std::max(ext.x, std::max(ext.y, ext.z));
+            g.spacing = std::max(1.0f, largest / float(std::max(1, settings.nodesAcross - 1)));
+            g.invSpacing = 1.0f / g.spacing;
+            g.origin = b.lo;
+            g.nx = int(std::ceil(ext.x * g.invSpacing)) + 1;
+            g.ny = int(std::ceil(ext.y * g.invSpacing)) + 1;
+            g.nz = int(std::ceil(ext.z * g.invSpacing)) + 1;
+            g.L.assign(size_t(g.nx) * size_t(g.ny) * size_t(g.nz) * size_t(3 * count), 0.0f);
         }
-        const float3 ext = b.hi - b.lo;
-        const float largest = std::max(ext.x, std::max(ext.y, ext.z));
-        g.spacing = std::max(1.0f, largest / float(std::max(1, settings.nodesAcross - 1)));
-        g.invSpacing = 1.0f / g.spacing;
-        g.origin = b.lo;
-        g.nx = int(std::ceil(ext.x * g.invSpacing)) + 1;
-        g.ny = int(std::ceil(ext.y * g.invSpacing)) + 1;
-        g.nz = int(std::ceil(ext.z * g.invSpacing)) + 1;
-        g.L.assign(size_t(g.nx) * size_t(g.ny) * size_t(g.nz) * size_t(3 * count), 0.0f);
-        const float stepVoxels = settings.shadowStep * g.spacing;
+        CoarseDensity& c = coarse[v];
+        c.vol = &vol;
+        c.origin = g.origin, c.spacing = g.spacing, c.invSpacing = g.invSpacing;
+        c.nx = g.nx, c.ny = g.ny, c.nz = g.nz;
+        c.sigmaT = vol.sigmaT();
+        c.rho.assign(size_t(g.nx) * size_t(g.ny) * size_t(g.nz), 0.0f);
+        tbb::parallel_for(tbb::blocked_range<int>(0, g.nz), [&](const tbb::blocked_range<int>& r) {
+            for (int k = r.begin(); k != r.end(); ++k)
+                for (int j = 0; j < g.ny; ++j)
+                    for (int i = 0; i < g.nx; ++i) {
+                        const float3 q = g.origin + make_float3(float(i), float(j), float(k)) * g.spacing;
+                        float sum = 0.0f;
+                        for (int s = 0; s < 8; ++s)
+                            sum += std::max(0.0f, vol.density.sample(q + octant(s) * g.spacing));
+                        c.rho[(size_t(k) * g.ny + j) * g.nx + i] = sum / 8.0f;
+                    }
+        });
+        sky.mGrids.push_back(std::move(g));
+    }
+    // The transmittance along w from world point p out of every volume (and past the shadow
+    // casters), by the coarse densities.
+    auto transmittance = [&](float3 p, float3 w) {
+        if (casters && casters->occluded(p, w, 0.0f, 1e30f))
+            return splat(0.0f);
+        Rgb tau = splat(0.0f);
+        for (const CoarseDensity& c : coarse)
+            tau += c.opticalDepth(p, w, settings.shadowStep);
+        return exp(-tau);
+    };
+
+    // Phase 2: each node's coefficients.
+    for (size_t v = 0; v < vols.size(); ++v) {
+        const VolumeData& vol = *vols[v];
+        Grid& g = sky.mGrids[v];
+        if (g.nx == 0)
+            continue;
         // Probes of the node's neighbourhood, the eight cells around it, at most 4 voxels apart:
         // a brick (8 voxels) that overlaps the neighbourhood holds one of them.
         const int probes = int(std::ceil(2.0f * g.spacing / 4.0f)) + 1;
@@ -129,12 +231,30 @@ SkyLight SkyLight::build(const VolumeSet& volumes, const EmbreeScene* casters, c
                                 }
                         if (!near)
                             continue;
-                        const float3 p = vol.worldFromIndex.point(q);
+                        // Density-weighted over the node's cell: eight sub-points at the octant
+                        // centres, each taking the shadow rays of every eighth sky cell, weighted
+                        // rho_s / mean(rho). The march reads the light where the medium is, not at
+                        // the node: a node just outside a cloud's surface would otherwise carry
+                        // T = 1 into the surface's samples (trilinear interpolation of a convex
+                        // T overestimates it by ~ (sigma_t h)^2 / 8 per cell, and more at the surface).
+                        float3 sub[8];
+                        float rho[8], rhoSum = 0.0f;
+                        for (int s = 0; s < 8; ++s) {
+                            sub[s] = q + octant(s) * g.spacing;
+                            rho[s] = std::max(0.0f, vol.density.sample(sub[s]));
+                            rhoSum += rho[s];
+                        }
                         std::fill(acc.begin(), acc.end(), 0.0);
-                        for (const Cell& c : cells) {
-                            if (casters && casters->occluded(p, c.towardLight, 0.0f, 1e30f))
+                        for (size_t ci = 0; ci < cells.size(); ++ci) {
+                            const Cell& c = cells[ci];
+                            // The sub-point of cell ci (rotated per node so that neighbours differ);
+                            // where the cell holds no density, the node itself.
+                            const int s = int((ci + size_t(i + 3 * j + 5 * k)) % 8);
+                            const float3 at = rhoSum > 0.0f ? sub[s] : q;
+                            const float wgt = rhoSum > 0.0f ? 8.0f * rho[s] / rhoSum : 1.0f;
+                            if (!(wgt > 0.0f))
                                 continue;
-                            const Rgb T = exp(-volumes.opticalDepth(p, c.towardLight, 0.0f, 1e30f, stepVoxels));
+                            const Rgb T = transmittance(vol.worldFromIndex.point(at), c.towardLight) * wgt;
                             for (int jm = 0; jm < count; ++jm) {
                                 acc[3 * jm + 0] += T.x * c.E[3 * jm + 0];
                                 acc[3 * jm + 1] += T.y * c.E[3 * jm + 1];
@@ -146,7 +266,6 @@ SkyLight SkyLight::build(const VolumeSet& volumes, const EmbreeScene* casters, c
                             out[c] = float(acc[c]);
                     }
         });
-        sky.mGrids.push_back(std::move(g));
     }
     sky.mSeconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     return sky;
