@@ -309,16 +309,7 @@ Rgb SkyLight::radiance(size_t volume, float3 q, const float* a, Cursor& cursor) 
     const float tx = split(f.x, g.nx, i), ty = split(f.y, g.ny, j), tz = split(f.z, g.nz, k);
     const long cell = (long(k) * g.ny + j) * g.nx + i;
     if (cell != cursor.cell) {
-        const int count = this->count();
-        for (int c = 0; c < 8; ++c) {
-            const int ci = std::min(i + (c & 1), g.nx - 1), cj = std::min(j + (c >> 1 & 1), g.ny - 1),
-                      ck = std::min(k + (c >> 2 & 1), g.nz - 1);
-            const float* L = g.L.data() + ((size_t(ck) * g.ny + cj) * g.nx + ci) * size_t(3 * count);
-            Rgb s = splat(0.0f);
-            for (int jm = 0; jm < count; ++jm)
-                s += make_float3(L[3 * jm], L[3 * jm + 1], L[3 * jm + 2]) * a[jm];
-            cursor.corner[c] = s;
-        }
+        corners(volume, i, j, k, a, cursor.corner);
         cursor.cell = cell;
     }
     const Rgb* c = cursor.corner;
@@ -326,6 +317,21 @@ Rgb SkyLight::radiance(size_t volume, float3 q, const float* a, Cursor& cursor) 
     const Rgb x01 = c[4] + (c[5] - c[4]) * tx, x11 = c[6] + (c[7] - c[6]) * tx;
     const Rgb y0 = x00 + (x10 - x00) * ty, y1 = x01 + (x11 - x01) * ty;
     return fmax(y0 + (y1 - y0) * tz, splat(0.0f));
+}
+
+void SkyLight::corners(size_t volume, int i, int j, int k, const float* a, Rgb* out) const
+{
+    const Grid& g = mGrids[volume];
+    const int count = this->count();
+    for (int c = 0; c < 8; ++c) {
+        const int ci = std::min(i + (c & 1), g.nx - 1), cj = std::min(j + (c >> 1 & 1), g.ny - 1),
+                  ck = std::min(k + (c >> 2 & 1), g.nz - 1);
+        const float* L = g.L.data() + ((size_t(ck) * g.ny + cj) * g.nx + ci) * size_t(3 * count);
+        Rgb s = splat(0.0f);
+        for (int jm = 0; jm < count; ++jm)
+            s += make_float3(L[3 * jm], L[3 * jm + 1], L[3 * jm + 2]) * a[jm];
+        out[c] = s;
+    }
 }
 
 std::vector<Rgb> SkyLight::nodeCoefficients(size_t volume, float3 q) const

@@ -75,6 +75,21 @@ public:
     // the grid). W/(m^2 sr) per unit of sigma_s: the in-scattered radiance per unit phase.
     Rgb radiance(size_t volume, float3 q, const float* a, Cursor& cursor) const;
 
+    // The grid of volume v as the eight-ray march reads it (MarchEightRays.cpp): nodes at
+    // origin + spacing (i, j, k) in index space, n per axis; and the eight corners of cell
+    // (i, j, k) contracted with a (corner c at (i + (c & 1), j + (c >> 1 & 1), k + (c >> 2 & 1))).
+    struct Geometry {
+        float3 origin;
+        float invSpacing;
+        int nx, ny, nz;
+    };
+    Geometry geometry(size_t volume) const
+    {
+        const Grid& g = mGrids[volume];
+        return Geometry{g.origin, g.invSpacing, g.nx, g.ny, g.nz};
+    }
+    void corners(size_t volume, int i, int j, int k, const float* a, Rgb* out) const;
+
     // Test hook: the grid's coefficients at the node nearest index-space point q, count() RGB.
     std::vector<Rgb> nodeCoefficients(size_t volume, float3 q) const;
 

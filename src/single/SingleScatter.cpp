@@ -487,16 +487,17 @@ FastMarch fastMarchOf(const RenderContext& ctx, const LightEntry** key, bool* al
     for (const LightEntry& e : ctx.lights)
         if (e.used && !e.sky && (!e.cache || e.cache->grid(0).channels() != (grey ? 1 : 3)))
             return FastMarch::None;
-    size_t used = 0, distant = 0;
+    size_t used = 0, distant = 0, skies = 0;
     for (const LightEntry& e : ctx.lights) {
         used += e.used;  // a sky too: then no OneDistant loop, which reads one light
         distant += e.used && e.light.type == NB_LIGHT_DISTANT;
+        skies += e.used && e.sky;
         if (e.used)
             *key = &e;
     }
     const bool oneDistant = used == 1 && distant == 1;
-    if (allDistant)
-        *allDistant = used > 0 && distant == used;
+    if (allDistant)  // the lanes' case: distant lights and skies, both at infinity
+        *allDistant = used > 0 && distant + skies == used;
     return grey && oneDistant ? FastMarch::GreyKeyLight
            : grey             ? FastMarch::Grey
            : oneDistant       ? FastMarch::OneDistant
