@@ -18,9 +18,14 @@
 // along its own direction. The map's own SH projection is exact (no sampling noise); what the
 // grid approximates is T within a cell and between nodes (trilinear).
 //
+// The transmittance is density-weighted over each node's cell (eight octant sub-points, each
+// taking every eighth sky cell's shadow ray, weighted rho_s / mean rho): the march reads the light
+// where the medium is, not T = 1 from a node just outside a surface. Shadow rays march a coarse
+// density (the mean over each node's cell) at settings.shadowStep nodes per step.
+//
 // Grid: nodes every `spacing` density voxels over the density's active index bounds, in the
 // volume's index space; nodes whose neighbourhood holds no occupied brick are left at zero (no
-// sample of the march reads them with weight).
+// sample of the march reads them with weight). docs/single-scattering.md has the measurements.
 #pragma once
 
 #include "EnvironmentMap.h"
@@ -49,7 +54,7 @@ public:
     struct Settings {
         int order = 2;            // SH order J (render.wkb_sh_order_max)
         int nodesAcross = 32;     // grid nodes along a volume's largest extent
-        float shadowStep = 1.0f;  // shadow-ray step as a fraction of the node spacing
+        float shadowStep = 1.0f;  // shadow-ray step in node spacings (render.shadow_step)
     };
 
     // The sky's radiance is colour * map(w) (map null: uniform, colour alone).
