@@ -205,6 +205,85 @@ SkyLight SkyLight::build(const VolumeSet& volumes, const EmbreeScene* casters, c
         return exp(-tau);
     };
 
+    // One volume and no shadow casters (the common case): the optical depth toward each sky
+    // cell at every node by one sweep per cell, as a deep shadow map is built, instead of a ray
+    // per node. Layer by layer along the direction's dominant axis a, from the layer nearest
+    // the light: tau(x) = tau(y) + (rho(x) + rho(y)) / 2 * |x - y|, y = x + v the point one layer
+    // toward the light (v_a = +-1), tau and rho at y bilinear in that layer (0 outside the grid,
+    // where no density is). tau in density x metres; sigma_t applied at the lookup.
+    const bool sweep = vols.size() == 1 && !casters && sky.mGrids[0].nx > 0;
+    std::vector<std::vector<float>> tauFields;
+    if (sweep) {
+        const CoarseDensity& c = coarse[0];
+        tauFields.resize(cells.size());
+        tbb::parallel_for(size_t(0), cells.size(), [&](size_t ci) {
+            const float3 u = c.vol->indexFromWorld.vector(cells[ci].towardLight) * c.invSpacing;  // nodes per metre
+            const float ul = length(u);
+            const float un[3] = {u.x / ul, u.y / ul, u.z / ul};
+            int a = 0;
+            for (int q = 1; q < 3; ++q)
+                if (std::fabs(un[q]) > std::fabs(un[a]))
+                    a = q;
+            const int b = (a + 1) % 3, d = (a + 2) % 3;
+            const float va = un[a] > 0 ? 1.0f : -1.0f, vb = un[b] / std::fabs(un[a]), vd = un[d] / std::fabs(un[a]);
+            const float stepMetres = 1.0f / (std::fabs(un[a]) * ul);
+            const int n[3] = {c.nx, c.ny, c.nz};
+            std::vector<float>& tau = tauFields[ci];
+            tau.assign(c.rho.size(), 0.0f);
+            auto index = [&](int ia, int ib, int id) {
+                int x[3];
+                x[a] = ia, x[b] = ib, x[d] = id;
+                return (size_t(x[2]) * c.ny + x[1]) * c.nx + x[0];
+            };
+            // Bilinear at (fb, fd) in layer ia of field f, zero outside the grid.
+            auto bilinear = [&](const std::vector<float>& f, int ia, float fb, float fd) {
+                const int ib = int(std::floor(fb)), id = int(std::floor(fd));
+                const float tb = fb - float(ib), td = fd - float(id);
+                float sum = 0.0f;
+                for (int q = 0; q < 4; ++q) {
+                    const int jb = ib + (q & 1), jd = id + (q >> 1);
+                    if (jb < 0 || jb >= n[b] || jd < 0 || jd >= n[d])
+                        continue;
+                    sum += f[index(ia, jb, jd)] * ((q & 1) ? tb : 1.0f - tb) * ((q >> 1) ? td : 1.0f - td);
+                }
+                return sum;
+            };
+            for (int step = 0; step < n[a]; ++step) {
+                const int ia = va > 0 ? n[a] - 1 - step : step, up = ia + int(va);
+                const bool inside = up >= 0 && up < n[a];
+                for (int id = 0; id < n[d]; ++id)
+                    for (int ib = 0; ib < n[b]; ++ib) {
+                        const size_t x = index(ia, ib, id);
+                        float tauY = 0.0f, rhoY = 0.0f;
+                        if (inside) {
+                            tauY = bilinear(tau, up, float(ib) + vb, float(id) + vd);
+                            rhoY = bilinear(c.rho, up, float(ib) + vb, float(id) + vd);
+                        }
+                        tau[x] = tauY + 0.5f * (c.rho[x] + rhoY) * stepMetres;
+                    }
+            }
+        });
+    }
+    // The transmittance toward sky cell ci from index-space point q of volume 0, by the sweep.
+    auto sweptTransmittance = [&](size_t ci, float3 q) {
+        const CoarseDensity& c = coarse[0];
+        const float3 f = (q - c.origin) * c.invSpacing;
+        const float fx = clamp(f.x, 0.0f, float(c.nx - 1)), fy = clamp(f.y, 0.0f, float(c.ny - 1)),
+                    fz = clamp(f.z, 0.0f, float(c.nz - 1));
+        const int i = std::min(int(fx), std::max(c.nx - 2, 0)), j = std::min(int(fy), std::max(c.ny - 2, 0)),
+                  k = std::min(int(fz), std::max(c.nz - 2, 0));
+        const float tx = fx - i, ty = fy - j, tz = fz - k;
+        const std::vector<float>& tau = tauFields[ci];
+        float sum = 0.0f;
+        for (int q8 = 0; q8 < 8; ++q8) {
+            const int ci8 = std::min(i + (q8 & 1), c.nx - 1), cj8 = std::min(j + (q8 >> 1 & 1), c.ny - 1),
+                      ck8 = std::min(k + (q8 >> 2 & 1), c.nz - 1);
+            sum += tau[(size_t(ck8) * c.ny + cj8) * c.nx + ci8] * ((q8 & 1) ? tx : 1.0f - tx) *
+                   ((q8 >> 1 & 1) ? ty : 1.0f - ty) * ((q8 >> 2 & 1) ? tz : 1.0f - tz);
+        }
+        return exp(-(c.sigmaT * sum));
+    };
+
     // Phase 2: each node's coefficients.
     for (size_t v = 0; v < vols.size(); ++v) {
         const VolumeData& vol = *vols[v];
@@ -254,7 +333,9 @@ SkyLight SkyLight::build(const VolumeSet& volumes, const EmbreeScene* casters, c
                             const float wgt = rhoSum > 0.0f ? 8.0f * rho[s] / rhoSum : 1.0f;
                             if (!(wgt > 0.0f))
                                 continue;
-                            const Rgb T = transmittance(vol.worldFromIndex.point(at), c.towardLight) * wgt;
+                            const Rgb T = (sweep ? sweptTransmittance(ci, at)
+                                                 : transmittance(vol.worldFromIndex.point(at), c.towardLight)) *
+                                          wgt;
                             for (int jm = 0; jm < count; ++jm) {
                                 acc[3 * jm + 0] += T.x * c.E[3 * jm + 0];
                                 acc[3 * jm + 1] += T.y * c.E[3 * jm + 1];
