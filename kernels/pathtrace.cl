@@ -27,7 +27,14 @@
  *    majorant walk, T_c *= 1 - sigma_t,c / mu per tentative collision, with Russian roulette
  *    once every channel is below 0.1.
  *  - Next-event estimation at every scattering vertex for every light (nbLightSample; the
- *    uniform environment draws its direction from the phase function instead). Camera
+ *    uniform environment draws its direction from the phase function instead). An environment
+ *    light with an HDR map (envmap.h) takes two samples combined by multiple importance
+ *    sampling (Veach 1997, sec. 9.2, the power heuristic with beta = 2): one direction from the
+ *    map's piecewise-constant distribution, weighted pdf_map^2 / (pdf_map^2 + p^2), and one
+ *    from the phase function p, weighted p^2 / (pdf_map^2 + p^2); each with its own
+ *    transmittance estimate. The weights sum to 1 for every direction either can draw, so the
+ *    pair is unbiased; each covers where the other's pdf is small (a peaked phase function
+ *    against a broad sky, a small bright sun texel against a broad lobe). Camera
  *    rays that escape see the background (L0); scattered rays that escape add nothing, since
  *    NEE already accounts for every light: nothing is counted twice.
  *  - Directions from the phase function (nbPhaseSample, pdf = phase, weight 1).
@@ -59,6 +66,7 @@
 #include "shared/compat.h"
 #include "shared/geometry.h"
 #include "shared/holdoutdepth.h"
+#include "shared/envmap.h"
 #include "shared/light.h"
 #include "shared/majorant.h"
 #include "shared/phase.h"
@@ -82,6 +90,9 @@
 #endif
 #ifndef NB_HOLDOUT_DEPTH
 #define NB_HOLDOUT_DEPTH 0
+#endif
+#ifndef NB_HAS_ENV_MAP
+#define NB_HAS_ENV_MAP 0
 #endif
 
 /* Uniform in (0, 1]: safe for -log. */
@@ -219,9 +230,9 @@ typedef struct {
 /* tCamera: where the camera ray ends at a holdout (INFINITY: nowhere). */
 NB_FN void nbTracePath(float3 o, float3 d, float tCamera, __global const NbPtParams* P, __global const NbLight* lights,
                        __global const NbVolumeDesc* vols, __global const int* tables, __global const float* pools,
-                       __global const float* majorants, __global const NbBvhNode* bvhNodes,
-                       __global const NbGeomPrim* geomPrims, __global int* counters, __private NbRng* rng,
-                       __private NbPathSample* out)
+                       __global const float* majorants, __global const float* envData,
+                       __global const NbBvhNode* bvhNodes, __global const NbGeomPrim* geomPrims,
+                       __global int* counters, __private NbRng* rng, __private NbPathSample* out)
 {
     const int volumeCount = P->volumeCount;
     float3 w = make_float3(1.0f, 1.0f, 1.0f);
@@ -302,6 +313,10 @@ NB_FN void nbTracePath(float3 o, float3 d, float tCamera, __global const NbPtPar
                  * transmittance per channel up to there. A holdout is black with alpha 0 and
                  * hides the background: the pixel keeps the volume in front only. */
                 float3 bg = make_float3(P->background[0], P->background[1], P->background[2]);
+#if NB_HAS_ENV_MAP
+                __global const NbLight* env = lights + P->envLight;
+                bg += make_float3(env->color[0], env->color[1], env->color[2]) * nbEnvLookup(P->envMap, envData, d);
+#endif
                 if (!(tEnd < NB_INF))
                     out->L[0] += w * bg;
                 out->transmittance = nbAverage(w);
@@ -330,6 +345,38 @@ NB_FN void nbTracePath(float3 o, float3 d, float tCamera, __global const NbPtPar
             float u0 = nbRngNext(rng), u1 = nbRngNext(rng);
             NbLightSample s;
             float f;
+#if NB_HAS_ENV_MAP
+            if (i == P->envLight) {
+                /* The map, by MIS of a map sample and a phase sample (the header comment). */
+                const float3 colour = nbLoad3(l.color);
+                float3 c = make_float3(0.0f, 0.0f, 0.0f);
+                float pdfMap;
+                float3 wi = nbEnvSample(P->envMap, envData, u0, u1, &pdfMap);
+                float fp = nbPhaseEval(phase, dot(wi, d));
+                if (pdfMap > 0.0f && fp > 0.0f) {
+                    float3 L = colour * nbEnvLookup(P->envMap, envData, wi);
+                    if (nbMaxComponent(L) > 0.0f) {
+                        float mis = pdfMap * pdfMap / (pdfMap * pdfMap + fp * fp);
+                        float3 T = nbRatioTransmittance(p, wi, NB_INF, vols, volumeCount, tables, pools, majorants, rng);
+                        c += L * T * (fp * mis / pdfMap);
+                    }
+                }
+                float v0 = nbRngNext(rng), v1 = nbRngNext(rng), v2 = nbRngNext(rng);
+                wi = nbPhaseSample(phase, d, v0, v1, v2);
+                fp = nbPhaseEval(phase, dot(wi, d));
+                float3 L = colour * nbEnvLookup(P->envMap, envData, wi);
+                if (fp > 0.0f && nbMaxComponent(L) > 0.0f) {
+                    pdfMap = nbEnvPdf(P->envMap, envData, wi);
+                    float mis = fp * fp / (pdfMap * pdfMap + fp * fp);
+                    float3 T = nbRatioTransmittance(p, wi, NB_INF, vols, volumeCount, tables, pools, majorants, rng);
+                    c += L * T * mis; /* p / pdf = 1 */
+                }
+                c = w * c;
+                out->L[nb] += c;
+                out->perLight[i] += c;
+                continue;
+            }
+#endif
 #if NB_HAS_LIGHT_ENVIRONMENT
             if (l.type == NB_LIGHT_ENVIRONMENT) {
                 /* Uniform radiance L from every direction: draw wi from the phase function
@@ -382,9 +429,9 @@ NB_FN void nbTracePath(float3 o, float3 d, float tCamera, __global const NbPtPar
 
 __kernel void nbPathtrace(__global const NbPtParams* P, __global const NbLight* lights,
                           __global const NbVolumeDesc* vols, __global const int* tables, __global const float* pools,
-                          __global const float* majorants, __global float* acc, __global int* counters,
-                          __global const NbBvhNode* bvhNodes, __global const NbGeomPrim* geomPrims,
-                          __global const float* holdoutDepth)
+                          __global const float* majorants, __global const float* envData, __global float* acc,
+                          __global int* counters, __global const NbBvhNode* bvhNodes,
+                          __global const NbGeomPrim* geomPrims, __global const float* holdoutDepth)
 {
     const int gid = (int)get_global_id(0);
     if (gid >= P->pixelCount)
@@ -429,7 +476,8 @@ __kernel void nbPathtrace(__global const NbPtParams* P, __global const NbLight* 
         for (int i = 0; i < NB_NUM_LIGHTS; ++i)
             r.perLight[i] = make_float3(0.0f, 0.0f, 0.0f);
 #endif
-        nbTracePath(o, d, tCamera, P, lights, vols, tables, pools, majorants, bvhNodes, geomPrims, counters, &rng, &r);
+        nbTracePath(o, d, tCamera, P, lights, vols, tables, pools, majorants, envData, bvhNodes, geomPrims, counters,
+                    &rng, &r);
 
         /* A non-finite sample (a bug or a float overflow) would poison the pixel for good:
          * count it and drop it. */

@@ -31,6 +31,8 @@ echo "== wkb vs single"
 build/tests/wkb/bench_wkb "$report"
 echo "== scene geometry: single and wkb with and without a 100k-triangle occluder"
 "$bench/bench_geometry" "$report"
+echo "== sky (issue 17)"
+"$bench/bench_sky" "$report"
 echo "== path tracer: samples per second with and without the majorant grid"
 {
   echo "PoCL on this machine's CPU cores unless a GPU is present; 128x128 pixels, 16 spp, a 128^3 cloud."

@@ -11,6 +11,7 @@
 
 #include "brickgrid.h"
 #include "camera.h"
+#include "envmap.h"
 #include "filter.h"
 #include "geometry.h"
 #include "phase.h"
@@ -30,7 +31,7 @@ typedef struct {
     NbGridDesc emission; /* 3 channels: emitted radiance per metre W/(m^3 sr); or absent */
 } NbVolumeDesc;
 
-/* Per-launch parameters, 228 bytes. */
+/* Per-launch parameters, 260 bytes. */
 typedef struct {
     NbCamera camera;
     float background[4]; /* radiance seen by camera rays that leave the volumes (L0) */
@@ -55,6 +56,9 @@ typedef struct {
     NbGeomScene geom;  /* the geometry's BVH and planes (geometry.h); all 0 without geometry */
     int holdoutDepthWidth, holdoutDepthHeight; /* camera.holdout_depth's image (holdoutdepth.h) */
     float holdoutDepthScale[2];                /* its pixels per camera pixel, x and y */
+    NbEnvMap envMap;   /* the environment light's map (envmap.h), its data in the envData buffer */
+    int envLight;      /* index in the light list of the light with that map; -1: none */
+    int envPad[3];
 } NbPtParams;
 
 /* The kernel's event counters (one int each). */

@@ -123,7 +123,8 @@ void renderTiles(const RenderContext& ctx, const Integrator& integrator, Film& f
     // others see only the background, where the integrator allows it (not wkb, which keeps its
     // own per-ray path). A holdout hides the background, so with both, every tile is marched.
     const bool skipEmpty =
-        integrator.skipsEmptyTiles() && !(holdouts && nbMaxComponent(ctx.background) > 0.0f);
+        integrator.skipsEmptyTiles() && !(holdouts && nbMaxComponent(ctx.background) > 0.0f) &&
+        !ctx.backgroundVaries();  // an environment map: each ray sees its own texel
     std::vector<char> seesBricks(size_t(tileCount), 1);
     if (skipEmpty) {
         std::fill(seesBricks.begin(), seesBricks.end(), 0);

@@ -9,7 +9,7 @@ namespace nimbus {
 
 static_assert(sizeof(NbGridDesc) == 48, "NbGridDesc layout is shared with OpenCL");
 static_assert(sizeof(NbVolumeDesc) == 224, "NbVolumeDesc layout is shared with OpenCL");
-static_assert(sizeof(NbPtParams) == 228, "NbPtParams layout is shared with OpenCL");
+static_assert(sizeof(NbPtParams) == 260, "NbPtParams layout is shared with OpenCL");
 static_assert(sizeof(NbLight) == 96, "NbLight layout is shared with OpenCL");
 
 namespace {
@@ -92,6 +92,11 @@ PathtraceScene buildPathtraceScene(const RenderContext& ctx)
         const LightEntry& e = ctx.lights[i];
         if (!e.used)
             continue;
+        if (e.map) {  // SceneValidate allows one map per scene
+            s.envLight = int(s.lights.size());
+            s.envMap = e.map->header();
+            s.envData = e.map->data();
+        }
         s.lights.push_back(e.light);
         s.lightEntry.push_back(int(i));
         s.lightTypes |= 1u << e.light.type;
@@ -118,6 +123,7 @@ std::string PathtraceScene::defines(bool globalMajorant) const
     const char* names[] = {"DISTANT", "POINT", "SPOT", "RECT", "SPHERE", "ENVIRONMENT"};
     for (int t = 0; t < 6; ++t)
         o << " -D NB_HAS_LIGHT_" << names[t] << "=" << ((lightTypes >> t) & 1u);
+    o << " -D NB_HAS_ENV_MAP=" << (envLight >= 0 ? 1 : 0);
     o << " -D NB_HAS_EMISSION=" << (emission ? 1 : 0) << " -D NB_TWO_LOBE=" << (twoLobe ? 1 : 0)
       << " -D NB_CHROMATIC=" << (chromatic ? 1 : 0) << " -D NB_GLOBAL_MAJORANT=" << (globalMajorant ? 1 : 0)
       << " -D NB_GEOM_HOLDOUTS=" << (holdouts ? 1 : 0) << " -D NB_GEOM_SHADOW_CASTERS=" << (shadowCasters ? 1 : 0)

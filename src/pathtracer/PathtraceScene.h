@@ -39,6 +39,9 @@ struct PathtraceScene {
     std::vector<float> holdoutDepth;
     int holdoutDepthWidth = 0, holdoutDepthHeight = 0;
     float holdoutDepthScale[2] = {1.0f, 1.0f};
+    int envLight = -1;            // the light (in `lights`) with an environment map, or -1
+    NbEnvMap envMap{};
+    std::vector<float> envData;   // envmap.h's layout; empty without a map
 
     // "-D NB_NUM_VOLUMES=2 -D NB_HAS_LIGHT_DISTANT=1 ..." for buildProgram. A scene without
     // geometry or depth map compiles none of their code (NB_GEOM_*, NB_HOLDOUT_DEPTH 0).

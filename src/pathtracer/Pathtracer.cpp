@@ -184,6 +184,8 @@ void renderPathtrace(const RenderContext& ctx, Film& film, const RenderControl& 
     params.holdoutDepthHeight = ps.holdoutDepthHeight;
     params.holdoutDepthScale[0] = ps.holdoutDepthScale[0];
     params.holdoutDepthScale[1] = ps.holdoutDepthScale[1];
+    params.envMap = ps.envMap;
+    params.envLight = ps.envLight;
 
     ocl::Mem paramBuf = cl.allocate(sizeof params);
     ocl::Mem lightBuf = cl.upload(ps.lights);
@@ -191,6 +193,7 @@ void renderPathtrace(const RenderContext& ctx, Film& film, const RenderControl& 
     ocl::Mem tableBuf = cl.upload(ps.tables);
     ocl::Mem poolBuf = cl.upload(ps.pools);
     ocl::Mem majorantBuf = cl.upload(ps.majorants);
+    ocl::Mem envBuf = cl.upload(ps.envData.empty() ? std::vector<float>(1, 0.0f) : ps.envData);
     ocl::Mem accBuf = cl.allocate(size_t(pixelCount) * stride * sizeof(float));
     if (!resumed.empty())
         cl.write(accBuf, resumed.data(), resumed.size() * sizeof(float));
@@ -203,9 +206,9 @@ void renderPathtrace(const RenderContext& ctx, Film& film, const RenderControl& 
     ocl::Mem nodeBuf = uploadOrPlaceholder(ps.geometry.nodes, sizeof(NbBvhNode));
     ocl::Mem primBuf = uploadOrPlaceholder(ps.geometry.prims, sizeof(NbGeomPrim));
     ocl::Mem depthBuf = uploadOrPlaceholder(ps.holdoutDepth, sizeof(float));
-    const cl_mem args[] = {paramBuf.get(), lightBuf.get(),   volumeBuf.get(), tableBuf.get(),
-                           poolBuf.get(),  majorantBuf.get(), accBuf.get(),    counterBuf.get(),
-                           nodeBuf.get(),  primBuf.get(),     depthBuf.get()};
+    const cl_mem args[] = {paramBuf.get(),   lightBuf.get(),    volumeBuf.get(), tableBuf.get(),
+                           poolBuf.get(),    majorantBuf.get(), envBuf.get(),    accBuf.get(),
+                           counterBuf.get(), nodeBuf.get(),     primBuf.get(),   depthBuf.get()};
     for (cl_uint i = 0; i < sizeof args / sizeof args[0]; ++i)
         ocl::check(clSetKernelArg(kernel.get(), i, sizeof(cl_mem), &args[i]), "clSetKernelArg");
 

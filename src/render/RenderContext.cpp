@@ -44,7 +44,9 @@ std::unique_ptr<RenderContext> RenderContext::create(const Scene& scene, VolumeS
             if (!hasEnvironment)
                 ctx->background = splat(0.0f);
             hasEnvironment = true;
-            ctx->background += l.radiance;  // seen directly where rays leave the volumes (L0)
+            e.map = EnvironmentMap::load(scene, i);  // InputError for a bad map
+            if (!e.map)
+                ctx->background += nbLoad3(e.light.color);  // seen directly where rays leave the volumes (L0)
         }
         e.used = plan.lights[i].used;
         e.delta = plan.lights[i].shadowMap;
@@ -104,6 +106,22 @@ void RenderContext::buildShadowMaps(const RenderPlan& plan, RenderStats& stats, 
                                                             [](uint8_t n) { return n > 0; }));
     }
     stats.addStage("shadow maps", secondsSince(t1));
+    auto t2 = std::chrono::steady_clock::now();
+    bool anySky = false;
+    for (size_t i = 0; i < lights.size(); ++i) {
+        if (!plan.lights[i].skyGrid || !plan.lights[i].used)
+            continue;
+        SkyLight::Settings ss;
+        ss.order = s0.render.wkbShOrderMax;
+        ss.nodesAcross = skyNodesAcross(s0);
+        ss.shadowStep = s0.render.shadowStep;
+        anySky = true;
+        lights[i].sky = SkyLight::build(volumes, shadowCasters(), lights[i].map.get(), nbLoad3(lights[i].light.color), ss);
+        stats.lights[i].skyBytes = lights[i].sky->memoryBytes();
+        stats.lights[i].skySeconds = lights[i].sky->buildSeconds();
+    }
+    if (anySky)
+        stats.addStage("sky grid", secondsSince(t2));
 }
 
 Rgb RenderContext::deltaWeight(size_t i, float3 p, float3& wi) const

@@ -10,6 +10,7 @@
 #include "RenderControl.h"
 #include "RenderPlan.h"
 #include "RenderStats.h"
+#include "SkyLight.h"
 #include "StiffVoxels.h"
 #include "VolumeSet.h"
 
@@ -31,6 +32,10 @@ struct LightEntry {
     bool delta = false;
     std::optional<DeepShadowMap> shadowMap;  // set for delta lights that reach a volume
     std::optional<LightCache> cache;         // the shadow map baked on the voxels
+    // environment: its HDR map (null: uniform) and, in single and wkb, its sky grid (the plan's
+    // skyGrid; built by buildShadowMaps): the marches read it instead of sampling the light.
+    std::shared_ptr<const EnvironmentMap> map;
+    std::optional<SkyLight> sky;
 };
 
 struct RenderContext {
@@ -38,7 +43,25 @@ struct RenderContext {
     VolumeSet volumes;
     std::vector<LightEntry> lights;  // index-aligned with scene.lights
     std::vector<StiffVoxels> stiff;  // per volume: bricks with optically thick voxels (StiffVoxels.h)
-    Rgb background = splat(0.0f);    // radiance seen where rays leave the volumes
+    Rgb background = splat(0.0f);    // radiance seen where rays leave the volumes, less the maps'
+    // The radiance a ray leaving the volumes along unit direction d sees: background plus every
+    // environment map's colour * map(d).
+    Rgb backgroundAlong(float3 d) const
+    {
+        Rgb b = background;
+        for (const LightEntry& e : lights)
+            if (e.map)
+                b += nbLoad3(e.light.color) * e.map->lookup(d);
+        return b;
+    }
+    // Whether the background depends on the direction (an environment map).
+    bool backgroundVaries() const
+    {
+        for (const LightEntry& e : lights)
+            if (e.map)
+                return true;
+        return false;
+    }
     // Scene geometry (docs/geometry.md): null where the scene has none (no Embree device is made).
     std::shared_ptr<const EmbreeScene> geometry;
     std::shared_ptr<const HoldoutDepth> holdoutDepth;  // camera.holdout_depth; null where none
@@ -64,7 +87,8 @@ struct RenderContext {
     // for tests and tools that march rays themselves. Renders go through the engine.
     static std::unique_ptr<RenderContext> create(const Scene& scene, bool buildShadowMaps);
 
-    // The plan's deep shadow maps (delta lights that reach a volume), each baked on the voxels;
+    // The plan's deep shadow maps (delta lights that reach a volume), each baked on the voxels,
+    // and the sky grids of its environment lights (skyGrid);
     // sizes and times go to stats. With a cache, a light's map from the last frame is reused
     // where nothing it depends on changed (ShadowMapCache.h).
     void buildShadowMaps(const RenderPlan& plan, RenderStats& stats, ShadowMapCache* cache = nullptr);

@@ -49,6 +49,8 @@ std::string RenderPlan::describe() const
             s << "deep shadow map, " << l.projection << ", up to " << l.resolution << "^2 texels, baked on the voxels";
         else if (l.sampled)
             s << "sampled with shadow rays (" << l.reason << ")";
+        else if (l.skyGrid)
+            s << "transmittance-weighted SH radiance on a grid, built once (" << l.reason << ")";
         s << "\n";
         if (wkb.enabled && !l.l2plus.empty())
             s << "      L2+: " << l.l2plus << "\n";

@@ -18,7 +18,8 @@ struct LightPlan {
     std::string type;
     bool used = true;        // false: skipped, with `reason`
     bool shadowMap = false;  // transmittance from a deep shadow map (delta lights)
-    bool sampled = false;    // transmittance by shadow rays (area, sphere, environment, soft sun)
+    bool sampled = false;    // transmittance by shadow rays (area, sphere, soft sun)
+    bool skyGrid = false;    // environment in single and wkb: SkyLight's grid, built once per render
     std::string projection;  // orthographic / perspective / cube
     int resolution = 0;      // the most texels per side; the build may use fewer (RenderStats)
     std::string reason;

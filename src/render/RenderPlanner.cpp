@@ -105,9 +105,17 @@ RenderPlan planScene(const Scene& scene, const VolumeSet& volumes)
             lp.projection = l.type == LightType::Distant                           ? "orthographic"
                             : (l.type == LightType::Spot && l.coneAngle <= 120.0f) ? "perspective"
                                                                                    : "cube";
+        } else if (l.type == LightType::Environment && scene.render.method != Method::Pathtrace) {
+            lp.skyGrid = true;
+            lp.reason = "SH order " + std::to_string(scene.render.wkbShOrderMax) + ", " +
+                        std::to_string(skyNodesAcross(scene)) + " nodes across each volume, " +
+                        std::to_string(SkyLight::kCellRows * SkyLight::kCellColumns) + " sky cells" +
+                        (l.map.empty() ? std::string(", uniform") : ", map '" + l.map + "'");
         } else {
             lp.sampled = true;
-            lp.reason = std::to_string(scene.render.lightSamples) + " sample(s) per step";
+            lp.reason = l.type == LightType::Environment && !l.map.empty()
+                            ? "map '" + l.map + "', importance-sampled with MIS against the phase function"
+                            : std::to_string(scene.render.lightSamples) + " sample(s) per step";
         }
         plan.lights.push_back(lp);
     }

@@ -21,7 +21,7 @@ std::string RenderStats::describe(const RenderPlan& plan) const
     s << "render statistics\n";
     for (size_t i = 0; i < lights.size() && i < plan.lights.size(); ++i) {
         const LightStats& l = lights[i];
-        if (l.shadowMapBytes == 0 && l.l2plusShadowMapBytes == 0)
+        if (l.shadowMapBytes == 0 && l.l2plusShadowMapBytes == 0 && l.skyBytes == 0)
             continue;
         s << "  light " << plan.lights[i].name << ":";
         if (l.shadowMapBytes) {
@@ -33,6 +33,8 @@ std::string RenderStats::describe(const RenderPlan& plan) const
         }
         if (l.l2plusShadowMapBytes)
             s << (l.shadowMapBytes ? ";" : "") << " L2+ shadow map of its own, " << formatBytes(l.l2plusShadowMapBytes);
+        if (l.skyBytes)
+            s << " sky grid " << formatBytes(l.skyBytes) << ", built in " << l.skySeconds << " s";
         s << "\n";
     }
     for (size_t v = 0; v < volumes.size() && v < plan.volumes.size(); ++v) {

@@ -20,6 +20,8 @@ struct LightStats {
     double cacheSeconds = 0;
     size_t marchSampleBytes = 0;      // the map's march samples the bake read (freed after), or 0
     size_t l2plusShadowMapBytes = 0;  // wkb: a shadow map of its own for the light volumes
+    size_t skyBytes = 0;              // environment: its sky grid (SkyLight.h), single and wkb
+    double skySeconds = 0;
 };
 
 struct VolumeStats {

@@ -102,7 +102,7 @@ NbLight makeNbLight(const Light& l, int index)
         break;
     case LightType::Environment:
         k.type = NB_LIGHT_ENVIRONMENT;
-        store(k.color, l.radiance);
+        store(k.color, l.radiance * l.mapIntensity);  // times map(w) where there is a map
         break;
     }
     return k;

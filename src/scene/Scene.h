@@ -72,6 +72,12 @@ struct Light {
     float radius = 0.5f;         // sphere
     // Animation (Animation.h) of the placement keys: direction, position, center, normal, up.
     Keys<float3> directionKeys, positionKeys, centerKeys, normalKeys, upKeys;
+    // environment: an HDR latitude-longitude map (kernels/shared/envmap.h has the orientation),
+    // resolved against the scene file's directory as VDB files are; empty: uniform. The radiance
+    // from world direction w is intensity * radiance * map(w).
+    std::string map;
+    float rotate = 0.0f;     // the map's turn about +y, degrees, counter-clockwise seen from above
+    float mapIntensity = 1.0f;  // JSON "intensity" of an environment light: a scalar on the radiance
 };
 
 struct Medium {

@@ -417,7 +417,11 @@ void visitLight(V& v, L& l)
         v.field("radius", l.radius);
         v.rgb("radiance", l.radiance);
         break;
-    case LightType::Environment: v.rgb("radiance", l.radiance); break;
+    case LightType::Environment:
+        v.rgb("radiance", l.radiance);
+        v.field("rotate", l.rotate);
+        v.field("intensity", l.mapIntensity);
+        break;
     }
 }
 
@@ -433,6 +437,9 @@ Light readLight(SceneReader r, size_t index)
         r.fail("type", "unknown light type '" + type + "' (expected distant, point, spot, rect, sphere, environment)");
     l.name = std::to_string(index);
     r.field("name", l.name);
+    if (l.type == LightType::Environment)
+        if (const json* m = r.find("map"))
+            l.map = relativeToScene(JsonValue{*m, r.keyPath("map"), r.file()}.string(), r.file());
     visitLight(r, l);
     r.finish(" for a " + type + " light");
     return l;
@@ -444,6 +451,8 @@ json writeLight(const Light& l)
     w.doc()["type"] = lightTypeName(l.type);
     if (!l.name.empty())
         w.field("name", l.name);
+    if (!l.map.empty())
+        w.field("map", l.map);
     visitLight(w, l);
     return w.doc();
 }

@@ -192,7 +192,11 @@ void checkLight(const Checker& c, const Light& l, const std::string& p)
         c.range(p + "radius", l.radius, kPositive);
         c.nonNegative(p + "radiance", l.radiance);
         break;
-    case LightType::Environment: c.nonNegative(p + "radiance", l.radiance); break;
+    case LightType::Environment:
+        c.nonNegative(p + "radiance", l.radiance);
+        c.range(p + "rotate", l.rotate, Range{-kInf, kInf, true, true, "degrees"});
+        c.range(p + "intensity", l.mapIntensity, kNonNegative);
+        break;
     default: c.fail(p + "type", "unknown light type " + std::to_string(int(l.type)));
     }
 }
@@ -212,6 +216,13 @@ void checkLights(const Checker& c, const std::vector<Light>& lights)
             c.fail(p + "name", "'" + l.name + "' names another light too; light names must be unique");
         checkLight(c, l, p);
     }
+    // The path tracer samples one map (kernels/pathtrace.cl): a second sky map is a mistake to
+    // report, not a light to drop.
+    int maps = 0;
+    for (size_t i = 0; i < lights.size(); ++i)
+        if (!lights[i].map.empty() && ++maps > 1)
+            c.fail("lights[" + std::to_string(i) + "].map",
+                   "a second environment map; a scene may have one (add the skies into one map)");
 }
 
 // Grid roles a VDB source can map (DESIGN "Units and conventions"); "heat" is read as "flame".

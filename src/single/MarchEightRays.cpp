@@ -21,6 +21,25 @@ bool marchGreyDistantEight(const RenderContext& ctx, const VolumeData& vol, cons
     // density's bricks (LightCache), so one stencil index serves every pool.
     if (lightCount < 1 || lightCount > kMaxEightRayLights || !lanes::gatherable(density))
         return false;
+    // Skies (SkyLight.h) apart: they read their grid, the distant lights their baked depth.
+    const LightEntry* skies[kMaxEightRaySkies];
+    int skyCount = 0;
+    const LightEntry* distant[kMaxEightRayLights];
+    int distantCount = 0;
+    for (int l = 0; l < lightCount; ++l) {
+        if (lights[l]->sky) {
+            if (skyCount == kMaxEightRaySkies)
+                return false;
+            const SkyLight::Geometry g = lights[l]->sky->geometry(0);
+            if (g.nx < 2 || g.ny < 2 || g.nz < 2)
+                return false;  // a grid one node thin: the scalar march reads it
+            skies[skyCount++] = lights[l];
+        } else {
+            distant[distantCount++] = lights[l];
+        }
+    }
+    lights = distant;
+    lightCount = distantCount;
     const float* tauPools[kMaxEightRayLights];
     for (int l = 0; l < lightCount; ++l) {
         const BrickGrid& cache = lights[l]->cache->grid(0);
@@ -91,6 +110,44 @@ bool marchGreyDistantEight(const RenderContext& ctx, const VolumeData& vol, cons
     for (int l = 0; l < lightCount; ++l)
         L1[l] = _mm256_setzero_ps();
     __m256 k = zero, T = one, depthSum = zero, opacitySum = zero;
+
+    // Skies: per lane the ray's contraction a_jm = p_j y_jm(-d) and the grid cell it last read,
+    // with that cell's eight corners contracted (SkyLight::radiance's cursor, one per lane, laid
+    // out by corner and channel so that the trilinear blend is lane-parallel loads). The cell
+    // changes every spacing / step samples or so; then the lane's corners are contracted anew.
+    struct SkyLanes {
+        const SkyLight* sky;
+        size_t index;  // in ctx.lights
+        float a[8][SkyLight::kCountMax];
+        alignas(32) float corner[8][3][8];
+        alignas(32) int32_t cell[8];
+        __m256 origin[3], inv, hi[3], hiCell[3];
+        __m256i nx, nxy;
+        __m256 L1[3];
+    };
+    SkyLanes skyLanes[kMaxEightRaySkies];
+    for (int s = 0; s < skyCount; ++s) {
+        SkyLanes& sl = skyLanes[s];
+        sl.sky = &*skies[s]->sky;
+        sl.index = size_t(skies[s] - ctx.lights.data());
+        for (int i = 0; i < 8; ++i) {
+            sl.cell[i] = -1;
+            if (i < n)  // light scatters toward the camera, along -d
+                sl.sky->contraction(vol.medium.phase, -d[i], sl.a[i]);
+        }
+        const SkyLight::Geometry g = sl.sky->geometry(0);
+        sl.origin[0] = _mm256_set1_ps(g.origin.x), sl.origin[1] = _mm256_set1_ps(g.origin.y);
+        sl.origin[2] = _mm256_set1_ps(g.origin.z);
+        sl.inv = _mm256_set1_ps(g.invSpacing);
+        const int n3[3] = {g.nx, g.ny, g.nz};
+        for (int a = 0; a < 3; ++a) {
+            sl.hi[a] = _mm256_set1_ps(float(n3[a] - 1));
+            sl.hiCell[a] = _mm256_set1_ps(float(n3[a] - 2));
+            sl.L1[a] = zero;
+        }
+        sl.nx = _mm256_set1_epi32(g.nx);
+        sl.nxy = _mm256_set1_epi32(g.nx * g.ny);
+    }
     // A stopped render (RenderControl.h) ends the lanes' march early; its film is discarded.
     for (unsigned polled = 1;; ++polled) {
         if (polled % kStopPollInterval == 0 && ctx.stop.raised())
@@ -122,6 +179,55 @@ bool marchGreyDistantEight(const RenderContext& ctx, const VolumeData& vol, cons
             const __m256 Twrho = _mm256_and_ps(occ, _mm256_mul_ps(_mm256_mul_ps(T, weight), rho));
             for (int l = 0; l < lightCount; ++l)
                 L1[l] = _mm256_add_ps(L1[l], _mm256_mul_ps(Twrho, expNeg8(lanes::trilinear(tauPools[l], st))));
+            for (int s = 0; s < skyCount; ++s) {
+                SkyLanes& sl = skyLanes[s];
+                // Node coordinates, clamped into the grid, and the cell (SkyLight::radiance).
+                const __m256 q[3] = {qx, qy, qz};
+                __m256 f[3], c[3];
+                for (int a = 0; a < 3; ++a) {
+                    const __m256 g = _mm256_min_ps(
+                        _mm256_max_ps(_mm256_mul_ps(_mm256_sub_ps(q[a], sl.origin[a]), sl.inv), zero), sl.hi[a]);
+                    c[a] = _mm256_min_ps(_mm256_floor_ps(g), sl.hiCell[a]);
+                    f[a] = _mm256_sub_ps(g, c[a]);
+                }
+                const __m256i ci = _mm256_cvttps_epi32(c[0]), cj = _mm256_cvttps_epi32(c[1]),
+                              ck = _mm256_cvttps_epi32(c[2]);
+                const __m256i cell = _mm256_add_epi32(
+                    ci, _mm256_add_epi32(_mm256_mullo_epi32(cj, sl.nx), _mm256_mullo_epi32(ck, sl.nxy)));
+                const __m256i known = _mm256_load_si256(reinterpret_cast<const __m256i*>(sl.cell));
+                const int changed = _mm256_movemask_ps(_mm256_andnot_ps(
+                                        _mm256_castsi256_ps(_mm256_cmpeq_epi32(cell, known)), occ)) &
+                                    ((1 << n) - 1);
+                if (changed) {
+                    alignas(32) int32_t cells[8], is[8], js[8], ks[8];
+                    _mm256_store_si256(reinterpret_cast<__m256i*>(cells), cell);
+                    _mm256_store_si256(reinterpret_cast<__m256i*>(is), ci);
+                    _mm256_store_si256(reinterpret_cast<__m256i*>(js), cj);
+                    _mm256_store_si256(reinterpret_cast<__m256i*>(ks), ck);
+                    for (int i = 0; i < 8; ++i) {
+                        if (!(changed >> i & 1))
+                            continue;
+                        Rgb corner[8];
+                        sl.sky->corners(0, is[i], js[i], ks[i], sl.a[i], corner);
+                        for (int cc = 0; cc < 8; ++cc) {
+                            sl.corner[cc][0][i] = corner[cc].x;
+                            sl.corner[cc][1][i] = corner[cc].y;
+                            sl.corner[cc][2][i] = corner[cc].z;
+                        }
+                        sl.cell[i] = cells[i];
+                    }
+                }
+                for (int ch = 0; ch < 3; ++ch) {
+                    auto at = [&](int cc) { return _mm256_load_ps(sl.corner[cc][ch]); };
+                    auto lerp = [](__m256 a, __m256 b, __m256 t) { return _mm256_fmadd_ps(_mm256_sub_ps(b, a), t, a); };
+                    const __m256 x00 = lerp(at(0), at(1), f[0]), x10 = lerp(at(2), at(3), f[0]);
+                    const __m256 x01 = lerp(at(4), at(5), f[0]), x11 = lerp(at(6), at(7), f[0]);
+                    const __m256 v = _mm256_max_ps(lerp(lerp(x00, x10, f[1]), lerp(x01, x11, f[1]), f[2]), zero);
+                    // Lanes outside an occupied brick have Twrho 0; a lane never contracted
+                    // holds stale corners only where Twrho is 0.
+                    sl.L1[ch] = _mm256_fmadd_ps(Twrho, v, sl.L1[ch]);
+                }
+            }
             const __m256 opacity = _mm256_mul_ps(Twrho, KT);  // stepOpacity (SingleScatter.cpp)
             opacitySum = _mm256_add_ps(opacitySum, opacity);
             depthSum = _mm256_fmadd_ps(opacity, tk, depthSum);
@@ -156,7 +262,17 @@ bool marchGreyDistantEight(const RenderContext& ctx, const VolumeData& vol, cons
     for (int l = 0; l < lightCount; ++l)
         _mm256_store_ps(L1s[l], L1[l]);
     const Rgb sigmaS = vol.sigmaS();
+    alignas(32) float skyL1[kMaxEightRaySkies][3][8];
+    for (int s = 0; s < skyCount; ++s)
+        for (int ch = 0; ch < 3; ++ch)
+            _mm256_store_ps(skyL1[s][ch], skyLanes[s].L1[ch]);
     for (int i = 0; i < n; ++i) {
+        for (int s = 0; s < skyCount; ++s) {
+            const Rgb l1 = sigmaS * make_float3(skyL1[s][0][i], skyL1[s][1][i], skyL1[s][2][i]);
+            out[i].L1 += l1;
+            float* pl = perLight + perLightStride * size_t(i) + 3 * skyLanes[s].index;
+            pl[0] += l1.x, pl[1] += l1.y, pl[2] += l1.z;
+        }
         for (int l = 0; l < lightCount; ++l) {
             const LightEntry& e = *lights[l];
             // Light travels along its direction, then toward the camera (along -d).
@@ -168,7 +284,7 @@ bool marchGreyDistantEight(const RenderContext& ctx, const VolumeData& vol, cons
             pl[0] += l1.x, pl[1] += l1.y, pl[2] += l1.z;
         }
         if (!(tFar && tFar[i] < INFINITY))  // a held-out ray sees no background
-            out[i].L0 += Ts[i] * ctx.background;
+            out[i].L0 += Ts[i] * ctx.backgroundAlong(d[i]);
         out[i].transmittance = splat(Ts[i]);
         out[i].depth = opacitySums[i] > 0.0f ? depthSums[i] / opacitySums[i] : 0.0f;
         out[i].opacity = opacitySums[i];

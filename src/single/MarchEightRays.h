@@ -27,9 +27,12 @@ namespace nimbus {
 #if NIMBUS_EIGHT_RAY_MARCH
 // Up to this many distant lights in the lanes (one accumulator each); more take the scalar march.
 constexpr int kMaxEightRayLights = 8;
+// Of those, at most this many environment lights read through their sky grids (SkyLight.h).
+constexpr int kMaxEightRaySkies = 2;
 
 // The grey march of SingleScatter.cpp (marchGreyKeyLight, marchOneVolume<true, false>) for n <= 8
-// rays (o, d world, d unit; tFar their holdout distances as marchSingle's, or null) with their jitters, every used light distant and baked (`lights`,
+// rays (o, d world, d unit; tFar their holdout distances as marchSingle's, or null) with their
+// jitters, every used light distant and baked or an environment light's sky grid (`lights`,
 // lightCount of them); perLight holds n runs of `perLightStride` floats. The caller has checked
 // the case (SingleScatter.cpp). False, with nothing written, where a lane's march is too long
 // for float sample indices, the pools too large for 32-bit gathers or the lights too many:

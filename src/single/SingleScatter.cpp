@@ -203,10 +203,35 @@ inline Reach reachOf(float tFar)
 {
     return tFar < INFINITY ? Reach{std::min(tFar, 1e30f), true} : Reach{};
 }
-// The background seen through the medium's transmittance T, unless a holdout hides it.
-inline Rgb backgroundSeen(const RenderContext& ctx, Rgb T, const Reach& reach)
+// The background seen along d through the medium's transmittance T, unless a holdout hides it.
+inline Rgb backgroundSeen(const RenderContext& ctx, float3 d, Rgb T, const Reach& reach)
 {
-    return reach.heldOut ? splat(0.0f) : T * ctx.background;
+    return reach.heldOut ? splat(0.0f) : T * ctx.backgroundAlong(d);
+}
+
+// An environment light's sky grid as one camera ray reads it (SkyLight.h): the ray's contraction
+// a_jm = p_j y_jm(-d) per volume and a cursor per volume.
+struct SkyRay {
+    size_t index;  // in ctx.lights
+    const SkyLight* sky;
+    float a[SkyLight::kCountMax];
+    SkyLight::Cursor cursor;
+};
+
+// The sky lights of ctx with their contractions for one volume's phase function along -d.
+void skyRaysOf(const RenderContext& ctx, float3 d, NbPhase phase, std::vector<SkyRay>& rays)
+{
+    rays.clear();
+    for (size_t i = 0; i < ctx.lights.size(); ++i) {
+        const LightEntry& e = ctx.lights[i];
+        if (!e.used || !e.sky)
+            continue;
+        SkyRay r;
+        r.index = i;
+        r.sky = &*e.sky;
+        e.sky->contraction(phase, -d, r.a);  // light scatters toward the camera, along -d
+        rays.push_back(r);
+    }
 }
 
 // The walk's per-sample step, ending the walk once the render is stopped (RenderControl.h: a
@@ -253,7 +278,7 @@ void marchOneVolume(const RenderContext& ctx, const VolumeData& vol, float3 o, f
     activeList.clear();
     for (size_t i = 0; i < nLights; ++i) {
         const LightEntry& e = ctx.lights[i];
-        if (!e.used)
+        if (!e.used || e.sky)
             continue;
         Active a{int(i), &e.cache->grid(0), e.light.type == NB_LIGHT_DISTANT, splat(0.0f)};
         if (a.distant)  // light travels along its direction, then toward the camera (along -d)
@@ -265,7 +290,7 @@ void marchOneVolume(const RenderContext& ctx, const VolumeData& vol, float3 o, f
     constexpr int C = Grey ? 1 : 3;  // channels of the density's light caches
     // Copied out of the list: a local the loop's stores cannot alias stays in registers.
     const Active first = activeList.empty() ? Active{0, nullptr, false, splat(0.0f)} : activeList[0];
-    Rgb T = splat(1.0f), L1 = splat(0.0f);
+    Rgb T = splat(1.0f), L1 = splat(0.0f), L1Sky = splat(0.0f);
     float depthSum = 0.0f, opacitySum = 0.0f;
     const StiffVoxels& stiff = ctx.stiff[0];
     thread_local std::vector<StiffLight> stiffLights;
@@ -274,6 +299,18 @@ void marchOneVolume(const RenderContext& ctx, const VolumeData& vol, float3 o, f
     for (size_t ai = 0; ai < nActive; ++ai)
         stiffLights.push_back({size_t(active[ai].index), active[ai].cache, active[ai].distant});
     stiffL1.resize(nActive);
+    // Environment lights: their sky grids (SkyLight.h), read at the sample's index-space point.
+    thread_local std::vector<SkyRay> skyRays;
+    skyRaysOf(ctx, d, phase, skyRays);
+    const float3 oi = vol.indexFromWorld.point(o), di = vol.indexFromWorld.vector(d);
+    auto addSky = [&](float t, Rgb TwS) {
+        for (SkyRay& r : skyRays) {
+            const Rgb c = TwS * r.sky->radiance(0, oi + di * t, r.a, r.cursor);
+            L1Sky += c;
+            float* pl = perLight + 3 * r.index;
+            pl[0] += c.x, pl[1] += c.y, pl[2] += c.z;
+        }
+    };
     float coveredTo = -1e30f;  // stiffStepStart
     auto step = [&](int k, float t, const BrickGrid::Stencil& st) {
         if (stiff.any) {
@@ -282,8 +319,13 @@ void marchOneVolume(const RenderContext& ctx, const VolumeData& vol, float3 o, f
                 if constexpr (HeldOut)
                     ss = clippedStep(ss, tMax);
                 std::fill(stiffL1.begin(), stiffL1.end(), splat(0.0f));
+                const Rgb Tbefore = T;
                 const bool go = marchStiffStep(ctx, vol, o, d, ss.ta, ss.tb, ss.n, stiffLights.data(), nActive, T,
                                                stiffL1.data(), opacitySum, depthSum);
+                // The sky over the stiff step: int T sigma_s ds = (T_a - T_b) sigma_s / sigma_t,
+                // read at the step's middle (the grid is coarser than the step).
+                if (!skyRays.empty())
+                    addSky(0.5f * (ss.ta + ss.tb), (Tbefore - T) * kS / fmax(kT, splat(1e-30f)));
                 for (size_t ai = 0; ai < nActive; ++ai) {
                     const Active& a = OneDistant ? first : active[ai];
                     const Rgb c = kS * stiffL1[ai] * (a.distant ? a.weight : splat(1.0f));
@@ -310,6 +352,8 @@ void marchOneVolume(const RenderContext& ctx, const VolumeData& vol, float3 o, f
             stepTerms(kT.z * rho, dt, stepT.z, w.z);
         }
         const Rgb TwS = T * w * kS * rho;  // int over the step of T sigma_s (eq. 31 per step)
+        if (!skyRays.empty())
+            addSky(t, TwS);
         for (size_t ai = 0; ai < nActive; ++ai) {
             const Active& a = OneDistant ? first : active[ai];
             Rgb Li;
@@ -350,13 +394,13 @@ void marchOneVolume(const RenderContext& ctx, const VolumeData& vol, float3 o, f
         walkVolumeTo(vol, o, d, dt, jitter, tMax, stoppable(ctx, step));
     else
         walkVolume(vol, o, d, dt, jitter, stoppable(ctx, step));
-    out.L1 += L1;
+    out.L1 += L1 + L1Sky;
     if (OneDistant) {
         float* pl = perLight + 3 * first.index;
         pl[0] += L1.x, pl[1] += L1.y, pl[2] += L1.z;
     }
     if constexpr (!HeldOut)
-        out.L0 += T * ctx.background;
+        out.L0 += T * ctx.backgroundAlong(d);
     out.transmittance = T;
     out.depth = opacitySum > 0.0f ? depthSum / opacitySum : 0.0f;
     out.opacity = opacitySum;
@@ -420,7 +464,7 @@ void marchGreyKeyLight(const RenderContext& ctx, const VolumeData& vol, const Li
     float* pl = perLight + 3 * (&key - ctx.lights.data());
     pl[0] += l1.x, pl[1] += l1.y, pl[2] += l1.z;
     if constexpr (!HeldOut)
-        out.L0 += T * ctx.background;
+        out.L0 += T * ctx.backgroundAlong(d);
     out.transmittance = splat(T);
     out.depth = opacitySum > 0.0f ? depthSum / opacitySum : 0.0f;
     out.opacity = opacitySum;
@@ -441,18 +485,19 @@ FastMarch fastMarchOf(const RenderContext& ctx, const LightEntry** key, bool* al
     const Rgb kT = vol.sigmaT();
     const bool grey = kT.x == kT.y && kT.y == kT.z;
     for (const LightEntry& e : ctx.lights)
-        if (e.used && (!e.cache || e.cache->grid(0).channels() != (grey ? 1 : 3)))
+        if (e.used && !e.sky && (!e.cache || e.cache->grid(0).channels() != (grey ? 1 : 3)))
             return FastMarch::None;
-    size_t used = 0, distant = 0;
+    size_t used = 0, distant = 0, skies = 0;
     for (const LightEntry& e : ctx.lights) {
-        used += e.used;
+        used += e.used;  // a sky too: then no OneDistant loop, which reads one light
         distant += e.used && e.light.type == NB_LIGHT_DISTANT;
+        skies += e.used && e.sky;
         if (e.used)
             *key = &e;
     }
     const bool oneDistant = used == 1 && distant == 1;
-    if (allDistant)
-        *allDistant = used > 0 && distant == used;
+    if (allDistant)  // the lanes' case: distant lights and skies, both at infinity
+        *allDistant = used > 0 && distant + skies == used;
     return grey && oneDistant ? FastMarch::GreyKeyLight
            : grey             ? FastMarch::Grey
            : oneDistant       ? FastMarch::OneDistant
@@ -525,6 +570,24 @@ bool marchSingleFast(const RenderContext& ctx, float3 o, float3 d, float jitter,
             rayPhase[i * nVolumes + v] = nbPhaseEval(volumes[v]->medium.phase, cosTheta);
         rayPhaseValid[i] = 1;
     }
+
+    // Environment lights' sky grids (SkyLight.h): per (sky, volume) the ray's contraction with
+    // that volume's phase function and a cursor.
+    thread_local std::vector<int> skySlot;
+    thread_local std::vector<float> skyA;
+    thread_local std::vector<SkyLight::Cursor> skyCursors;
+    skySlot.assign(nLights, -1);
+    int nSky = 0;
+    for (size_t i = 0; i < nLights; ++i)
+        if (ctx.lights[i].used && ctx.lights[i].sky)
+            skySlot[i] = nSky++;
+    skyA.resize(size_t(nSky) * nVolumes * SkyLight::kCountMax);
+    skyCursors.assign(size_t(nSky) * nVolumes, SkyLight::Cursor());
+    for (size_t i = 0; i < nLights; ++i)
+        if (skySlot[i] >= 0)
+            for (size_t v = 0; v < nVolumes; ++v)  // light scatters toward the camera, along -d
+                ctx.lights[i].sky->contraction(volumes[v]->medium.phase, -d,
+                                               skyA.data() + (size_t(skySlot[i]) * nVolumes + v) * SkyLight::kCountMax);
 
     vs.spans(o, d, 0.0f, reach.tMax, scene.render.step, spanList);
     const int lightSamples = std::max(1, scene.render.lightSamples);
@@ -617,6 +680,25 @@ bool marchSingleFast(const RenderContext& ctx, float3 o, float3 d, float jitter,
                 for (size_t i = 0; i < nLights; ++i) {
                     if (!ctx.lights[i].used)
                         continue;
+                    if (const int slot = skySlot[i]; slot >= 0) {
+                        // The sky grid's in-scattered radiance, the volumes' phases mixed by
+                        // scattering coefficient as below.
+                        Rgb sum = splat(0.0f);
+                        for (size_t v = 0; v < nVolumes; ++v) {
+                            if (!(phaseWeights[v] > 0.0f))
+                                continue;
+                            const size_t sv = size_t(slot) * nVolumes + v;
+                            sum += ctx.lights[i].sky->radiance(v, volumes[v]->indexFromWorld.point(p),
+                                                               skyA.data() + sv * SkyLight::kCountMax, skyCursors[sv]) *
+                                   phaseWeights[v];
+                        }
+                        const Rgb contribution = Tw * m.sigma_s * sum * invWeightSum;
+                        out.L1 += contribution;
+                        perLight[3 * i + 0] += contribution.x;
+                        perLight[3 * i + 1] += contribution.y;
+                        perLight[3 * i + 2] += contribution.z;
+                        continue;
+                    }
                     const bool delta = ctx.lights[i].delta;
                     const int ns = delta ? 1 : lightSamples;
                     Rgb sum = splat(0.0f);
@@ -666,7 +748,7 @@ bool marchSingleFast(const RenderContext& ctx, float3 o, float3 d, float jitter,
         if (done)
             break;
     }
-    out.L0 += backgroundSeen(ctx, T, reach);
+    out.L0 += backgroundSeen(ctx, d, T, reach);
     out.transmittance = T;
     out.depth = opacitySum > 0.0f ? depthSum / opacitySum : 0.0f;
     out.opacity = opacitySum;
@@ -679,7 +761,7 @@ bool missesEveryVolume(const RenderContext& ctx, float3 o, float3 d, Reach reach
     float tIn, tOut;
     if (ctx.volumes.worldBounds().intersect(o, safeInverse(d), 0.0f, reach.tMax, tIn, tOut))
         return false;
-    out.L0 += backgroundSeen(ctx, splat(1.0f), reach);
+    out.L0 += backgroundSeen(ctx, d, splat(1.0f), reach);
     out.transmittance = splat(1.0f);
     out.depth = 0.0f;
     return true;

@@ -53,6 +53,8 @@ std::vector<std::string> sceneInputFiles(const Scene& scene)
         if (g.type == GeometryType::Mesh)
             addIfExists(g.file);
     addIfExists(scene.camera.holdoutDepth.file);
+    for (const Light& l : scene.lights)
+        addIfExists(l.map);
     return files;
 }
 

@@ -1,7 +1,7 @@
 #include "LightVolumes.h"
 
 #include "../../kernels/shared/rng.h"
-#include "SphericalHarmonics.h"
+#include "../render/SphericalHarmonics.h"
 #include "../single/EmissionScatter.h"
 
 #include <tbb/blocked_range.h>
@@ -206,6 +206,8 @@ void LightVolumes::fillLevel0(const RenderContext& ctx, const WkbSetup& setup, s
                                 for (int c = 0; c < 3; ++c)
                                     acc[sp.offset + c] /= 8.0;
                             } else if (sp.mode == SourceMode::Sh) {
+                                const EnvironmentMap* envMap =
+                                    sp.lightIndex >= 0 ? ctx.lights[size_t(sp.lightIndex)].map.get() : nullptr;
                                 NbRng rng = nbRngStart(0x5eedu + nb_uint(si), voxelKey, 0u);
                                 const float r0 = nbRngNext(&rng), r1 = nbRngNext(&rng);
                                 const int n = sp.emission ? kEmissionDirections : kShSamples;
@@ -226,6 +228,8 @@ void LightVolumes::fillLevel0(const RenderContext& ctx, const WkbSetup& setup, s
                                         travel = -u;
                                     } else {
                                         NbLightSample ls = nbLightSample(sp.light, wc, u0, u1);
+                                        if (envMap)  // an environment map: its texel scales the
+                                            ls.weight = ls.weight * envMap->lookup(ls.wi);  // uniform sample
                                         if (nbMaxComponent(ls.weight) <= 0.0f)
                                             continue;
                                         if (casters &&

@@ -1,7 +1,7 @@
 #include "WkbIntegrator.h"
 
 #include "LegendreSeries.h"
-#include "SphericalHarmonics.h"
+#include "../render/SphericalHarmonics.h"
 
 #include <algorithm>
 #include <cmath>

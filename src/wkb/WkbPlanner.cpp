@@ -1,7 +1,7 @@
 #include "WkbPlanner.h"
 
 #include "LightPyramid.h"
-#include "SphericalHarmonics.h"
+#include "../render/SphericalHarmonics.h"
 
 #include <algorithm>
 #include <cmath>

@@ -145,7 +145,9 @@ def keys():
                         (sphere, [("position", "component1", None, None, False, False),
                                   ("radius", "scalar", 0, None, True, False),
                                   ("radiance", "scalar", 0, None, False, False)]),
-                        (env, [("radiance", "scalar", 0, None, False, False)])):
+                        (env, [("radiance", "scalar", 0, None, False, False),
+                               ("rotate", "scalar", None, None, False, False),
+                               ("intensity", "scalar", 0, None, False, False)])):
         for key, kind, lo, hi, lo_open, hi_open in rows:
             k.append(Key(f"lights.{light['type']}.{key}", f"lights[0].{key}", kind, lo, hi, lo_open, hi_open,
                          setup=light_setup(dict(light))))

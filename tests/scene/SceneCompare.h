@@ -53,6 +53,9 @@ inline void expectLightEq(const Light& a, const Light& b, const std::string& w)
     EXPECT_EQ(a.size[1], b.size[1]) << w;
     expectVecEq(a.radiance, b.radiance, w + ".radiance");
     EXPECT_EQ(a.radius, b.radius) << w;
+    EXPECT_EQ(a.map, b.map) << w;
+    EXPECT_EQ(a.rotate, b.rotate) << w;
+    EXPECT_EQ(a.mapIntensity, b.mapIntensity) << w;
 }
 
 inline void expectVolumeEq(const Volume& a, const Volume& b, const std::string& w)

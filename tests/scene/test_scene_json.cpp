@@ -170,6 +170,26 @@ TEST(SceneJson, VdbFileResolvesAgainstTheSceneDirectoryOnly)
     EXPECT_EQ(memory.volumes[0].source.file, "grids/a.vdb");
 }
 
+// Issue 17: an environment light's map resolves against the scene file's directory, as VDB
+// files do; rotate and intensity are read and written back; a point light's intensity stays RGB.
+TEST(SceneJson, EnvironmentMapResolvesAndRoundTrips)
+{
+    const char* text = R"({"lights": [{"type": "environment", "map": "hdri/sky.exr", "rotate": 45, "intensity": 2.5,
+                                        "radiance": [1, 0.9, 0.8]},
+                                       {"type": "point", "intensity": [1, 2, 3]}]})";
+    Scene s = sceneFromJson(json::parse(text), "/shots/sq010/scene.json");
+    ASSERT_EQ(s.lights.size(), 2u);
+    EXPECT_EQ(s.lights[0].map, "/shots/sq010/hdri/sky.exr");
+    EXPECT_FLOAT_EQ(s.lights[0].rotate, 45.0f);
+    EXPECT_FLOAT_EQ(s.lights[0].mapIntensity, 2.5f);
+    EXPECT_FLOAT_EQ(s.lights[1].intensity.z, 3.0f);
+    const Scene back = sceneFromJson(sceneToJson(s), "/elsewhere/scene.json");  // written absolute: kept
+    EXPECT_EQ(back.lights[0].map, s.lights[0].map);
+    EXPECT_FLOAT_EQ(back.lights[0].rotate, 45.0f);
+    EXPECT_FLOAT_EQ(back.lights[0].mapIntensity, 2.5f);
+    EXPECT_THROW(parse(R"({"lights": [{"type": "point", "map": "sky.exr"}]})"), InputError);  // not a point key
+}
+
 TEST(SceneJson, VdbGridRolesAndTheHeatAlias)
 {
     Scene s = parse(R"({"volumes": [{"source": {"type": "vdb", "file": "a.vdb",

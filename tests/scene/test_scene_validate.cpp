@@ -112,3 +112,26 @@ TEST(SceneValidate, SourcesNeedTheirData)
     s.volumes[0].source.grids["density"] = "";
     EXPECT_NE(errorOf(s).find("volumes[0].source.grids.density: grid name must not be empty"), std::string::npos);
 }
+
+// Issue 17: one environment map per scene (the path tracer samples one); rotate finite,
+// intensity >= 0.
+TEST(SceneValidate, EnvironmentMapKeys)
+{
+    Scene s;
+    Light sky;
+    sky.type = LightType::Environment;
+    sky.name = "a";
+    sky.map = "a.exr";
+    s.lights.push_back(sky);
+    EXPECT_NO_THROW(validateScene(s));
+    sky.name = "b";
+    sky.map = "b.exr";
+    s.lights.push_back(sky);
+    EXPECT_NE(errorOf(s).find("lights[1].map"), std::string::npos) << errorOf(s);
+    s.lights.pop_back();
+    s.lights[0].rotate = INFINITY;
+    EXPECT_NE(errorOf(s).find("lights[0].rotate"), std::string::npos) << errorOf(s);
+    s.lights[0].rotate = 0.0f;
+    s.lights[0].mapIntensity = -1.0f;
+    EXPECT_NE(errorOf(s).find("lights[0].intensity"), std::string::npos) << errorOf(s);
+}

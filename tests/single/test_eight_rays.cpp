@@ -112,6 +112,29 @@ TEST(EightRays, KeyAndFillLanesAgreeWithTheScalarMarch)
     EXPECT_LT(worst, 1e-5);  // float rounding, as above
 }
 
+TEST(EightRays, KeyAndSkyLanesAgreeWithTheScalarMarch)
+{
+    if (!NIMBUS_EIGHT_RAY_MARCH)
+        GTEST_SKIP() << "built without AVX2 and FMA: every ray takes the scalar march";
+    // A sun and a uniform sky (SkyLight.h): the lanes read the sky grid with one cursor per lane,
+    // the scalar marchOneVolume<grey> with its own; the same contraction and trilinear blend.
+    Scene scene = greyCloudKeyLight(1.0f);
+    Light sky;
+    sky.name = "sky";
+    sky.type = LightType::Environment;
+    sky.radiance = make_float3(0.3f, 0.4f, 0.6f);
+    scene.lights.push_back(sky);
+    auto ctx = RenderContext::create(scene, true);
+    ASSERT_TRUE(ctx->lights[1].sky.has_value());
+    double worst = 0.0;
+    const std::vector<Ray> rays = probeRays(3000, 6);
+    const int differing = raysThatDiffer(*ctx, rays, 8, 1e-4f, &worst);
+    std::printf("key + sky: %d of %zu rays differ by > 1e-4; worst relative difference of the others %.2g\n",
+                differing, rays.size(), worst);
+    EXPECT_LE(differing, int(rays.size() / 1000));
+    EXPECT_LT(worst, 1e-5);  // float rounding, as above
+}
+
 TEST(EightRays, OtherScenesMarchRayByRayUnchanged)
 {
     // A chromatic medium, or a point light, does not take the lanes: batches must equal single

@@ -4,7 +4,7 @@
 // render.wkb_sh_order_max allows 8) against boost::math::spherical_harmonic_r / _i. References in
 // long double (64-bit mantissa: their own error is 2^-11 of the tolerances below, neglected).
 #include "wkb/LegendreSeries.h"
-#include "wkb/SphericalHarmonics.h"
+#include "render/SphericalHarmonics.h"
 
 #include <boost/math/special_functions/legendre.hpp>
 #include <boost/math/special_functions/spherical_harmonic.hpp>

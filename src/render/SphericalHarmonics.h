@@ -22,7 +22,7 @@
 
 #include <cmath>
 
-namespace nimbus::wkb {
+namespace nimbus {
 
 inline int shCount(int order)
 {
@@ -96,4 +96,4 @@ inline void shEvaluate(int order, float3 dir, double* out)
     }
 }
 
-}  // namespace nimbus::wkb
+}  // namespace nimbus

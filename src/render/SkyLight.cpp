@@ -1,0 +1,431 @@
+#include "SkyLight.h"
+
+#include "../geometry/EmbreeScene.h"
+#include "SphericalHarmonics.h"
+#include "VolumeSet.h"
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+
+namespace nimbus {
+
+namespace {
+
+// One cell of the sphere: its texels' exact sum of y_jm(n') L dOmega (n' = -w, the direction
+// the light travels; RGB innermost) and the direction its shadow rays take.
+struct Cell {
+    std::vector<double> E;
+    float3 towardLight;
+};
+
+std::vector<Cell> makeCells(const EnvironmentMap& map, Rgb colour, int order)
+{
+    const int W = map.width(), H = map.height(), count = shCount(order);
+    const int rows = std::min(H, SkyLight::kCellRows), cols = std::min(W, SkyLight::kCellColumns);
+    std::vector<Cell> cells(size_t(rows * cols));
+    std::vector<double> weight(cells.size(), 0.0);
+    std::vector<double> mean(cells.size() * 3, 0.0);  // radiance-weighted sum of directions
+    for (Cell& c : cells)
+        c.E.assign(size_t(3 * count), 0.0);
+    std::vector<double> y(static_cast<size_t>(count));
+    for (int j = 0; j < H; ++j) {
+        const double dOmega = map.texelSolidAngle(j);
+        const int cr = j * rows / H;
+        for (int i = 0; i < W; ++i) {
+            const Rgb L = map.texel(i, j) * colour;
+            const double lum = (double(L.x) + L.y + L.z) / 3.0;
+            if (!(lum > 0.0))
+                continue;
+            const size_t k = size_t(cr * cols + i * cols / W);
+            const float3 w = map.texelDirection(i, j);
+            shEvaluate(order, -w, y.data());
+            for (int jm = 0; jm < count; ++jm) {
+                cells[k].E[3 * jm + 0] += y[jm] * L.x * dOmega;
+                cells[k].E[3 * jm + 1] += y[jm] * L.y * dOmega;
+                cells[k].E[3 * jm + 2] += y[jm] * L.z * dOmega;
+            }
+            weight[k] += lum * dOmega;
+            mean[3 * k + 0] += lum * dOmega * w.x;
+            mean[3 * k + 1] += lum * dOmega * w.y;
+            mean[3 * k + 2] += lum * dOmega * w.z;
+        }
+    }
+    std::vector<Cell> out;
+    for (size_t k = 0; k < cells.size(); ++k) {
+        if (!(weight[k] > 0.0))
+            continue;  // a black part of the sky sends no light: no shadow ray
+        float3 m = make_float3(float(mean[3 * k]), float(mean[3 * k + 1]), float(mean[3 * k + 2]));
+        const float len = length(m);
+        if (len > 1e-6f * float(weight[k])) {
+            m = m / len;
+        } else {  // a cell whose directions cancel (a whole-sphere cell of a tiny map): its centre
+            const int cr = int(k) / cols, cc = int(k) % cols;
+            m = nbEnvDirection(map.header(), (cc + 0.5f) / cols, (cr + 0.5f) / rows);
+        }
+        cells[k].towardLight = m;
+        out.push_back(std::move(cells[k]));
+    }
+    return out;
+}
+
+// The centre of octant s of a cell of side 1 centred at the origin.
+float3 octant(int s)
+{
+    return make_float3(s & 1 ? 0.25f : -0.25f, s & 2 ? 0.25f : -0.25f, s & 4 ? 0.25f : -0.25f);
+}
+
+// A volume's density averaged over each sky-grid node's cell (eight octant samples), for the
+// grid's shadow rays: light reaching a node's cell is resolved at the node spacing anyway, and
+// marching this small dense array costs a fraction of the full-resolution brick walk.
+struct CoarseDensity {
+    const VolumeData* vol = nullptr;
+    float3 origin = splat(0.0f);
+    float spacing = 1.0f, invSpacing = 1.0f;
+    int nx = 0, ny = 0, nz = 0;
+    std::vector<float> rho;
+    Rgb sigmaT = splat(0.0f);
+
+    float at(int i, int j, int k) const { return rho[(size_t(k) * ny + j) * nx + i]; }
+    // Trilinear in node units f (inside [0, n-1]^3).
+    float sample(float3 f) const
+    {
+        const int i = std::min(int(f.x), nx - 2), j = std::min(int(f.y), ny - 2), k = std::min(int(f.z), nz - 2);
+        const float tx = f.x - i, ty = f.y - j, tz = f.z - k;
+        auto lerp = [](float a, float b, float t) { return a + (b - a) * t; };
+        const float c00 = lerp(at(i, j, k), at(i + 1, j, k), tx), c10 = lerp(at(i, j + 1, k), at(i + 1, j + 1, k), tx);
+        const float c01 = lerp(at(i, j, k + 1), at(i + 1, j, k + 1), tx),
+                    c11 = lerp(at(i, j + 1, k + 1), at(i + 1, j + 1, k + 1), tx);
+        return lerp(lerp(c00, c10, ty), lerp(c01, c11, ty), tz);
+    }
+    // Optical depth (RGB) from world point p along unit world direction w out of the grid, by
+    // the midpoint rule at `step` nodes.
+    Rgb opticalDepth(float3 p, float3 w, float step) const
+    {
+        if (nx < 2 || ny < 2 || nz < 2)
+            return splat(0.0f);
+        const float3 f0 = (vol->indexFromWorld.point(p) - origin) * invSpacing;
+        const float3 df = vol->indexFromWorld.vector(w) * invSpacing;  // nodes per metre
+        float t0 = 0.0f, t1 = 1e30f;
+        const float lo[3] = {0, 0, 0}, hi[3] = {float(nx - 1), float(ny - 1), float(nz - 1)};
+        const float o[3] = {f0.x, f0.y, f0.z}, d[3] = {df.x, df.y, df.z};
+        for (int a = 0; a < 3; ++a) {
+            if (d[a] == 0.0f) {
+                if (o[a] < lo[a] || o[a] > hi[a])
+                    return splat(0.0f);
+                continue;
+            }
+            float ta = (lo[a] - o[a]) / d[a], tb = (hi[a] - o[a]) / d[a];
+            if (ta > tb)
+                std::swap(ta, tb);
+            t0 = std::max(t0, ta), t1 = std::min(t1, tb);
+        }
+        if (!(t1 > t0))
+            return splat(0.0f);
+        const float dt = step / length(df);  // metres per step
+        const int n = std::max(1, int(std::ceil((t1 - t0) / dt)));
+        const float h = (t1 - t0) / float(n);
+        double tau = 0.0;
+        for (int s = 0; s < n; ++s) {
+            float3 f = f0 + df * (t0 + (float(s) + 0.5f) * h);
+            f = make_float3(clamp(f.x, 0.0f, hi[0]), clamp(f.y, 0.0f, hi[1]), clamp(f.z, 0.0f, hi[2]));
+            tau += sample(f);
+        }
+        return sigmaT * float(tau * h);
+    }
+};
+
+}  // namespace
+
+SkyLight SkyLight::build(const VolumeSet& volumes, const EmbreeScene* casters, const EnvironmentMap* map, Rgb colour,
+                         const Settings& settings)
+{
+    const auto t0 = std::chrono::steady_clock::now();
+    SkyLight sky;
+    sky.mOrder = std::max(0, std::min(settings.order, kOrderMax));
+    const int count = sky.count();
+    // A uniform sky is a constant map: the same cells, so that it and a constant map agree.
+    std::unique_ptr<EnvironmentMap> uniform;
+    if (!map) {
+        uniform = std::make_unique<EnvironmentMap>(2 * kCellColumns, 2 * kCellRows,
+                                                   std::vector<float>(size_t(4 * kCellColumns * kCellRows) * 3, 1.0f),
+                                                   0.0f);
+        map = uniform.get();
+    }
+    const std::vector<Cell> cells = makeCells(*map, colour, sky.mOrder);
+
+    // Phase 1: each volume's grid and its coarse density.
+    const auto& vols = volumes.volumes();
+    std::vector<CoarseDensity> coarse(vols.size());
+    for (size_t v = 0; v < vols.size(); ++v) {
+        const VolumeData& vol = *vols[v];
+        Grid g;
+        const Bbox b = vol.density.activeIndexBounds();
+        if (!b.empty()) {
+            const float3 ext = b.hi - b.lo;
+            const float largest = std::max(ext.x, std::max(ext.y, ext.z));
+            g.spacing = std::max(1.0f, largest / float(std::max(1, settings.nodesAcross - 1)));
+            g.invSpacing = 1.0f / g.spacing;
+            g.origin = b.lo;
+            g.nx = int(std::ceil(ext.x * g.invSpacing)) + 1;
+            g.ny = int(std::ceil(ext.y * g.invSpacing)) + 1;
+            g.nz = int(std::ceil(ext.z * g.invSpacing)) + 1;
+            g.L.assign(size_t(g.nx) * size_t(g.ny) * size_t(g.nz) * size_t(3 * count), 0.0f);
+        }
+        CoarseDensity& c = coarse[v];
+        c.vol = &vol;
+        c.origin = g.origin, c.spacing = g.spacing, c.invSpacing = g.invSpacing;
+        c.nx = g.nx, c.ny = g.ny, c.nz = g.nz;
+        c.sigmaT = vol.sigmaT();
+        c.rho.assign(size_t(g.nx) * size_t(g.ny) * size_t(g.nz), 0.0f);
+        tbb::parallel_for(tbb::blocked_range<int>(0, g.nz), [&](const tbb::blocked_range<int>& r) {
+            for (int k = r.begin(); k != r.end(); ++k)
+                for (int j = 0; j < g.ny; ++j)
+                    for (int i = 0; i < g.nx; ++i) {
+                        const float3 q = g.origin + make_float3(float(i), float(j), float(k)) * g.spacing;
+                        float sum = 0.0f;
+                        for (int s = 0; s < 8; ++s)
+                            sum += std::max(0.0f, vol.density.sample(q + octant(s) * g.spacing));
+                        c.rho[(size_t(k) * g.ny + j) * g.nx + i] = sum / 8.0f;
+                    }
+        });
+        sky.mGrids.push_back(std::move(g));
+    }
+    // The transmittance along w from world point p out of every volume (and past the shadow
+    // casters), by the coarse densities.
+    auto transmittance = [&](float3 p, float3 w) {
+        if (casters && casters->occluded(p, w, 0.0f, 1e30f))
+            return splat(0.0f);
+        Rgb tau = splat(0.0f);
+        for (const CoarseDensity& c : coarse)
+            tau += c.opticalDepth(p, w, settings.shadowStep);
+        return exp(-tau);
+    };
+
+    // One volume and no shadow casters (the common case): the optical depth toward each sky
+    // cell at every node by one sweep per cell, as a deep shadow map is built, instead of a ray
+    // per node. Layer by layer along the direction's dominant axis a, from the layer nearest
+    // the light: tau(x) = tau(y) + (rho(x) + rho(y)) / 2 * |x - y|, y = x + v the point one layer
+    // toward the light (v_a = +-1), tau and rho at y bilinear in that layer (0 outside the grid,
+    // where no density is). tau in density x metres; sigma_t applied at the lookup.
+    const bool sweep = vols.size() == 1 && !casters && sky.mGrids[0].nx > 0;
+    std::vector<std::vector<float>> tauFields;
+    if (sweep) {
+        const CoarseDensity& c = coarse[0];
+        tauFields.resize(cells.size());
+        tbb::parallel_for(size_t(0), cells.size(), [&](size_t ci) {
+            const float3 u = c.vol->indexFromWorld.vector(cells[ci].towardLight) * c.invSpacing;  // nodes per metre
+            const float ul = length(u);
+            const float un[3] = {u.x / ul, u.y / ul, u.z / ul};
+            int a = 0;
+            for (int q = 1; q < 3; ++q)
+                if (std::fabs(un[q]) > std::fabs(un[a]))
+                    a = q;
+            const int b = (a + 1) % 3, d = (a + 2) % 3;
+            const float va = un[a] > 0 ? 1.0f : -1.0f, vb = un[b] / std::fabs(un[a]), vd = un[d] / std::fabs(un[a]);
+            const float stepMetres = 1.0f / (std::fabs(un[a]) * ul);
+            const int n[3] = {c.nx, c.ny, c.nz};
+            std::vector<float>& tau = tauFields[ci];
+            tau.assign(c.rho.size(), 0.0f);
+            auto index = [&](int ia, int ib, int id) {
+                int x[3];
+                x[a] = ia, x[b] = ib, x[d] = id;
+                return (size_t(x[2]) * c.ny + x[1]) * c.nx + x[0];
+            };
+            // Bilinear at (fb, fd) in layer ia of field f, zero outside the grid.
+            auto bilinear = [&](const std::vector<float>& f, int ia, float fb, float fd) {
+                const int ib = int(std::floor(fb)), id = int(std::floor(fd));
+                const float tb = fb - float(ib), td = fd - float(id);
+                float sum = 0.0f;
+                for (int q = 0; q < 4; ++q) {
+                    const int jb = ib + (q & 1), jd = id + (q >> 1);
+                    if (jb < 0 || jb >= n[b] || jd < 0 || jd >= n[d])
+                        continue;
+                    sum += f[index(ia, jb, jd)] * ((q & 1) ? tb : 1.0f - tb) * ((q >> 1) ? td : 1.0f - td);
+                }
+                return sum;
+            };
+            for (int step = 0; step < n[a]; ++step) {
+                const int ia = va > 0 ? n[a] - 1 - step : step, up = ia + int(va);
+                const bool inside = up >= 0 && up < n[a];
+                for (int id = 0; id < n[d]; ++id)
+                    for (int ib = 0; ib < n[b]; ++ib) {
+                        const size_t x = index(ia, ib, id);
+                        float tauY = 0.0f, rhoY = 0.0f;
+                        if (inside) {
+                            tauY = bilinear(tau, up, float(ib) + vb, float(id) + vd);
+                            rhoY = bilinear(c.rho, up, float(ib) + vb, float(id) + vd);
+                        }
+                        tau[x] = tauY + 0.5f * (c.rho[x] + rhoY) * stepMetres;
+                    }
+            }
+        });
+    }
+    // The transmittance toward sky cell ci from index-space point q of volume 0, by the sweep.
+    auto sweptTransmittance = [&](size_t ci, float3 q) {
+        const CoarseDensity& c = coarse[0];
+        const float3 f = (q - c.origin) * c.invSpacing;
+        const float fx = clamp(f.x, 0.0f, float(c.nx - 1)), fy = clamp(f.y, 0.0f, float(c.ny - 1)),
+                    fz = clamp(f.z, 0.0f, float(c.nz - 1));
+        const int i = std::min(int(fx), std::max(c.nx - 2, 0)), j = std::min(int(fy), std::max(c.ny - 2, 0)),
+                  k = std::min(int(fz), std::max(c.nz - 2, 0));
+        const float tx = fx - i, ty = fy - j, tz = fz - k;
+        const std::vector<float>& tau = tauFields[ci];
+        float sum = 0.0f;
+        for (int q8 = 0; q8 < 8; ++q8) {
+            const int ci8 = std::min(i + (q8 & 1), c.nx - 1), cj8 = std::min(j + (q8 >> 1 & 1), c.ny - 1),
+                      ck8 = std::min(k + (q8 >> 2 & 1), c.nz - 1);
+            sum += tau[(size_t(ck8) * c.ny + cj8) * c.nx + ci8] * ((q8 & 1) ? tx : 1.0f - tx) *
+                   ((q8 >> 1 & 1) ? ty : 1.0f - ty) * ((q8 >> 2 & 1) ? tz : 1.0f - tz);
+        }
+        return exp(-(c.sigmaT * sum));
+    };
+
+    // Phase 2: each node's coefficients.
+    for (size_t v = 0; v < vols.size(); ++v) {
+        const VolumeData& vol = *vols[v];
+        Grid& g = sky.mGrids[v];
+        if (g.nx == 0)
+            continue;
+        // Probes of the node's neighbourhood, the eight cells around it, at most 4 voxels apart:
+        // a brick (8 voxels) that overlaps the neighbourhood holds one of them.
+        const int probes = int(std::ceil(2.0f * g.spacing / 4.0f)) + 1;
+        tbb::parallel_for(tbb::blocked_range<int>(0, g.nz), [&](const tbb::blocked_range<int>& r) {
+            std::vector<double> acc(size_t(3 * count));
+            for (int k = r.begin(); k != r.end(); ++k)
+                for (int j = 0; j < g.ny; ++j)
+                    for (int i = 0; i < g.nx; ++i) {
+                        const float3 q = g.origin + make_float3(float(i), float(j), float(k)) * g.spacing;
+                        bool near = false;
+                        for (int pz = 0; pz < probes && !near; ++pz)
+                            for (int py = 0; py < probes && !near; ++py)
+                                for (int px = 0; px < probes && !near; ++px) {
+                                    const float3 o = make_float3(float(px), float(py), float(pz)) *
+                                                         (2.0f * g.spacing / float(probes - 1)) -
+                                                     splat(g.spacing);
+                                    near = vol.density.stencil(q + o).brick >= 0;
+                                }
+                        if (!near)
+                            continue;
+                        // Density-weighted over the node's cell: eight sub-points at the octant
+                        // centres, each taking the shadow rays of every eighth sky cell, weighted
+                        // rho_s / mean(rho). The march reads the light where the medium is, not at
+                        // the node: a node just outside a cloud's surface would otherwise carry
+                        // T = 1 into the surface's samples (trilinear interpolation of a convex
+                        // T overestimates it by ~ (sigma_t h)^2 / 8 per cell, and more at the surface).
+                        float3 sub[8];
+                        float rho[8], rhoSum = 0.0f;
+                        for (int s = 0; s < 8; ++s) {
+                            sub[s] = q + octant(s) * g.spacing;
+                            rho[s] = std::max(0.0f, vol.density.sample(sub[s]));
+                            rhoSum += rho[s];
+                        }
+                        std::fill(acc.begin(), acc.end(), 0.0);
+                        for (size_t ci = 0; ci < cells.size(); ++ci) {
+                            const Cell& c = cells[ci];
+                            // The sub-point of cell ci (rotated per node so that neighbours differ);
+                            // where the cell holds no density, the node itself.
+                            const int s = int((ci + size_t(i + 3 * j + 5 * k)) % 8);
+                            const float3 at = rhoSum > 0.0f ? sub[s] : q;
+                            const float wgt = rhoSum > 0.0f ? 8.0f * rho[s] / rhoSum : 1.0f;
+                            if (!(wgt > 0.0f))
+                                continue;
+                            const Rgb T = (sweep ? sweptTransmittance(ci, at)
+                                                 : transmittance(vol.worldFromIndex.point(at), c.towardLight)) *
+                                          wgt;
+                            for (int jm = 0; jm < count; ++jm) {
+                                acc[3 * jm + 0] += T.x * c.E[3 * jm + 0];
+                                acc[3 * jm + 1] += T.y * c.E[3 * jm + 1];
+                                acc[3 * jm + 2] += T.z * c.E[3 * jm + 2];
+                            }
+                        }
+                        float* out = g.L.data() + ((size_t(k) * g.ny + j) * g.nx + i) * size_t(3 * count);
+                        for (int c = 0; c < 3 * count; ++c)
+                            out[c] = float(acc[c]);
+                    }
+        });
+    }
+    sky.mSeconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    return sky;
+}
+
+size_t SkyLight::memoryBytes() const
+{
+    size_t b = 0;
+    for (const Grid& g : mGrids)
+        b += g.L.size() * sizeof(float);
+    return b;
+}
+
+void SkyLight::contraction(NbPhase phase, float3 wo, float* a) const
+{
+    nb_moment pj[kOrderMax + 1] = {};
+    nbPhaseAddMoments(phase, 1.0, mOrder, pj);
+    double y[kCountMax];
+    shEvaluate(mOrder, wo, y);
+    for (int j = 0; j <= mOrder; ++j)
+        for (int m = -j; m <= j; ++m)
+            a[shIndex(j, m)] = float(pj[j] * y[shIndex(j, m)]);
+}
+
+Rgb SkyLight::radiance(size_t volume, float3 q, const float* a, Cursor& cursor) const
+{
+    const Grid& g = mGrids[volume];
+    if (g.nx == 0)
+        return splat(0.0f);
+    const float3 f = (q - g.origin) * g.invSpacing;
+    auto split = [](float x, int n, int& i) {
+        if (n < 2) {
+            i = 0;
+            return 0.0f;
+        }
+        x = clamp(x, 0.0f, float(n - 1));
+        i = std::min(int(x), n - 2);
+        return x - float(i);
+    };
+    int i, j, k;
+    const float tx = split(f.x, g.nx, i), ty = split(f.y, g.ny, j), tz = split(f.z, g.nz, k);
+    const long cell = (long(k) * g.ny + j) * g.nx + i;
+    if (cell != cursor.cell) {
+        corners(volume, i, j, k, a, cursor.corner);
+        cursor.cell = cell;
+    }
+    const Rgb* c = cursor.corner;
+    const Rgb x00 = c[0] + (c[1] - c[0]) * tx, x10 = c[2] + (c[3] - c[2]) * tx;
+    const Rgb x01 = c[4] + (c[5] - c[4]) * tx, x11 = c[6] + (c[7] - c[6]) * tx;
+    const Rgb y0 = x00 + (x10 - x00) * ty, y1 = x01 + (x11 - x01) * ty;
+    return fmax(y0 + (y1 - y0) * tz, splat(0.0f));
+}
+
+void SkyLight::corners(size_t volume, int i, int j, int k, const float* a, Rgb* out) const
+{
+    const Grid& g = mGrids[volume];
+    const int count = this->count();
+    for (int c = 0; c < 8; ++c) {
+        const int ci = std::min(i + (c & 1), g.nx - 1), cj = std::min(j + (c >> 1 & 1), g.ny - 1),
+                  ck = std::min(k + (c >> 2 & 1), g.nz - 1);
+        const float* L = g.L.data() + ((size_t(ck) * g.ny + cj) * g.nx + ci) * size_t(3 * count);
+        Rgb s = splat(0.0f);
+        for (int jm = 0; jm < count; ++jm)
+            s += make_float3(L[3 * jm], L[3 * jm + 1], L[3 * jm + 2]) * a[jm];
+        out[c] = s;
+    }
+}
+
+std::vector<Rgb> SkyLight::nodeCoefficients(size_t volume, float3 q) const
+{
+    const Grid& g = mGrids[volume];
+    const float3 f = (q - g.origin) * g.invSpacing;
+    const int i = std::clamp(int(std::lround(f.x)), 0, g.nx - 1), j = std::clamp(int(std::lround(f.y)), 0, g.ny - 1),
+              k = std::clamp(int(std::lround(f.z)), 0, g.nz - 1);
+    const float* L = g.L.data() + ((size_t(k) * g.ny + j) * g.nx + i) * size_t(3 * count());
+    std::vector<Rgb> out;
+    for (int jm = 0; jm < count(); ++jm)
+        out.push_back(make_float3(L[3 * jm], L[3 * jm + 1], L[3 * jm + 2]));
+    return out;
+}
+
+}  // namespace nimbus

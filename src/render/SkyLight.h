@@ -1,0 +1,113 @@
+// SkyLight.h: an environment light's transmittance-weighted radiance, precomputed once per render
+// on a grid per volume and read by single's and wkb's camera marches instead of shadow rays at
+// every step (issue 17; docs/single-scattering.md "environment light").
+//
+// At each grid node y, in the real SH basis of SphericalHarmonics.h (order J, polar axis +z),
+//     L^jm(y) = int y_jm(n') T(y, -n') L_env(-n') dOmega'          (Tessendorf eq. 87)
+// with n' the direction light travels (toward y), L_env(w) the sky's radiance seen looking along
+// w and T the transmittance from y out of the volumes along w, RGB. The light the medium at y
+// scatters toward the camera, along w_o = -d, is then (the addition theorem closes the sum over
+// m; p_j the phase function's Legendre moments, phase.h)
+//     int p(n' . w_o) L0(y, n') dOmega' = sum_j p_j sum_m y_jm(w_o) L^jm(y),
+// exact where L0 has no order above J, and for a uniform sky seen unshadowed at any J.
+//
+// The sphere is split into cells of the map's texels (kCellRows x kCellColumns in latitude and
+// longitude, or one per texel of a smaller map). A cell's part of L^jm is its texels' exact sum
+// of y_jm L_env dOmega times the transmittance along one direction, the cell's radiance-weighted
+// mean direction: exact wherever T is constant across a cell, and a one-texel sun is shadowed
+// along its own direction. The map's own SH projection is exact (no sampling noise); what the
+// grid approximates is T within a cell and between nodes (trilinear).
+//
+// The transmittance is density-weighted over each node's cell (eight octant sub-points, each
+// taking every eighth sky cell's shadow ray, weighted rho_s / mean rho): the march reads the light
+// where the medium is, not T = 1 from a node just outside a surface. Shadow rays march a coarse
+// density (the mean over each node's cell) at settings.shadowStep nodes per step.
+//
+// Grid: nodes every `spacing` density voxels over the density's active index bounds, in the
+// volume's index space; nodes whose neighbourhood holds no occupied brick are left at zero (no
+// sample of the march reads them with weight). docs/single-scattering.md has the measurements.
+#pragma once
+
+#include "EnvironmentMap.h"
+
+#include <memory>
+#include <vector>
+
+namespace nimbus {
+
+struct RenderContext;
+class VolumeSet;
+class EmbreeScene;
+
+// Grid nodes along a volume's largest extent: render.light_volume_resolution, else 32.
+inline int skyNodesAcross(const Scene& scene)
+{
+    return scene.render.lightVolumeResolution > 0 ? scene.render.lightVolumeResolution : 32;
+}
+
+class SkyLight {
+public:
+    static constexpr int kCellRows = 8, kCellColumns = 16;
+    static constexpr int kOrderMax = 8;  // render.wkb_sh_order_max's cap
+    static constexpr int kCountMax = (kOrderMax + 1) * (kOrderMax + 1);
+
+    struct Settings {
+        int order = 2;            // SH order J (render.wkb_sh_order_max)
+        int nodesAcross = 32;     // grid nodes along a volume's largest extent
+        float shadowStep = 1.0f;  // shadow-ray step in node spacings (render.shadow_step)
+    };
+
+    // The sky's radiance is colour * map(w) (map null: uniform, colour alone).
+    static SkyLight build(const VolumeSet& volumes, const EmbreeScene* casters, const EnvironmentMap* map, Rgb colour,
+                          const Settings& settings);
+
+    int order() const { return mOrder; }
+    int count() const { return (mOrder + 1) * (mOrder + 1); }
+    double buildSeconds() const { return mSeconds; }
+    size_t memoryBytes() const;
+
+    // Per camera ray and volume: a_jm = p_j y_jm(w_o) for the outgoing direction w_o (toward the
+    // camera, -d) and the volume's phase function; count() floats.
+    void contraction(NbPhase phase, float3 wo, float* a) const;
+
+    // Remembers the grid cell a march is in and its eight corners contracted with a: a march
+    // reads the same cell for about spacing / step samples in a row.
+    struct Cursor {
+        long cell = -1;
+        Rgb corner[8];
+    };
+    // sum_jm a_jm L^jm at index-space point q of volume v, trilinear between nodes (clamped to
+    // the grid). W/(m^2 sr) per unit of sigma_s: the in-scattered radiance per unit phase.
+    Rgb radiance(size_t volume, float3 q, const float* a, Cursor& cursor) const;
+
+    // The grid of volume v as the eight-ray march reads it (MarchEightRays.cpp): nodes at
+    // origin + spacing (i, j, k) in index space, n per axis; and the eight corners of cell
+    // (i, j, k) contracted with a (corner c at (i + (c & 1), j + (c >> 1 & 1), k + (c >> 2 & 1))).
+    struct Geometry {
+        float3 origin;
+        float invSpacing;
+        int nx, ny, nz;
+    };
+    Geometry geometry(size_t volume) const
+    {
+        const Grid& g = mGrids[volume];
+        return Geometry{g.origin, g.invSpacing, g.nx, g.ny, g.nz};
+    }
+    void corners(size_t volume, int i, int j, int k, const float* a, Rgb* out) const;
+
+    // Test hook: the grid's coefficients at the node nearest index-space point q, count() RGB.
+    std::vector<Rgb> nodeCoefficients(size_t volume, float3 q) const;
+
+private:
+    struct Grid {
+        float3 origin = splat(0.0f);  // index space of the volume
+        float spacing = 1.0f, invSpacing = 1.0f;
+        int nx = 0, ny = 0, nz = 0;
+        std::vector<float> L;  // per node count() x RGB, RGB innermost
+    };
+    int mOrder = 2;
+    double mSeconds = 0.0;
+    std::vector<Grid> mGrids;
+};
+
+}  // namespace nimbus
