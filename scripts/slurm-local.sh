@@ -2,9 +2,14 @@
 # A single-host Slurm cluster on loopback, for nimbus's farm test (tests/farm) and for trying
 # `nimbus farm submit --engine slurm` on one machine. Debian's slurm-wlm and munge.
 #
+#   scripts/slurm-local.sh install  install slurm-wlm and munge from Debian if missing (exit 3
+#                                   when apt cannot install them: no network, no Debian)
 #   scripts/slurm-local.sh start    install (if missing), write the config, start munged,
-#                                   slurmctld and slurmd, wait until the node is idle
-#   scripts/slurm-local.sh stop     stop the three daemons
+#                                   slurmctld and slurmd (those not running), wait until the node
+#                                   is idle
+#   scripts/slurm-local.sh stop     stop the daemons `start` started, by their process ids (kept
+#                                   in /run/slurm-local.started), and wait until they are gone;
+#                                   daemons it found running are left alone
 #   scripts/slurm-local.sh status   sinfo, or exit 1 when the cluster does not answer
 #
 # Root only (the daemons run as root here; a real farm has its own Slurm). The configuration
@@ -17,6 +22,7 @@ conf=/etc/slurm/slurm.conf
 marker="# written by nimbus scripts/slurm-local.sh"
 log_dir=/var/log/slurm-local
 state_dir=/var/spool/slurm-local
+started=/run/slurm-local.started  # "<pid> <name>" of each daemon start started
 
 need_root() {
   if [ "$(id -u)" -ne 0 ]; then
@@ -33,8 +39,14 @@ install_packages() {
   if [ ${#missing[@]} -gt 0 ]; then
     echo "slurm-local: installing ${missing[*]}"
     export DEBIAN_FRONTEND=noninteractive
-    apt-get update -qq
-    apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
+    if ! command -v apt-get >/dev/null; then
+      echo "slurm-local: cannot install ${missing[*]}: no apt-get (not Debian)" >&2
+      exit 3
+    fi
+    if ! { apt-get update -qq && apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null; }; then
+      echo "slurm-local: cannot install ${missing[*]} with apt-get (no network or no package source?)" >&2
+      exit 3
+    fi
   fi
 }
 
@@ -85,6 +97,21 @@ running() {
   [ -n "$pid" ] && [ -d "/proc/$pid" ] && ! grep -q '^State:.*Z' "/proc/$pid/status" 2>/dev/null
 }
 
+# Waits up to 10 s for the pid file a daemon writes once it has detached, then records the pid.
+record() {
+  local pidfile=$1 name=$2 pid=""
+  for _ in $(seq 1 100); do
+    pid=$(cat "$pidfile" 2>/dev/null || true)
+    [ -n "$pid" ] && [ -d "/proc/$pid" ] && break
+    sleep 0.1
+  done
+  if [ -z "$pid" ] || [ ! -d "/proc/$pid" ]; then
+    echo "slurm-local: $name did not start (no live pid in $pidfile; logs in $log_dir)" >&2
+    exit 1
+  fi
+  echo "$pid $name" >>"$started"
+}
+
 start() {
   need_root
   install_packages
@@ -98,10 +125,20 @@ start() {
   fi
   if ! munge -n </dev/null >/dev/null 2>&1; then
     # munged refuses to run as root; the Debian package's user owns its key and sockets.
+    rm -f /run/munge/munged.pid
     su -s /bin/sh munge -c /usr/sbin/munged 2>/dev/null || /usr/sbin/munged --force
+    record /run/munge/munged.pid munged
   fi
-  running /run/slurmctld-local.pid || /usr/sbin/slurmctld
-  running /run/slurmd-local.pid || /usr/sbin/slurmd
+  if ! running /run/slurmctld-local.pid; then
+    rm -f /run/slurmctld-local.pid
+    /usr/sbin/slurmctld
+    record /run/slurmctld-local.pid slurmctld
+  fi
+  if ! running /run/slurmd-local.pid; then
+    rm -f /run/slurmd-local.pid
+    /usr/sbin/slurmd
+    record /run/slurmd-local.pid slurmd
+  fi
   local host
   host=$(hostname -s)
   for _ in $(seq 1 60); do
@@ -117,17 +154,44 @@ start() {
   exit 1
 }
 
+# Is `pid` still the daemon `name` (not a later process that reused the number)?
+alive() {
+  [ -d "/proc/$1" ] && [ "$(cat "/proc/$1/comm" 2>/dev/null)" = "$2" ] &&
+    ! grep -q '^State:.*Z' "/proc/$1/status" 2>/dev/null
+}
+
 stop() {
   need_root
-  pkill -x slurmd 2>/dev/null || true
-  pkill -x slurmctld 2>/dev/null || true
-  pkill -x munged 2>/dev/null || true
+  [ -f "$started" ] || { echo "slurm-local: nothing started by this script is running"; return 0; }
+  local pid name left
+  # slurmd first, munged last: the daemons shut down cleanly while they can still authenticate.
+  for daemon in slurmd slurmctld munged; do
+    while read -r pid name; do
+      [ "$name" = "$daemon" ] && alive "$pid" "$name" && kill -TERM "$pid" 2>/dev/null || true
+    done <"$started"
+  done
+  for _ in $(seq 1 100); do
+    left=""
+    while read -r pid name; do
+      alive "$pid" "$name" && left="$left $name($pid)"
+    done <"$started"
+    [ -z "$left" ] && break
+    sleep 0.1
+  done
+  if [ -n "$left" ]; then
+    echo "slurm-local: still running after 10 s:$left; sending SIGKILL" >&2
+    while read -r pid name; do
+      alive "$pid" "$name" && kill -KILL "$pid" 2>/dev/null || true
+    done <"$started"
+  fi
+  rm -f "$started"
   echo "slurm-local: stopped"
 }
 
 case "${1:-}" in
+  install) need_root; install_packages ;;
   start) start ;;
   stop) stop ;;
   status) sinfo ;;
-  *) echo "usage: $0 start|stop|status" >&2; exit 2 ;;
+  *) echo "usage: $0 install|start|stop|status" >&2; exit 2 ;;
 esac

@@ -11,6 +11,7 @@
 //   render flags for farms:            --tile I/N, --samples A-B (pathtrace), --resume (pathtrace)
 //   nimbus merge OUT.exr PARTS...      tiles and sample splits back into the frame (docs/farm.md)
 //   nimbus farm plan SCENE.json --frames 1-24 [--tiles N] [--sample-splits K]   the job as JSON
+//   nimbus farm submit SCENE.json --frames 1-24 ... --engine slurm              Slurm job arrays
 //   nimbus default-scene               prints the default scene as JSON
 //   nimbus compare SCENE.json [--out DIR] [--minutes M] [--seeds K] [--full]   WKB vs path tracer
 //
@@ -21,6 +22,7 @@
 #include "core/Log.h"
 #include "engine/Renderer.h"
 #include "farm/FarmPlan.h"
+#include "farm/SlurmSubmit.h"
 #include "io/ExrWriter.h"
 #include "io/Merge.h"
 #include "io/Outputs.h"
@@ -208,7 +210,7 @@ double renderFrame(const Scene& scene, bool explain, bool quiet, const Pathtrace
                    VolumeCache& cache, ShadowMapCache& shadowMaps, const std::string& label)
 {
     const bool checkpoints = pt.checkpointSeconds > 0;
-    Progress progress(label, 1000, ProgressOptions{quiet, {}});
+    Progress progress(label, 1000, ProgressOptions{quiet, {}, scene.render.frame});
     float last = 0.0f;
     RenderOptions options;
     options.outputAovsOnly = true;  // selectAovs below keeps no others
@@ -372,8 +374,8 @@ struct FarmArgs {
     FarmPlanOptions options;
 };
 
-// `nimbus farm plan`: the shot's tasks as engine-neutral JSON on stdout (docs/farm.md).
-int runFarmPlan(const SceneArgs& args, FarmArgs farm)
+// The shot's job description (docs/farm.md), for `farm plan` and `farm submit`.
+nlohmann::json buildFarmPlan(const SceneArgs& args, FarmArgs farm)
 {
     Scene templ = loadScene(args);
     if (!farm.output.empty())
@@ -403,7 +405,44 @@ int runFarmPlan(const SceneArgs& args, FarmArgs farm)
         s.insert(s.end(), {"--set", set});
     if (!args.method.empty())
         s.insert(s.end(), {"--method", args.method});
-    std::cout << planFarm(templ, farm.options).dump(2) << "\n";
+    return planFarm(templ, farm.options);
+}
+
+// `nimbus farm plan`: the shot's tasks as engine-neutral JSON on stdout (docs/farm.md).
+int runFarmPlan(const SceneArgs& args, const FarmArgs& farm)
+{
+    std::cout << buildFarmPlan(args, farm).dump(2) << "\n";
+    return kOk;
+}
+
+// `nimbus farm submit --engine slurm`: the plan as Slurm job arrays (docs/farm.md, "Slurm"); the
+// job ids on stdout ("render <id>", "merge <id>"), what was written on stderr.
+int runFarmSubmit(const SceneArgs& args, const FarmArgs& farm, const std::string& engine, const SlurmOptions& slurm,
+                  bool quiet)
+{
+    if (engine != "slurm")
+        throw InputError("farm submit: --engine '" + engine +
+                         "': nimbus submits to slurm; other farm managers read `nimbus farm plan` (docs/farm.md)");
+    const SlurmSubmission s = submitSlurm(buildFarmPlan(args, farm), slurm);
+    if (slurm.dryRun) {
+        if (!quiet)
+            std::fprintf(stderr,
+                         "nimbus: farm submit: dry run: wrote render.sbatch%s, submit.sh and plan.json in %s (%zu "
+                         "render, %zu merge task(s)); nothing submitted\n",
+                         s.mergeScript.empty() ? "" : ", merge.sbatch", s.jobDir.c_str(), s.renderTasks, s.mergeTasks);
+        return kOk;
+    }
+    std::cout << "render " << s.renderJobId << "\n";
+    if (!s.mergeJobId.empty())
+        std::cout << "merge " << s.mergeJobId << "\n";
+    std::cout.flush();
+    if (!quiet) {
+        std::fprintf(stderr, "nimbus: farm submit: render array %s (%zu task(s))", s.renderJobId.c_str(), s.renderTasks);
+        if (!s.mergeJobId.empty())
+            std::fprintf(stderr, ", merge array %s (%zu task(s), afterok:%s)", s.mergeJobId.c_str(), s.mergeTasks,
+                         s.renderJobId.c_str());
+        std::fprintf(stderr, "; scripts and logs in %s\n", s.jobDir.c_str());
+    }
     return kOk;
 }
 
@@ -492,25 +531,39 @@ int main(int argc, char** argv)
 
     SceneArgs farmArgs;
     FarmArgs farmOptions;
-    CLI::App* farm = app.add_subcommand("farm", "Render farms: the job description of a shot (docs/farm.md)");
+    std::string farmEngine;
+    SlurmOptions slurmOptions;
+    CLI::App* farm = app.add_subcommand("farm", "Render farms: the job description of a shot, Slurm (docs/farm.md)");
     farm->require_subcommand(1);
     CLI::App* farmPlan =
         farm->add_subcommand("plan", "Print the shot's tasks (renders, merges, dependencies) as engine-neutral JSON");
-    addSceneArgs(farmPlan, farmArgs);
-    farmPlan->add_option("--frames", farmOptions.frames, "Frames: 1-240, 1-240x2, 1,5,9-12 (default render.frame)");
-    farmPlan->add_option("-o,--output", farmOptions.output, "EXR output path of each frame (overrides output.file)");
-    farmPlan->add_option("--tiles", farmOptions.options.tiles, "Tiles per frame (--tile I/N), merged by a merge task")
-        ->check(CLI::Range(1, 1 << 20));
-    farmPlan
-        ->add_option("--sample-splits", farmOptions.options.sampleSplits,
-                     "pathtrace: sample splits per tile (--samples A-B of render.spp), merged by a merge task")
-        ->check(CLI::Range(1, 1 << 20));
-    farmPlan->add_option("--checkpoint", farmOptions.options.checkpointSeconds,
-                         "pathtrace: the tasks' checkpoint interval in seconds (default 60)")
-        ->check(CLI::Range(1e-3, 1e9));
-    farmPlan->add_option("--retries", farmOptions.options.retries, "How often a failed task may be rerun (default 2)")
-        ->check(CLI::Range(0, 1000));
-    farmPlan->add_option("--nimbus", farmOptions.nimbus, "The nimbus binary the tasks run (default this one)");
+    CLI::App* farmSubmit =
+        farm->add_subcommand("submit", "Submit the shot to a farm: Slurm job arrays (renders, then merges afterok)");
+    for (CLI::App* sub : {farmPlan, farmSubmit}) {
+        addSceneArgs(sub, farmArgs);
+        sub->add_option("--frames", farmOptions.frames, "Frames: 1-240, 1-240x2, 1,5,9-12 (default render.frame)");
+        sub->add_option("-o,--output", farmOptions.output, "EXR output path of each frame (overrides output.file)");
+        sub->add_option("--tiles", farmOptions.options.tiles, "Tiles per frame (--tile I/N), merged by a merge task")
+            ->check(CLI::Range(1, 1 << 20));
+        sub->add_option("--sample-splits", farmOptions.options.sampleSplits,
+                        "pathtrace: sample splits per tile (--samples A-B of render.spp), merged by a merge task")
+            ->check(CLI::Range(1, 1 << 20));
+        sub->add_option("--checkpoint", farmOptions.options.checkpointSeconds,
+                        "pathtrace: the tasks' checkpoint interval in seconds (default 60)")
+            ->check(CLI::Range(1e-3, 1e9));
+        sub->add_option("--retries", farmOptions.options.retries, "How often a failed task may be rerun (default 2)")
+            ->check(CLI::Range(0, 1000));
+        sub->add_option("--nimbus", farmOptions.nimbus, "The nimbus binary the tasks run (default this one)");
+    }
+    farmSubmit->add_option("--engine", farmEngine, "The farm manager: slurm")->required();
+    farmSubmit->add_option("--job-dir", slurmOptions.jobDir,
+                           "Folder for the job's scripts and logs, absent or empty (default ./nimbus-farm/<scene>.<time>)");
+    farmSubmit->add_flag("--dry-run", slurmOptions.dryRun, "Write the scripts into the job folder, submit nothing");
+    farmSubmit->add_option("--sbatch-arg", slurmOptions.sbatchArgs,
+                           "An sbatch option for both arrays, e.g. --sbatch-arg=--partition=render (repeatable)")
+        ->allow_extra_args(false);
+    farmSubmit->add_option("--job-name", slurmOptions.jobName, "The arrays' name prefix (default nimbus)");
+    farmSubmit->add_flag("-q,--quiet", quiet, "No info line (the job ids still go to stdout)");
 
     CLI::App* devices = app.add_subcommand("devices", "List the OpenCL devices the path tracer can use");
 
@@ -563,6 +616,8 @@ int main(int argc, char** argv)
         }
         if (*farmPlan)
             return runFarmPlan(farmArgs, farmOptions);
+        if (*farmSubmit)
+            return runFarmSubmit(farmArgs, farmOptions, farmEngine, slurmOptions, quiet);
         if (*merge) {
             const MergeSummary m = mergeParts(mergeOutput, partFiles);
             if (!quiet)

@@ -92,7 +92,8 @@ json planFarm(const Scene& templ, const FarmPlanOptions& o)
             scene.output.preview.empty() ? std::string() : fs::absolute(scene.output.preview).lexically_normal().string();
         std::vector<std::string> base = {o.nimbus, "render"};
         base.insert(base.end(), o.sceneArgs.begin(), o.sceneArgs.end());
-        base.insert(base.end(), {"--frame", std::to_string(frame), "-q"});
+        // No -q: off a terminal the render's progress lines are what a farm's log shows of it.
+        base.insert(base.end(), {"--frame", std::to_string(frame)});
         auto renderTask = [&](const std::string& id, const std::string& out, int tile, long long a, long long b,
                               bool samples) {
             json t;

@@ -1,6 +1,7 @@
 #include "Progress.h"
 
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
 
 #include <unistd.h>
@@ -13,6 +14,8 @@ std::atomic<bool> gQuiet{false};
 
 constexpr long long kRedrawIntervalNs = 100'000'000;  // ~10 redraws a second at most
 constexpr int kBarWidth = 30;
+constexpr int kTerminalSteps = 10;  // on a terminal the bar is redrawn anyway; callbacks at 10% steps
+constexpr int kLogSteps = 20;       // off a terminal: a line per 5%
 
 // "12.3 s" below a minute, then "4m 05s", then "2h 07m": a render's scale.
 std::string formatSeconds(double seconds)
@@ -36,7 +39,8 @@ void Progress::setQuiet(bool quiet)
 
 Progress::Progress(std::string label, size_t total, ProgressOptions options)
     : mLabel(std::move(label)), mTotal(total), mCallback(std::move(options.callback)),
-      mQuiet(options.quiet || gQuiet.load()), mTerminal(isatty(STDERR_FILENO) == 1), mStart(Clock::now())
+      mQuiet(options.quiet || gQuiet.load()), mTerminal(isatty(STDERR_FILENO) == 1), mFrame(options.frame),
+      mStart(Clock::now())
 {
 }
 
@@ -59,15 +63,16 @@ bool Progress::advance(size_t n)
     const size_t done = mDone.fetch_add(n, std::memory_order_relaxed) + n;
     if (mCancelled.load(std::memory_order_relaxed))
         return false;
-    const int decile = mTotal == 0 ? 10 : int(std::min<size_t>(10, done * 10 / mTotal));
-    const bool newDecile = decile >= mNextDecile.load(std::memory_order_relaxed);
+    const size_t steps = mTerminal ? kTerminalSteps : kLogSteps;
+    const int step = mTotal == 0 ? int(steps) : int(std::min(steps, done * steps / mTotal));
+    const bool newStep = step >= mNextStep.load(std::memory_order_relaxed);
     const long long nowNs = std::chrono::duration_cast<std::chrono::nanoseconds>(Clock::now() - mStart).count();
-    if (!newDecile && nowNs < mNextUpdateNs.load(std::memory_order_relaxed))
+    if (!newStep && nowNs < mNextUpdateNs.load(std::memory_order_relaxed))
         return true;
-    // A 10% step must be reported, so wait for the lock (ten times a render); a timed redraw is
+    // A step must be reported, so wait for the lock (10 or 20 times a render); a timed redraw is
     // skipped if another thread is drawing.
     std::unique_lock<std::mutex> lock(mDrawMutex, std::defer_lock);
-    if (newDecile)
+    if (newStep)
         lock.lock();
     else if (!lock.try_lock())
         return true;
@@ -90,10 +95,11 @@ void Progress::update(bool final)
 {
     const size_t done = std::min(mDone.load(std::memory_order_relaxed), mTotal);
     const float fraction = mTotal == 0 ? 1.0f : float(double(done) / double(mTotal));
-    const int decile = mTotal == 0 ? 10 : int(done * 10 / mTotal);
-    const bool newDecile = decile >= mNextDecile.load(std::memory_order_relaxed);
-    if (newDecile)
-        mNextDecile.store(decile + 1, std::memory_order_relaxed);
+    const size_t steps = mTerminal ? kTerminalSteps : kLogSteps;
+    const int step = mTotal == 0 ? int(steps) : int(done * steps / mTotal);
+    const bool newStep = step >= mNextStep.load(std::memory_order_relaxed);
+    if (newStep)
+        mNextStep.store(step + 1, std::memory_order_relaxed);
 
     if (mCallback && !mCancelled.load(std::memory_order_relaxed) && !mCallback(fraction))
         mCancelled.store(true, std::memory_order_relaxed);
@@ -102,20 +108,29 @@ void Progress::update(bool final)
 
     const double elapsed = elapsedSeconds();
     const int percent = mTotal == 0 ? 100 : int(done * 100 / mTotal);
-    std::string times = formatSeconds(elapsed);
-    if (!final)
-        times += done == 0 ? ", ETA --" : ", ETA " + formatSeconds(elapsed * double(mTotal - done) / double(done));
     const bool cancelled = mCancelled.load(std::memory_order_relaxed);
-    const std::string status = cancelled ? " cancelled" : "";
-
     if (!mTerminal) {
-        // Lines at 10% steps only; the last one comes from finish(), with the total time.
-        if (final || (newDecile && decile < 10)) {
-            std::fprintf(stderr, "%s: %d%%%s (%s)\n", mLabel.c_str(), percent, status.c_str(), times.c_str());
+        // One line per step; the last one comes from finish(). The form is a contract (farm log
+        // parsers, docs/farm.md): the ETA in whole seconds rounded up, "-" before the first unit
+        // and once cancelled.
+        if (final || (newStep && step < int(steps))) {
+            std::string eta = "-";
+            if (cancelled)
+                eta = "-";
+            else if (final)
+                eta = "0s";
+            else if (done > 0)
+                eta = std::to_string((long long)std::ceil(elapsed * double(mTotal - done) / double(done))) + "s";
+            std::fprintf(stderr, "nimbus: progress %d%% frame %d elapsed %.1fs eta %s%s\n", percent, mFrame, elapsed,
+                         eta.c_str(), cancelled ? " cancelled" : "");
             std::fflush(stderr);
         }
         return;
     }
+    std::string times = formatSeconds(elapsed);
+    if (!final)
+        times += done == 0 ? ", ETA --" : ", ETA " + formatSeconds(elapsed * double(mTotal - done) / double(done));
+    const std::string status = cancelled ? " cancelled" : "";
     const int filled = int(fraction * kBarWidth);
     std::string line = "\r" + mLabel + " [" + std::string(filled, '#') + std::string(kBarWidth - filled, '.') + "] " +
                        std::to_string(percent) + "%" + status + " (" + times + ")";

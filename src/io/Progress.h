@@ -1,9 +1,11 @@
 // Progress.h: a render's progress on stderr, and the hook the C ABI uses for progress and cancel.
 //
 // On a terminal: one bar redrawn in place with '\r' (percent, elapsed, ETA). Otherwise (farm
-// logs, CI): a plain line at every 10%, "render: 40% (12.3 s, ETA 18.5 s)", so logs stay short.
+// logs, CI; issue 16, item 6): one line per 5% step in a fixed form a farm's log parser can rely
+// on (docs/farm.md, "Progress in logs"):
+//   nimbus: progress 45% frame 7 elapsed 12.3s eta 15s
 // advance() is called from every worker thread, so it is an atomic add; drawing and the callback
-// run at most ~10 times a second (and at every 10%), from whichever thread gets there first,
+// run at most ~10 times a second (and at every step), from whichever thread gets there first,
 // never two at once.
 #pragma once
 
@@ -23,6 +25,7 @@ using ProgressCallback = std::function<bool(float fraction)>;
 struct ProgressOptions {
     bool quiet = false;         // print nothing; the callback still runs
     ProgressCallback callback;  // optional
+    int frame = 1;              // the frame the lines off a terminal name (render.frame, --frame)
 };
 
 class Progress {
@@ -58,12 +61,13 @@ private:
     const ProgressCallback mCallback;
     const bool mQuiet;
     const bool mTerminal;
+    const int mFrame;
     const Clock::time_point mStart;
 
     std::atomic<size_t> mDone{0};
     std::atomic<bool> mCancelled{false};
     std::atomic<long long> mNextUpdateNs{0};  // since mStart: redraws are rate-limited
-    std::atomic<int> mNextDecile{1};          // the next 10% step to report
+    std::atomic<int> mNextStep{1};            // the next step (10% on a terminal, 5% off it) to report
 
     std::mutex mDrawMutex;
     bool mFinished = false;

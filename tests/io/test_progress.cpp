@@ -2,6 +2,7 @@
 
 #include <gtest/gtest.h>
 
+#include <regex>
 #include <sstream>
 #include <thread>
 #include <vector>
@@ -21,26 +22,30 @@ std::vector<std::string> lines(const std::string& text)
 
 }  // namespace
 
+// The farm-log grammar of docs/farm.md, "Progress in logs".
+const std::regex kLine(R"(^nimbus: progress (\d{1,3})% frame (-?\d+) elapsed (\d+\.\d)s eta (\d+s|-)( cancelled)?$)");
+
 // Tests run with stderr captured to a file, so Progress is in its plain-line mode.
-TEST(Progress, PlainLinesEveryTenPercent)
+TEST(Progress, PlainLinesEveryFivePercent)
 {
     testing::internal::CaptureStderr();
     {
-        Progress progress("render", 200);
+        Progress progress("render", 200, ProgressOptions{false, {}, 7});
         for (int i = 0; i < 200; ++i)
             EXPECT_TRUE(progress.advance(1));
         progress.finish();
         progress.finish();  // a second finish prints nothing
     }
     const std::vector<std::string> out = lines(testing::internal::GetCapturedStderr());
-    ASSERT_EQ(out.size(), 10u);
-    for (int i = 0; i < 9; ++i) {
-        EXPECT_EQ(out[i].rfind("render: " + std::to_string(10 * (i + 1)) + "% (", 0), 0u) << out[i];
-        EXPECT_NE(out[i].find(" s, ETA "), std::string::npos) << out[i];
-        EXPECT_EQ(out[i].find('\r'), std::string::npos);
+    ASSERT_EQ(out.size(), 20u);
+    for (int i = 0; i < 20; ++i) {
+        std::smatch m;
+        ASSERT_TRUE(std::regex_match(out[i], m, kLine)) << out[i];
+        EXPECT_EQ(m[1].str(), std::to_string(5 * (i + 1))) << out[i];
+        EXPECT_EQ(m[2].str(), "7") << out[i];
+        EXPECT_NE(m[4].str(), "-") << out[i];
     }
-    EXPECT_EQ(out[9].rfind("render: 100% (", 0), 0u) << out[9];
-    EXPECT_EQ(out[9].find("ETA"), std::string::npos) << out[9];
+    EXPECT_EQ(out[19].substr(out[19].size() - 6), "eta 0s") << out[19];
 }
 
 TEST(Progress, QuietPrintsNothingButCallsBack)
@@ -100,10 +105,12 @@ TEST(Progress, ConcurrentAdvanceReportsEveryStepOnce)
         progress.finish();
     }
     const std::vector<std::string> out = lines(testing::internal::GetCapturedStderr());
-    ASSERT_EQ(out.size(), 10u);
+    ASSERT_EQ(out.size(), 20u);
     int previous = 0;
     for (const std::string& line : out) {
-        const int percent = std::stoi(line.substr(std::string("tiles: ").size()));
+        std::smatch m;
+        ASSERT_TRUE(std::regex_match(line, m, kLine)) << line;
+        const int percent = std::stoi(m[1].str());
         EXPECT_GT(percent, previous) << line;
         previous = percent;
     }
@@ -117,5 +124,5 @@ TEST(Progress, ZeroTotalFinishesAtFullPercent)
         Progress progress("load", 0);
         progress.finish();
     }
-    EXPECT_EQ(testing::internal::GetCapturedStderr().rfind("load: 100% (", 0), 0u);
+    EXPECT_EQ(testing::internal::GetCapturedStderr().rfind("nimbus: progress 100% frame 1 elapsed ", 0), 0u);
 }
