@@ -122,9 +122,11 @@ void renderTiles(const RenderContext& ctx, const Integrator& integrator, Film& f
     // Tiles whose rays can meet an occupied brick of some volume (density or emission); the
     // others see only the background, where the integrator allows it (not wkb, which keeps its
     // own per-ray path). A holdout hides the background, so with both, every tile is marched.
-    const bool skipEmpty =
-        integrator.skipsEmptyTiles() && !(holdouts && nbMaxComponent(ctx.background) > 0.0f) &&
-        !ctx.backgroundVaries();  // an environment map: each ray sees its own texel
+    // With an environment map each ray of an empty tile sees its own texel: the rays are made,
+    // as a march would make them, and read the map without marching (emptyPixel).
+    const bool backgroundVaries = ctx.backgroundVaries();
+    const bool skipEmpty = integrator.skipsEmptyTiles() &&
+                           !(holdouts && (nbMaxComponent(ctx.background) > 0.0f || backgroundVaries));
     std::vector<char> seesBricks(size_t(tileCount), 1);
     if (skipEmpty) {
         std::fill(seesBricks.begin(), seesBricks.end(), 0);
@@ -140,6 +142,35 @@ void renderTiles(const RenderContext& ctx, const Integrator& integrator, Film& f
         if (!bounded)
             std::fill(seesBricks.begin(), seesBricks.end(), 1);
     }
+
+    // Camera sample s of pixel (x, y): its ray and its image position and time (as the holdout
+    // depth map reads them), the filter and time drawn from the pixel's sample stream.
+    auto cameraSample = [&](int x, int y, int s, NbRng& rng, float3& o, float3& d, float& px, float& py,
+                            float& time) {
+        const nb_uint pixelIndex = nb_uint(y) * nb_uint(film.width) + nb_uint(x);
+        rng = nbRngStart(scene.render.seed, pixelIndex, nb_uint(s));
+        // The pixel filter by importance sampling (filter.h): an offset from the centre.
+        const float jx = nbFilterSample(filterType, filterWidth, nbRngNext(&rng));
+        const float jy = nbFilterSample(filterType, filterWidth, nbRngNext(&rng));
+        time = nbRngNext(&rng);
+        px = float(x) + 0.5f + jx, py = float(y) + 0.5f + jy;
+        nbCameraRay(cam, px, py, film.width, film.height, time, &o, &d);
+    };
+    // A pixel of an empty tile under an environment map: each sample what a march of a ray that
+    // misses every volume gathers (the background along it), summed the same way.
+    auto emptyPixel = [&](int x, int y, PixelSum& sum) {
+        sum.reset(3 * nLights);
+        const std::vector<float> none(3 * nLights, 0.0f);
+        for (int s = 0; s < spp; ++s) {
+            NbRng rng;
+            float3 o, d;
+            float px, py, time;
+            cameraSample(x, y, s, rng, o, d, px, py, time);
+            CameraSample miss;
+            miss.L0 = ctx.backgroundAlong(d);
+            sum.add(miss, none.data());
+        }
+    };
 
     const size_t perLightStride = 3 * nLights;
     tbb::parallel_for(tbb::blocked_range<int>(0, tileCount, 1), [&](const tbb::blocked_range<int>& r) {
@@ -163,8 +194,15 @@ void renderTiles(const RenderContext& ctx, const Integrator& integrator, Film& f
                 if (stopped())
                     return;
                 if (empty) {
-                    for (int x = tx0; x < tx1; ++x)
-                        store(x, y, background);
+                    for (int x = tx0; x < tx1; ++x) {
+                        if (backgroundVaries) {
+                            rowSums.resize(1);
+                            emptyPixel(x, y, rowSums[0]);
+                            store(x, y, rowSums[0]);
+                        } else {
+                            store(x, y, background);
+                        }
+                    }
                     continue;
                 }
                 // The row's samples in batches of at most kBatchRays rays (a multiple of eight, so
@@ -186,19 +224,10 @@ void renderTiles(const RenderContext& ctx, const Integrator& integrator, Film& f
                     for (size_t i = 0; i < rays; ++i) {
                         const size_t k = first + i;  // the row's sample k: pixel k / spp, sample k % spp
                         const int x = tx0 + int(k / size_t(spp)), s = int(k % size_t(spp));
-                        nb_uint pixelIndex = nb_uint(y) * nb_uint(film.width) + nb_uint(x);
-                        NbRng& rng = rngs[i];
-                        rng = nbRngStart(scene.render.seed, pixelIndex, nb_uint(s));
-                        // The pixel filter by importance sampling (filter.h): an offset from the centre.
-                        float jx = nbFilterSample(filterType, filterWidth, nbRngNext(&rng));
-                        float jy = nbFilterSample(filterType, filterWidth, nbRngNext(&rng));
-                        float time = nbRngNext(&rng);
-                        nbCameraRay(cam, float(x) + 0.5f + jx, float(y) + 0.5f + jy, film.width, film.height, time,
-                                    &origins[i], &directions[i]);
-                        if (holdoutDepth) {
-                            sampleX[i] = float(x) + 0.5f + jx, sampleY[i] = float(y) + 0.5f + jy;
-                            sampleTime[i] = time;
-                        }
+                        float px, py, time;
+                        cameraSample(x, y, s, rngs[i], origins[i], directions[i], px, py, time);
+                        if (holdoutDepth)
+                            sampleX[i] = px, sampleY[i] = py, sampleTime[i] = time;
                     }
                     if (holdouts) {
                         tFar.assign(rays, INFINITY);

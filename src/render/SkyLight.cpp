@@ -72,6 +72,47 @@ std::vector<Cell> makeCells(const EnvironmentMap& map, Rgb colour, int order)
     return out;
 }
 
+// The sky as point sources for the phase tail (SkyLight::tailAlong): blocks of at most 64 x 32
+// of the map's texels, each its summed L dOmega at its radiance-weighted mean direction.
+struct SkySource {
+    float3 w;
+    Rgb LdOmega;
+    float dOmega;
+};
+std::vector<SkySource> skySources(const EnvironmentMap& map, Rgb colour)
+{
+    const int W = map.width(), H = map.height();
+    const int bx = (W + 63) / 64, by = (H + 31) / 32;
+    std::vector<SkySource> out;
+    for (int j0 = 0; j0 < H; j0 += by)
+        for (int i0 = 0; i0 < W; i0 += bx) {
+            double L[3] = {0, 0, 0}, m[3] = {0, 0, 0}, omega = 0;
+            for (int j = j0; j < std::min(H, j0 + by); ++j)
+                for (int i = i0; i < std::min(W, i0 + bx); ++i) {
+                    const double dOmega = map.texelSolidAngle(j);
+                    const Rgb t = map.texel(i, j) * colour;
+                    const float3 w = map.texelDirection(i, j);
+                    const double lum = (std::fabs(t.x) + std::fabs(t.y) + std::fabs(t.z)) * dOmega + 1e-30 * dOmega;
+                    L[0] += t.x * dOmega, L[1] += t.y * dOmega, L[2] += t.z * dOmega;
+                    omega += dOmega;
+                    m[0] += lum * w.x, m[1] += lum * w.y, m[2] += lum * w.z;
+                }
+            const double len = std::sqrt(m[0] * m[0] + m[1] * m[1] + m[2] * m[2]);
+            if (!(len > 0.0))
+                continue;
+            out.push_back({make_float3(float(m[0] / len), float(m[1] / len), float(m[2] / len)),
+                           make_float3(float(L[0]), float(L[1]), float(L[2])), float(omega)});
+        }
+    return out;
+}
+
+// The direction of row r, column c of the tail table (SkyLight::Tail).
+float3 tailDirection(float r, float c, int W, int H)
+{
+    const float theta = float(M_PI) * (r + 0.5f) / float(H), phi = 2.0f * float(M_PI) * (c + 0.5f) / float(W);
+    return make_float3(std::sin(theta) * std::cos(phi), std::cos(theta), std::sin(theta) * std::sin(phi));
+}
+
 // The centre of octant s of a cell of side 1 centred at the origin.
 float3 octant(int s)
 {
@@ -156,6 +197,60 @@ SkyLight SkyLight::build(const VolumeSet& volumes, const EmbreeScene* casters, c
         map = uniform.get();
     }
     const std::vector<Cell> cells = makeCells(*map, colour, sky.mOrder);
+
+    // The phase tails (tailAlong), per volume: k(mu) = p(mu) - sum_(j<=J) (2j+1)/(4 pi) p_j P_j(mu)
+    // summed over the sky's sources at each table direction.
+    sky.mTails.resize(volumes.volumes().size());
+    if (uniform == nullptr) {
+        const std::vector<SkySource> sources = skySources(*map, colour);
+        Rgb mean = splat(0.0f);  // the sky's mean radiance, int L dOmega / 4 pi
+        for (const SkySource& src : sources)
+            mean += src.LdOmega * float(1.0 / (4.0 * M_PI));
+        for (size_t v = 0; v < volumes.volumes().size(); ++v) {
+            const NbPhase phase = volumes.volumes()[v]->medium.phase;
+            if (std::pow(double(nbPhaseMomentBound(phase)), sky.mOrder + 1) < 1e-3)
+                continue;
+            nb_moment pj[kOrderMax + 1] = {};
+            nbPhaseAddMoments(phase, 1.0, sky.mOrder, pj);
+            // k tabulated in s = sqrt(1 - mu), even in the scattering angle near the forward
+            // direction where a lobe of large g is narrow (s ~ theta / sqrt 2), read linearly.
+            constexpr int kTable = 2048;
+            std::vector<float> table(kTable + 1);
+            for (int n = 0; n <= kTable; ++n) {
+                const double sq = std::sqrt(2.0) * n / kTable, mu = 1.0 - sq * sq;
+                double k = nbPhaseEval(phase, float(mu)), P0 = 1.0, P1 = mu;
+                for (int j = 0; j <= sky.mOrder; ++j) {
+                    k -= (2 * j + 1) / (4 * M_PI) * double(pj[j]) * (j == 0 ? P0 : P1);
+                    if (j >= 1) {  // P_(j+1) from P_j and P_(j-1)
+                        const double next = ((2 * j + 1) * mu * P1 - j * P0) / (j + 1);
+                        P0 = P1, P1 = next;
+                    }
+                }
+                table[size_t(n)] = float(k);
+            }
+            const float toIndex = float(kTable) / std::sqrt(2.0f);
+            Tail& tail = sky.mTails[v];
+            tail.rgb.assign(size_t(Tail::W * Tail::H) * 3, 0.0f);
+            tbb::parallel_for(0, Tail::H, [&](int r) {
+                for (int c = 0; c < Tail::W; ++c) {
+                    const float3 d = tailDirection(float(r), float(c), Tail::W, Tail::H);
+                    float acc[3] = {0, 0, 0}, kOmega = 0;
+                    for (const SkySource& src : sources) {
+                        const float x = std::sqrt(std::max(0.0f, 1.0f - dot(src.w, d))) * toIndex;
+                        const int n = std::min(int(x), kTable - 1);
+                        const float k = table[size_t(n)] + (x - float(n)) * (table[size_t(n) + 1] - table[size_t(n)]);
+                        acc[0] += k * src.LdOmega.x, acc[1] += k * src.LdOmega.y, acc[2] += k * src.LdOmega.z;
+                        kOmega += k * src.dOmega;
+                    }
+                    // int k dOmega = 0 (p_0 = 1 is the grid's): the quadrature's own sum of k
+                    // removed with the sky's mean, so that a constant sky has no tail, as the
+                    // uniform sky has none.
+                    float* out = tail.rgb.data() + 3 * (size_t(r) * Tail::W + c);
+                    out[0] = acc[0] - kOmega * mean.x, out[1] = acc[1] - kOmega * mean.y, out[2] = acc[2] - kOmega * mean.z;
+                }
+            });
+        }
+    }
 
     // Phase 1: each volume's grid and its coarse density.
     const auto& vols = volumes.volumes();
@@ -357,7 +452,31 @@ size_t SkyLight::memoryBytes() const
     size_t b = 0;
     for (const Grid& g : mGrids)
         b += g.L.size() * sizeof(float);
+    for (const Tail& t : mTails)
+        b += t.rgb.size() * sizeof(float);
     return b;
+}
+
+Rgb SkyLight::tailAlong(size_t volume, float3 d) const
+{
+    const Tail& t = mTails[volume];
+    if (t.rgb.empty())
+        return splat(0.0f);
+    const float theta = std::acos(std::clamp(d.y, -1.0f, 1.0f));
+    float phi = std::atan2(d.z, d.x);
+    if (phi < 0.0f)
+        phi += 2.0f * float(M_PI);
+    const float r = std::clamp(theta * float(Tail::H) / float(M_PI) - 0.5f, 0.0f, float(Tail::H - 1));
+    const float c = phi * float(Tail::W) / (2.0f * float(M_PI)) - 0.5f;
+    const int r0 = std::min(int(r), Tail::H - 2), c0 = int(std::floor(c));
+    const float fr = r - float(r0), fc = c - float(c0);
+    auto at = [&](int rr, int cc) {
+        cc = ((cc % Tail::W) + Tail::W) % Tail::W;
+        const float* p = t.rgb.data() + 3 * (size_t(rr) * Tail::W + cc);
+        return make_float3(p[0], p[1], p[2]);
+    };
+    return (at(r0, c0) * (1 - fc) + at(r0, c0 + 1) * fc) * (1 - fr) +
+           (at(r0 + 1, c0) * (1 - fc) + at(r0 + 1, c0 + 1) * fc) * fr;
 }
 
 void SkyLight::contraction(NbPhase phase, float3 wo, float* a) const

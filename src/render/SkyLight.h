@@ -95,6 +95,16 @@ public:
     }
     void corners(size_t volume, int i, int j, int k, const float* a, Rgb* out) const;
 
+    // The phase function's tail above the grid's order J, seen along a camera ray's direction d:
+    //     L_tail(d) = int k(w . d) L_sky(w) dOmega_w,   k(mu) = p(mu) - sum_(j<=J) (2j+1)/(4 pi) p_j P_j(mu)
+    // (w the direction a texel is seen along; the light travels along -w, then toward the camera
+    // along -d, so the scattering cosine is w . d). The grid carries the bands up to J; the
+    // march adds the rest with the transmittance taken along the ray, k being forward-peaked
+    // where it matters (|g| large): T L_tail(d) int sigma_s dt (single/SkyTail.h). Exact where
+    // the sky is unshadowed; 0 for a uniform sky and where the phase's moments above J are
+    // under 1e-3. Precomputed per volume on a 64 x 32 lat-long table of d, read bilinearly.
+    Rgb tailAlong(size_t volume, float3 d) const;
+
     // Test hook: the grid's coefficients at the node nearest index-space point q, count() RGB.
     std::vector<Rgb> nodeCoefficients(size_t volume, float3 q) const;
 
@@ -105,9 +115,16 @@ private:
         int nx = 0, ny = 0, nz = 0;
         std::vector<float> L;  // per node count() x RGB, RGB innermost
     };
+    // L_tail on a lat-long table of d: row r at polar angle (r + 0.5) pi / H from +y, column c
+    // at azimuth (c + 0.5) 2 pi / W from +x toward +z; RGB innermost. Empty: no tail.
+    struct Tail {
+        static constexpr int W = 64, H = 32;
+        std::vector<float> rgb;
+    };
     int mOrder = 2;
     double mSeconds = 0.0;
     std::vector<Grid> mGrids;
+    std::vector<Tail> mTails;  // per volume
 };
 
 }  // namespace nimbus

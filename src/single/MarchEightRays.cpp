@@ -1,5 +1,7 @@
 #include "MarchEightRays.h"
 
+#include "SkyTail.h"
+
 #include "../render/BrickLanes.h"
 
 #include "../core/ExpNeg.h"
@@ -132,7 +134,7 @@ bool marchGreyDistantEight(const RenderContext& ctx, const VolumeData& vol, cons
         sl.index = size_t(skies[s] - ctx.lights.data());
         for (int i = 0; i < 8; ++i) {
             sl.cell[i] = -1;
-            if (i < n)  // light scatters toward the camera, along -d
+            if (live[i])  // light scatters toward the camera, along -d; dead lanes read no sky
                 sl.sky->contraction(vol.medium.phase, -d[i], sl.a[i]);
         }
         const SkyLight::Geometry g = sl.sky->geometry(0);
@@ -283,7 +285,11 @@ bool marchGreyDistantEight(const RenderContext& ctx, const VolumeData& vol, cons
             float* pl = perLight + perLightStride * size_t(i) + 3 * size_t(&e - ctx.lights.data());
             pl[0] += l1.x, pl[1] += l1.y, pl[2] += l1.z;
         }
-        if (!(tFar && tFar[i] < INFINITY))  // a held-out ray sees no background
+        const bool heldOut = tFar && tFar[i] < INFINITY;
+        if (skyCount > 0)  // the phase tails of the skies (SkyTail.h)
+            addSkyTailsOneVolume(ctx, vol, o[i], d[i], splat(Ts[i]), heldOut, out[i],
+                                 perLight + perLightStride * size_t(i));
+        if (!heldOut)  // a held-out ray sees no background
             out[i].L0 += Ts[i] * ctx.backgroundAlong(d[i]);
         out[i].transmittance = splat(Ts[i]);
         out[i].depth = opacitySums[i] > 0.0f ? depthSums[i] / opacitySums[i] : 0.0f;

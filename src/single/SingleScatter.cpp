@@ -2,6 +2,7 @@
 
 #include "../render/BrickWalk.h"
 #include "MarchEightRays.h"
+#include "SkyTail.h"
 
 #include "../core/ExpNeg.h"
 
@@ -399,6 +400,8 @@ void marchOneVolume(const RenderContext& ctx, const VolumeData& vol, float3 o, f
         float* pl = perLight + 3 * first.index;
         pl[0] += L1.x, pl[1] += L1.y, pl[2] += L1.z;
     }
+    if (!skyRays.empty())
+        addSkyTailsOneVolume(ctx, vol, o, d, T, HeldOut, out, perLight);
     if constexpr (!HeldOut)
         out.L0 += T * ctx.backgroundAlong(d);
     out.transmittance = T;
@@ -588,6 +591,10 @@ bool marchSingleFast(const RenderContext& ctx, float3 o, float3 d, float jitter,
             for (size_t v = 0; v < nVolumes; ++v)  // light scatters toward the camera, along -d
                 ctx.lights[i].sky->contraction(volumes[v]->medium.phase, -d,
                                                skyA.data() + (size_t(skySlot[i]) * nVolumes + v) * SkyLight::kCountMax);
+    // Per sky and volume: the volume's int sigma_s dt along the ray, for the phase tails
+    // (SkyTail.h, after the march).
+    thread_local std::vector<Rgb> skyTailTau;
+    skyTailTau.assign(size_t(nSky) * nVolumes, splat(0.0f));
 
     vs.spans(o, d, 0.0f, reach.tMax, scene.render.step, spanList);
     const int lightSamples = std::max(1, scene.render.lightSamples);
@@ -691,6 +698,7 @@ bool marchSingleFast(const RenderContext& ctx, float3 o, float3 d, float jitter,
                             sum += ctx.lights[i].sky->radiance(v, volumes[v]->indexFromWorld.point(p),
                                                                skyA.data() + sv * SkyLight::kCountMax, skyCursors[sv]) *
                                    phaseWeights[v];
+                            skyTailTau[sv] += m.sigma_s * (dt * phaseWeights[v] * invWeightSum);
                         }
                         const Rgb contribution = Tw * m.sigma_s * sum * invWeightSum;
                         out.L1 += contribution;
@@ -748,6 +756,8 @@ bool marchSingleFast(const RenderContext& ctx, float3 o, float3 d, float jitter,
         if (done)
             break;
     }
+    if (nSky > 0 && !done && skyBehindOpen(ctx, o, d, reach.heldOut))
+        addSkyTails(ctx, d, T, skyTailTau.data(), nVolumes, out, perLight);
     out.L0 += backgroundSeen(ctx, d, T, reach);
     out.transmittance = T;
     out.depth = opacitySum > 0.0f ? depthSum / opacitySum : 0.0f;

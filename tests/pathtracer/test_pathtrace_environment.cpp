@@ -123,13 +123,20 @@ double marchL1(Scene s, Method m)
 }  // namespace
 
 // The sky grid's stated accuracy (docs/single-scattering.md, "environment lights"): the image's
-// sky L1 within kSkyGridBound of the exact single scattering, at the default grid (32 nodes
-// across, order 2). Its error is the transmittance's variation within a node's cell and within
-// a sky cell (held constant across each) and the SH order's truncation of the light L0 that the
-// phase function sees; on the default cloud under a uniform sky it measured 0.8% against the
-// previous per-step shadow rays (docs/benchmarks.md). Here a sky with a horizon and a dark
-// ground, a forward-scattering phase function, sigma_t up to 1.1 / m.
-constexpr double kSkyGridBound = 0.03;
+// sky L1 within a + b |g|^3 of the exact single scattering at the default grid (32 nodes across,
+// SH order 2, the phase's bands above 2 added along the camera ray: SkyTail.h). a is what the
+// transmittance's variation within a node's cell and a sky cell leaves (isotropic scattering,
+// where the order-2 grid holds the whole phase function); b |g|^3 what the tail's transmittance,
+// taken along the camera ray, leaves as the phase grows forward (p_3 = g^3 is the first band
+// left to the tail). Both were measured by tests/validation/sky_grid_accuracy.py on seven
+// calibration scenes (other clouds, skies, densities and g from -0.5 to 0.9; the smallest
+// a, b >= 0 covering every one after its 2-sigma noise allowance) and are judged here on scenes
+// they were not measured on.
+constexpr double kSkyGridA = 0.0072, kSkyGridB = 0.080;
+double skyGridBound(double g)
+{
+    return kSkyGridA + kSkyGridB * std::fabs(g * g * g);
+}
 
 TEST(PathtraceEnvironment, SkyL1OfSingleAndWkbMatchesThePathTracer)
 {
@@ -139,8 +146,8 @@ TEST(PathtraceEnvironment, SkyL1OfSingleAndWkbMatchesThePathTracer)
     const double single = marchL1(s, Method::Single), wkb = marchL1(s, Method::Wkb);
     std::printf("sky L1: path tracer %.6f +- %.6f, single %.6f (%+.2f%%), wkb %.6f (%+.2f%%)\n", pt.mean,
                 pt.standardError, single, 100 * (single / pt.mean - 1), wkb, 100 * (wkb / pt.mean - 1));
-    EXPECT_LT(std::fabs(single - pt.mean), 4 * pt.standardError + kSkyGridBound * pt.mean);
-    EXPECT_LT(std::fabs(wkb - pt.mean), 4 * pt.standardError + kSkyGridBound * pt.mean);
+    EXPECT_LT(std::fabs(single - pt.mean), 4 * pt.standardError + skyGridBound(0.6) * pt.mean);
+    EXPECT_LT(std::fabs(wkb - pt.mean), 4 * pt.standardError + skyGridBound(0.6) * pt.mean);
 }
 
 // A map black but for one texel of radiance L is a distant light of irradiance L * Omega_texel
@@ -179,7 +186,7 @@ TEST(PathtraceEnvironment, OneBrightTexelIsTheEquivalentDistantLight)
             const double single = marchL1(sky, Method::Single), singleSun = marchL1(sun, Method::Single);
             std::printf("single, g 0: one-texel map %.6f, distant light %.6f (%+.2f%%)\n", single, singleSun,
                         100 * (single / singleSun - 1));
-            EXPECT_LT(std::fabs(single - singleSun), kSkyGridBound * singleSun);
+            EXPECT_LT(std::fabs(single - singleSun), skyGridBound(0.0) * singleSun);
         }
     }
 }
@@ -219,7 +226,7 @@ TEST(PathtraceEnvironment, ConstantMapEqualsConstantEnvironment)
     const double singleSame = marchL1(same, Method::Single);
     std::printf("single: constant map %.6f (rotated), %.6f (unrotated), constant environment %.6f\n", singleMapped,
                 singleSame, singleUniform);
-    EXPECT_LT(std::fabs(singleMapped - singleUniform), kSkyGridBound * singleUniform);
+    EXPECT_LT(std::fabs(singleMapped - singleUniform), skyGridBound(0.6) * singleUniform);
     EXPECT_NEAR(singleSame, singleUniform, 1e-5 * singleUniform);
     // And both show the colour where camera rays leave the volume (L0: the colour times the
     // camera ray's transmittance): pixel by pixel the same.
@@ -229,4 +236,34 @@ TEST(PathtraceEnvironment, ConstantMapEqualsConstantEnvironment)
     const Aov *la = ra.film.find("L0"), *lb = rb.film.find("L0");
     for (size_t k = 0; k < la->pixels.size(); ++k)
         ASSERT_NEAR(la->pixels[k], lb->pixels[k], 1e-5f * std::max(1.0f, lb->pixels[k])) << "L0 value " << k;
+}
+
+// Under an environment map, single writes the tiles whose rays cannot meet a volume without
+// marching them (TileDriver.cpp, emptyPixel): each sample's ray made as a march makes it, the
+// map read along it. wkb marches every tile; its L0 where the rays miss is the same background
+// along the same rays, so the two agree bit for bit wherever the pixel's alpha is 0, and the
+// frame has such tiles (the cloud fills a quarter of it).
+TEST(EnvironmentTiles, EmptyTilesUnderAMapEqualMarchedOnes)
+{
+    Scene s = cloudScene(0.6f, splat(1.0f), splat(0.1f));
+    s.camera.width = 96;
+    s.camera.height = 64;
+    s.camera.fov = 40;
+    s.lights.push_back(environment(skyMap(), 40.0f));
+    s.render.spp = 3;
+    Scene w = s;
+    s.render.method = Method::Single;
+    w.render.method = Method::Wkb;
+    const RenderResult a = render(s), b = render(w);
+    const Aov *la = a.film.find("L0"), *lb = b.film.find("L0"), *alpha = a.film.find("alpha");
+    ASSERT_TRUE(la && lb && alpha);
+    size_t clear = 0;
+    for (size_t p = 0; p < alpha->pixels.size(); ++p) {
+        if (alpha->pixels[p] != 0.0f)
+            continue;
+        ++clear;
+        for (int c = 0; c < 3; ++c)
+            ASSERT_EQ(la->pixels[3 * p + c], lb->pixels[3 * p + c]) << "pixel " << p;
+    }
+    EXPECT_GT(clear, alpha->pixels.size() / 2);
 }
