@@ -148,6 +148,8 @@ class DeepTest(unittest.TestCase):
             zs = sorted(samples)
             for s0, s1 in zip(zs, zs[1:]):
                 self.assertLessEqual(s0[1], s1[0], "samples overlap at %s" % ((x, y),))
+        # Written atomically: no temporary file is left beside the outputs.
+        self.assertEqual([f for f in os.listdir(self.dir) if f.startswith(".")], [])
         # Our own reader: composite and compare with the flat beauty and alpha.
         mine = np.zeros((H, W, 4))
         for (x, y), samples in pixels.items():
@@ -171,6 +173,23 @@ class DeepTest(unittest.TestCase):
 
     def test_single_flattens_to_the_beauty(self):
         self.check_flatten(scene("single"), "single")
+
+    def test_crop_is_the_data_window(self):
+        sc = scene("single")
+        sc["camera"]["crop"] = [0.25, 0.75, 0.0, 0.5]  # x [10, 30), y [0, 14) of 40 x 28
+        flat, deep = self.render(sc, "crop")
+        pixels, spec = read_deep(deep)
+        self.assertEqual((spec.x, spec.y, spec.width, spec.height), (10, 0, 20, 14))
+        self.assertEqual((spec.full_width, spec.full_height), (W, H))
+        inp = oiio.ImageInput.open(flat)
+        fspec = inp.spec()
+        inp.close()
+        self.assertEqual((fspec.x, fspec.y, fspec.width, fspec.height), (10, 0, 20, 14))
+        rgb, alpha = read_flat(flat)
+        for (x, y), samples in pixels.items():
+            c, a, _ = composite(samples)
+            self.assertAlmostEqual(a, alpha[y, x - 10], delta=1e-5)
+            np.testing.assert_allclose(c, rgb[y, x - 10], rtol=HALF_REL, atol=1e-6)
 
     def test_background_is_a_sample_behind_everything(self):
         pixels = self.check_flatten(scene("single", background=(0.2, 0.3, 0.4), generator="sphere"), "bg")
