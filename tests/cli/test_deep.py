@@ -174,6 +174,20 @@ class DeepTest(unittest.TestCase):
     def test_single_flattens_to_the_beauty(self):
         self.check_flatten(scene("single"), "single")
 
+    def test_geometry_holdout_cuts_the_deep_samples(self):
+        # A holdout sphere inside the cloud: camera rays stop at it, so do the deep samples (nothing
+        # behind the hit), and flattening is still the beauty (alpha 0 where the sphere is in front).
+        sc = scene("single", background=(0.1, 0.1, 0.1))
+        sc["geometry"] = [{"name": "ball", "type": "sphere", "radius": 0.35}]  # at the cloud's centre
+        pixels = self.check_flatten(sc, "sphere")
+        # The camera looks at the sphere's centre: the centre pixel's rays stop about |from| - r
+        # away, so its samples all start in front of that, and it has no background sample.
+        hit = float(np.linalg.norm(sc["camera"]["from"])) - 0.35
+        centre = pixels[(W // 2, H // 2)]
+        self.assertTrue(centre, "the cloud in front of the sphere is seen")
+        self.assertTrue(all(s[0] < 1e38 for s in centre), "a held-out pixel has no background sample")
+        self.assertTrue(all(s[0] < hit for s in centre), "no deep sample starts behind the holdout: %s" % centre)
+
     def test_crop_is_the_data_window(self):
         sc = scene("single")
         sc["camera"]["crop"] = [0.25, 0.75, 0.0, 0.5]  # x [10, 30), y [0, 14) of 40 x 28
