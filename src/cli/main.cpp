@@ -300,7 +300,13 @@ int runRender(const SceneArgs& args, const OutputArgs& out, bool explain, bool q
         };
         needsToken("output.file", templ.output.file);
         needsToken("output.preview", templ.output.preview);
+        needsToken("output.deep", templ.output.deep);
     }
+    // A tile's deep file would hold its band only, and nothing joins the bands (nimbus merge
+    // reads flat files): refused rather than written half.
+    if (split.tileCount > 0 && !templ.output.deep.empty())
+        throw InputError(where + "output.deep: not written by a tile render (--tile " + std::to_string(split.tileIndex) +
+                         "/" + std::to_string(split.tileCount) + "); render the frame whole for deep output");
     // Every frame is checked before the first renders: a bad output path or a missing frame file
     // stops the sequence before anything is written.
     const bool checkpoints = pt.checkpointSeconds > 0;
@@ -356,6 +362,8 @@ int runRender(const SceneArgs& args, const OutputArgs& out, bool explain, bool q
                      frames.size() > 1 ? ": " : "", scene.output.file.c_str());
         if (!scene.output.preview.empty())
             std::fprintf(stderr, " and %s", scene.output.preview.c_str());
+        if (!scene.output.deep.empty())
+            std::fprintf(stderr, " and %s", scene.output.deep.c_str());
         std::fprintf(stderr, " (%s, %.2f s", methodName(scene.render.method), seconds);
         if (frames.size() > 1)  // the per-frame line: what the sequence kept from the frame before
             std::fprintf(stderr, "; volumes: %zu reused, %zu built; shadow maps: %zu reused, %zu built", cache.reused,

@@ -110,7 +110,10 @@ struct Planned {
 // The planning pass: the volumes loaded (the one heavy step a plan cannot do without: the
 // optical depths and brick counts it reports are the loaded grids'), the shared plan, the
 // integrator's own part. Nothing is built for rendering yet.
-Planned planPass(const Scene& scene, const IntegratorEntry& entry, RenderStats& stats, VolumeCache* cache = nullptr)
+// kernelBvh: build the path tracer's tree of the geometry too (method pathtrace, which then reuses
+// it, and `nimbus info`, which reports it).
+Planned planPass(const Scene& scene, const IntegratorEntry& entry, RenderStats& stats, VolumeCache* cache = nullptr,
+                 bool kernelBvh = false)
 {
     auto t = std::chrono::steady_clock::now();
     VolumeSet volumes(buildVolumes(scene, cache), scene.render.step);
@@ -120,6 +123,8 @@ Planned planPass(const Scene& scene, const IntegratorEntry& entry, RenderStats& 
     p.plan.aovs = aovNames(scene, entry.traits);
     t = std::chrono::steady_clock::now();
     p.context = RenderContext::create(scene, std::move(volumes), p.plan);
+    if (p.context->geometry && kernelBvh)
+        p.context->kernelBvh = std::make_shared<const KernelBvh>(buildKernelBvh(p.context->geometry->geometry()));
     if (p.context->geometry || p.context->holdoutDepth) {
         stats.addStage("geometry", secondsSince(t));  // meshes read, BVHs built, depth map read
         planGeometry(*p.context, p.plan);
@@ -183,7 +188,7 @@ RenderPlan planRender(const Scene& input)
 {
     const Scene scene = checkedScene(input);
     RenderStats stats;
-    return planPass(scene, integratorEntry(scene.render.method), stats).plan;
+    return planPass(scene, integratorEntry(scene.render.method), stats, nullptr, true).plan;
 }
 
 RenderResult render(const Scene& input, const RenderOptions& callerOptions)
@@ -209,8 +214,16 @@ RenderResult render(const Scene& input, const RenderOptions& callerOptions)
     RenderResult result;
     setupFilm(result.film, scene, entry.traits, options.outputAovsOnly);
     applyTile(result.film, options.tileIndex, options.tileCount);
+    if (!scene.output.deep.empty()) {  // single and wkb (validateScene refuses pathtrace)
+        auto deep = std::make_shared<DeepFilm>();
+        deep->width = result.film.width, deep->height = result.film.height;
+        deep->maxSamples = scene.output.deepSamples;
+        deep->pixels.resize(size_t(deep->width) * size_t(deep->height));
+        result.film.deep = std::move(deep);
+    }
 
-    Planned planned = planPass(scene, entry, result.stats, options.volumeCache);
+    Planned planned =
+        planPass(scene, entry, result.stats, options.volumeCache, scene.render.method == Method::Pathtrace);
     const RenderPlan& plan = planned.plan;
     RenderContext& ctx = *planned.context;
     // Cancel (RenderControl.h): between the stages here, inside the tiles through ctx.stop.

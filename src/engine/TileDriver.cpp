@@ -19,6 +19,32 @@ constexpr int kTile = 16;
 // The most camera rays a worker marches at once (a multiple of eight: MarchEightRays groups).
 constexpr size_t kBatchRays = 4096;
 
+// The deep image's slice edges (DeepFilm.h): `slices` + 1 camera-space depths, evenly spaced over
+// the volumes' bounds as seen from the camera at shutter open and close (metres along the view
+// axis, never behind the eye). Empty bounds: one slice [0, 0].
+std::vector<float> deepSliceEdges(const NbCamera& cam, const Bbox& bounds, int slices)
+{
+    float zNear = INFINITY, zFar = 0.0f;
+    if (!bounds.empty())
+        for (int shutter = 0; shutter < 2; ++shutter) {
+            float3 o, d;
+            nbCameraRay(cam, 0.0f, 0.0f, 1, 1, float(shutter), &o, &d);
+            const float3 axis = nbCameraViewAxis(cam, float(shutter));
+            for (int c = 0; c < 8; ++c) {
+                const float3 p = make_float3(c & 1 ? bounds.hi.x : bounds.lo.x, c & 2 ? bounds.hi.y : bounds.lo.y,
+                                             c & 4 ? bounds.hi.z : bounds.lo.z);
+                const float z = std::max(0.0f, dot(p - o, axis));
+                zNear = std::min(zNear, z), zFar = std::max(zFar, z);
+            }
+        }
+    if (!(zNear < INFINITY))
+        zNear = zFar = 0.0f;
+    std::vector<float> edges(size_t(slices) + 1);
+    for (int k = 0; k <= slices; ++k)
+        edges[size_t(k)] = k == slices ? zFar : zNear + (zFar - zNear) * (float(k) / float(slices));
+    return edges;
+}
+
 }  // namespace
 
 void renderTiles(const RenderContext& ctx, const Integrator& integrator, Film& film, const RenderControl& control)
@@ -171,6 +197,46 @@ void renderTiles(const RenderContext& ctx, const Integrator& integrator, Film& f
             sum.add(miss, none.data());
         }
     };
+    // Deep output (DeepFilm.h): every camera sample is marched again up to each slice's back edge;
+    // the pixel's sums there give its deep samples. What the background adds past the last edge is
+    // one sample more, so the slices leave room for it where the background can be seen.
+    DeepFilm* deep = film.deep.get();
+    std::vector<float> deepEdges;
+    if (deep) {
+        const bool backgroundSeen = nbMaxComponent(ctx.background) > 0.0f || ctx.backgroundVaries();
+        const int slices = std::max(1, deep->maxSamples - (backgroundSeen ? 1 : 0));
+        deepEdges = deepSliceEdges(cam, ctx.volumes.worldBounds(), slices);
+    }
+    const size_t deepSlices = deep ? deepEdges.size() - 1 : 0;
+    // A pixel's sums in front of each slice edge and for the whole march (DeepCurve's L and T,
+    // summed over the pixel's samples; entry 0 is implicit).
+    struct DeepSum {
+        std::vector<Rgb> L;
+        std::vector<float> T;
+        void reset(size_t slices)
+        {
+            L.assign(slices + 2, splat(0.0f));
+            T.assign(slices + 2, 0.0f);
+        }
+    };
+    auto storeDeep = [&](int x, int y, const DeepSum& sum) {
+        DeepCurve curve;
+        curve.edges = deepEdges;
+        curve.L.resize(deepSlices + 2);
+        curve.T.resize(deepSlices + 2);
+        curve.L[0] = splat(0.0f), curve.T[0] = 1.0f;
+        for (size_t k = 1; k < deepSlices + 2; ++k)
+            curve.L[k] = sum.L[k] * inv, curve.T[k] = sum.T[k] * inv;
+        deep->at(x, y) = deepSamplesOf(std::move(curve), deep->maxSamples);
+    };
+    // An empty tile's pixel: nothing in the slices, the background behind them.
+    DeepSum deepBackground;
+    if (deep) {
+        deepBackground.reset(deepSlices);
+        for (size_t k = 1; k < deepSlices + 2; ++k)
+            deepBackground.T[k] = float(spp);
+        deepBackground.L[deepSlices + 1] = background.sum.L0;
+    }
 
     const size_t perLightStride = 3 * nLights;
     tbb::parallel_for(tbb::blocked_range<int>(0, tileCount, 1), [&](const tbb::blocked_range<int>& r) {
@@ -182,6 +248,10 @@ void renderTiles(const RenderContext& ctx, const Integrator& integrator, Film& f
         std::vector<CameraSample> samples;
         std::vector<float> perLight;
         std::vector<PixelSum> rowSums;
+        std::vector<NbRng> deepRngs, rngStarts;
+        std::vector<CameraSample> deepSamples;
+        std::vector<float> deepPerLight, deepTFar, cosAxis;
+        std::vector<DeepSum> rowDeep;
         for (int tile = r.begin(); tile != r.end(); ++tile) {
             if (stopped())
                 return;
@@ -199,8 +269,15 @@ void renderTiles(const RenderContext& ctx, const Integrator& integrator, Film& f
                             rowSums.resize(1);
                             emptyPixel(x, y, rowSums[0]);
                             store(x, y, rowSums[0]);
+                            if (deep) {  // the pixel's own background behind the empty slices
+                                DeepSum own = deepBackground;
+                                own.L[deepSlices + 1] = rowSums[0].sum.L0;
+                                storeDeep(x, y, own);
+                            }
                         } else {
                             store(x, y, background);
+                            if (deep)
+                                storeDeep(x, y, deepBackground);
                         }
                     }
                     continue;
@@ -214,19 +291,24 @@ void renderTiles(const RenderContext& ctx, const Integrator& integrator, Film& f
                 rowSums.resize(size_t(width));
                 for (PixelSum& sum : rowSums)
                     sum.reset(3 * nLights);
+                if (deep) {
+                    rowDeep.resize(size_t(width));
+                    for (DeepSum& sum : rowDeep)
+                        sum.reset(deepSlices);
+                }
                 for (size_t first = 0; first < rowRays; first += kBatchRays) {
                     const size_t rays = std::min(kBatchRays, rowRays - first);
                     origins.resize(rays), directions.resize(rays), rngs.resize(rays);
                     samples.assign(rays, CameraSample());
                     perLight.assign(rays * perLightStride, 0.0f);
-                    if (holdoutDepth)
+                    if (holdoutDepth || deep)
                         sampleX.resize(rays), sampleY.resize(rays), sampleTime.resize(rays);
                     for (size_t i = 0; i < rays; ++i) {
                         const size_t k = first + i;  // the row's sample k: pixel k / spp, sample k % spp
                         const int x = tx0 + int(k / size_t(spp)), s = int(k % size_t(spp));
                         float px, py, time;
                         cameraSample(x, y, s, rngs[i], origins[i], directions[i], px, py, time);
-                        if (holdoutDepth)
+                        if (holdoutDepth || deep)
                             sampleX[i] = px, sampleY[i] = py, sampleTime[i] = time;
                     }
                     if (holdouts) {
@@ -242,6 +324,8 @@ void renderTiles(const RenderContext& ctx, const Integrator& integrator, Film& f
                                     tFar[i] = std::min(tFar[i], z / cosAxis);
                             }
                     }
+                    if (deep)
+                        rngStarts.assign(rngs.begin(), rngs.end());  // each prefix march replays them
                     integrator.marchRays(int(rays), origins.data(), directions.data(),
                                          holdouts ? tFar.data() : nullptr, rngs.data(), samples.data(),
                                          perLight.data());
@@ -249,9 +333,43 @@ void renderTiles(const RenderContext& ctx, const Integrator& integrator, Film& f
                         return;
                     for (size_t i = 0; i < rays; ++i)
                         rowSums[(first + i) / size_t(spp)].add(samples[i], perLight.data() + perLightStride * i);
+                    if (deep) {
+                        // The whole march, then the prefix up to each slice edge z_k: the ray stops
+                        // at t = z_k / cos(ray, view axis), as a depth-map holdout at z_k would stop
+                        // it (the marches cut there on their own lattice).
+                        cosAxis.resize(rays);
+                        for (size_t i = 0; i < rays; ++i) {
+                            cosAxis[i] = dot(directions[i], nbCameraViewAxis(cam, sampleTime[i]));
+                            DeepSum& sum = rowDeep[(first + i) / size_t(spp)];
+                            sum.L[deepSlices + 1] += samples[i].L0 + samples[i].L1 + samples[i].L2plus;
+                            sum.T[deepSlices + 1] += nbAverage(samples[i].transmittance);
+                        }
+                        deepTFar.resize(rays);
+                        for (size_t k = 1; k <= deepSlices; ++k) {
+                            for (size_t i = 0; i < rays; ++i) {
+                                const float tEdge = cosAxis[i] > 0.0f ? deepEdges[k] / cosAxis[i] : INFINITY;
+                                deepTFar[i] = holdouts ? std::min(tFar[i], tEdge) : tEdge;
+                            }
+                            deepRngs.assign(rngStarts.begin(), rngStarts.end());
+                            deepSamples.assign(rays, CameraSample());
+                            deepPerLight.assign(rays * perLightStride, 0.0f);
+                            integrator.marchRays(int(rays), origins.data(), directions.data(), deepTFar.data(),
+                                                 deepRngs.data(), deepSamples.data(), deepPerLight.data());
+                            if (stopped())
+                                return;
+                            for (size_t i = 0; i < rays; ++i) {
+                                DeepSum& sum = rowDeep[(first + i) / size_t(spp)];
+                                sum.L[k] += deepSamples[i].L0 + deepSamples[i].L1 + deepSamples[i].L2plus;
+                                sum.T[k] += nbAverage(deepSamples[i].transmittance);
+                            }
+                        }
+                    }
                 }
-                for (int x = tx0; x < tx1; ++x)
+                for (int x = tx0; x < tx1; ++x) {
                     store(x, y, rowSums[size_t(x - tx0)]);
+                    if (deep)
+                        storeDeep(x, y, rowDeep[size_t(x - tx0)]);
+                }
             }
             int finished = ++done;
             if (!control.keepGoing(float(finished) / float(tileCount)))

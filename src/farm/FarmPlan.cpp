@@ -63,6 +63,14 @@ json planFarm(const Scene& templ, const FarmPlanOptions& o)
                              std::to_string(spp) + " would leave some empty");
     }
     const bool split = o.tiles > 1 || o.sampleSplits > 1;
+    // Deep output is written by a whole frame only (nimbus render refuses it with --tile; the
+    // path tracer, the only method with sample splits, writes none).
+    if (o.tiles > 1 && !templ.output.deep.empty())
+        throw InputError(where + "output.deep: --tiles " + std::to_string(o.tiles) +
+                         " splits each frame, and a tile writes no deep file (nimbus merge joins flat files only)");
+    if (o.frames.size() > 1 && !templ.output.deep.empty() && !hasFrameTokens(templ.output.deep))
+        throw InputError(where + "output.deep: '" + templ.output.deep +
+                         "' has no frame token ($F, $F4, ####): the frames would overwrite each other");
     if (o.frames.size() > 1 && !hasFrameTokens(templ.output.file))
         throw InputError(where + "output.file: '" + templ.output.file +
                          "' has no frame token ($F, $F4, ####): the frames would overwrite each other");
@@ -90,6 +98,8 @@ json planFarm(const Scene& templ, const FarmPlanOptions& o)
         const std::string output = fs::absolute(scene.output.file).lexically_normal().string();
         const std::string preview =
             scene.output.preview.empty() ? std::string() : fs::absolute(scene.output.preview).lexically_normal().string();
+        const std::string deep =
+            scene.output.deep.empty() ? std::string() : fs::absolute(scene.output.deep).lexically_normal().string();
         std::vector<std::string> base = {o.nimbus, "render"};
         base.insert(base.end(), o.sceneArgs.begin(), o.sceneArgs.end());
         // No -q: off a terminal the render's progress lines are what a farm's log shows of it.
@@ -105,6 +115,8 @@ json planFarm(const Scene& templ, const FarmPlanOptions& o)
             std::vector<std::string> command = base;
             command.insert(command.end(), {"-o", out});
             command.insert(command.end(), {"--preview", split ? std::string() : preview});  // a part has none
+            if (!deep.empty())
+                command.insert(command.end(), {"--set", "output.deep=" + json(deep).dump()});
             if (tile > 0)
                 command.insert(command.end(), {"--tile", std::to_string(tile) + "/" + std::to_string(o.tiles)});
             if (samples)
@@ -118,6 +130,8 @@ json planFarm(const Scene& templ, const FarmPlanOptions& o)
             json outputs = json::array({out});
             if (!split && !preview.empty())
                 outputs.push_back(preview);
+            if (!deep.empty())
+                outputs.push_back(deep);
             t["outputs"] = outputs;
             t["checkpoint"] = pathtrace ? json(checkpointPath(out)) : json(nullptr);
             t["resumable"] = pathtrace;

@@ -6,6 +6,7 @@
 #include "render/Film.h"
 
 #include <Imath/half.h>
+#include <OpenImageIO/deepdata.h>
 #include <OpenImageIO/filesystem.h>
 #include <OpenImageIO/imageio.h>
 
@@ -105,15 +106,40 @@ std::vector<ChannelSource> channelLayout(const Film& film, const std::string& pa
     return channels;
 }
 
-}  // namespace
-
-void writeExr(const Film& film, const std::string& path)
+// The film's metadata as header attributes (docs/output.md "Metadata"), with Software.
+void addMetadata(OIIO::ImageSpec& spec, const Film& film)
 {
-    auto fail = [&](const std::string& why) { return Error("cannot write EXR '" + path + "': " + why); };
+    spec.attribute("Software", "nimbus " NIMBUS_VERSION);
+    bool hasVersion = false;
+    for (const auto& [key, value] : film.metadata) {
+        std::string name = key.rfind("nimbus:", 0) == 0 ? key : "nimbus:" + key;
+        // OpenEXR's standard camera attributes, by the names OpenImageIO maps to them.
+        if (key == "worldToCamera")
+            name = "worldtocamera";
+        else if (key == "worldToNDC")
+            name = "worldtoNDC";
+        hasVersion = hasVersion || name == "nimbus:version";
+        if (const std::string* text = std::get_if<std::string>(&value))
+            spec.attribute(name, *text);
+        else if (const int* integer = std::get_if<int>(&value))
+            spec.attribute(name, *integer);
+        else if (const double* real = std::get_if<double>(&value))
+            spec.attribute(name, OIIO::TypeDesc::DOUBLE, real);
+        else
+            spec.attribute(name, OIIO::TypeMatrix44, std::get<Matrix44>(value).data());
+    }
+    if (!hasVersion)
+        spec.attribute("nimbus:version", NIMBUS_VERSION);
+}
+
+// The data window: the film's crop, all zeros meaning the full frame. Throws `fail`'s error when
+// it is empty or outside the frame.
+template <class Fail>
+void dataWindow(const Film& film, Fail fail, int& x0, int& y0, int& x1, int& y1)
+{
     if (film.width <= 0 || film.height <= 0)
         throw fail("the film is empty (" + std::to_string(film.width) + "x" + std::to_string(film.height) + ")");
-    // A crop left at its default (all zero) means the full frame.
-    int x0 = film.x0, y0 = film.y0, x1 = film.x1, y1 = film.y1;
+    x0 = film.x0, y0 = film.y0, x1 = film.x1, y1 = film.y1;
     if (x0 == 0 && y0 == 0 && x1 == 0 && y1 == 0) {
         x1 = film.width;
         y1 = film.height;
@@ -122,6 +148,15 @@ void writeExr(const Film& film, const std::string& path)
         throw fail("crop [" + std::to_string(x0) + "," + std::to_string(x1) + ") x [" + std::to_string(y0) + "," +
                    std::to_string(y1) + ") is empty or outside the " + std::to_string(film.width) + "x" +
                    std::to_string(film.height) + " frame");
+}
+
+}  // namespace
+
+void writeExr(const Film& film, const std::string& path)
+{
+    auto fail = [&](const std::string& why) { return Error("cannot write EXR '" + path + "': " + why); };
+    int x0, y0, x1, y1;
+    dataWindow(film, fail, x0, y0, x1, y1);
     const std::vector<ChannelSource> channels = channelLayout(film, path);
     if (channels.empty())
         throw fail("the film has no AOVs");
@@ -151,27 +186,7 @@ void writeExr(const Film& film, const std::string& path)
         if (spec.channelnames[c] == "Z")
             spec.z_channel = c;
     spec.attribute("compression", "zip");
-    spec.attribute("Software", "nimbus " NIMBUS_VERSION);
-    bool hasVersion = false;
-    for (const auto& [key, value] : film.metadata) {
-        std::string name = key.rfind("nimbus:", 0) == 0 ? key : "nimbus:" + key;
-        // OpenEXR's standard camera attributes, by the names OpenImageIO maps to them.
-        if (key == "worldToCamera")
-            name = "worldtocamera";
-        else if (key == "worldToNDC")
-            name = "worldtoNDC";
-        hasVersion = hasVersion || name == "nimbus:version";
-        if (const std::string* text = std::get_if<std::string>(&value))
-            spec.attribute(name, *text);
-        else if (const int* integer = std::get_if<int>(&value))
-            spec.attribute(name, *integer);
-        else if (const double* real = std::get_if<double>(&value))
-            spec.attribute(name, OIIO::TypeDesc::DOUBLE, real);
-        else
-            spec.attribute(name, OIIO::TypeMatrix44, std::get<Matrix44>(value).data());
-    }
-    if (!hasVersion)
-        spec.attribute("nimbus:version", NIMBUS_VERSION);
+    addMetadata(spec, film);
 
     // By format name: the temporary file's name has no extension (AtomicFile.h).
     AtomicFile file(path);
@@ -242,6 +257,71 @@ void writeExr(const Film& film, const std::string& path)
             list += (list.empty() ? "" : ", ") + aov->name + " (" + std::to_string(pixels) + " pixels)";
         logWarning("EXR '" + path + "': values above 65504, the largest half, written as 65504 in " + list);
     }
+}
+
+void writeDeepExr(const Film& film, const std::string& path)
+{
+    auto fail = [&](const std::string& why) { return Error("cannot write deep EXR '" + path + "': " + why); };
+    if (!film.deep)
+        throw fail("the film has no deep pixels");
+    const DeepFilm& deep = *film.deep;
+    int x0, y0, x1, y1;
+    dataWindow(film, fail, x0, y0, x1, y1);
+    if (deep.width != film.width || deep.height != film.height ||
+        deep.pixels.size() != size_t(film.width) * size_t(film.height))
+        throw fail("the deep pixels are not the film's size");
+
+    // OpenEXR's deep channels: premultiplied R, G, B, A and the sample's depth interval Z, ZBack,
+    // all float (deep compositing sums many small values; half would lose them).
+    const int cropWidth = x1 - x0, cropHeight = y1 - y0;
+    OIIO::ImageSpec spec(cropWidth, cropHeight, 6, OIIO::TypeDesc::FLOAT);
+    spec.x = x0;
+    spec.y = y0;
+    spec.full_x = 0;
+    spec.full_y = 0;
+    spec.full_width = film.width;
+    spec.full_height = film.height;
+    spec.deep = true;
+    spec.channelnames = {"R", "G", "B", "A", "Z", "ZBack"};
+    spec.alpha_channel = 3;
+    spec.z_channel = 4;
+    spec.attribute("compression", "zips");  // deep scanlines allow none, rle, zips
+    addMetadata(spec, film);
+    spec.attribute("nimbus:deep_samples", deep.maxSamples);
+
+    OIIO::DeepData data;
+    data.init(spec);
+    for (int y = y0; y < y1; ++y)
+        for (int x = x0; x < x1; ++x)
+            data.set_samples(int64_t(y - y0) * cropWidth + (x - x0), int(deep.at(x, y).size()));
+    for (int y = y0; y < y1; ++y)
+        for (int x = x0; x < x1; ++x) {
+            const int64_t pixel = int64_t(y - y0) * cropWidth + (x - x0);
+            const std::vector<DeepSample>& samples = deep.at(x, y);
+            for (size_t k = 0; k < samples.size(); ++k) {
+                const DeepSample& s = samples[k];
+                const float values[6] = {s.color.x, s.color.y, s.color.z, s.alpha, s.z, s.zBack};
+                for (int c = 0; c < 6; ++c)
+                    data.set_deep_value(pixel, c, int(k), values[c]);
+            }
+        }
+
+    AtomicFile file(path);
+    OIIO::Filesystem::IOFile proxy(file.stream(), OIIO::Filesystem::IOProxy::Write);
+    std::unique_ptr<OIIO::ImageOutput> out = OIIO::ImageOutput::create("openexr");
+    if (!out)
+        throw fail(oneLine(OIIO::geterror()));
+    if (!out->supports("deepdata"))
+        throw fail("this OpenImageIO's OpenEXR writer has no deep data");
+    out->set_ioproxy(&proxy);
+    if (!out->open(file.tempPath(), spec))
+        throw fail(oneLine(out->geterror()));
+    if (!out->write_deep_image(data))
+        throw fail(oneLine(out->geterror()));
+    if (!out->close())
+        throw fail(oneLine(out->geterror()));
+    out.reset();
+    file.commit();
 }
 
 }  // namespace nimbus

@@ -20,4 +20,9 @@ struct Film;
 // line naming `path`), removes the temporary file and leaves an existing file at `path` untouched.
 void writeExr(const Film& film, const std::string& path);
 
+// Writes film.deep (DeepFilm.h) as a deep scanline OpenEXR, atomically as writeExr: channels R, G,
+// B, A (premultiplied) and Z, ZBack (camera-space depth along the view axis), all float; the data
+// and display windows and the metadata as writeExr's, plus "nimbus:deep_samples". Throws Error.
+void writeDeepExr(const Film& film, const std::string& path);
+
 }  // namespace nimbus

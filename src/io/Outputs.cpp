@@ -97,6 +97,16 @@ void checkOutputs(const Scene& scene, bool checkpoints)
             throw InputError(where(scene) + ": output.preview: '" + scene.output.preview +
                              "' is also output.file; the preview would replace the EXR");
     }
+    if (!scene.output.deep.empty()) {
+        checkWritable(scene, scene.output.deep, "output.deep", inputs);
+        std::error_code ec;
+        const fs::path deep = fs::weakly_canonical(followSymlinks(scene.output.deep), ec);
+        for (const auto& [other, key] : {std::pair{scene.output.file, "output.file"},
+                                         std::pair{scene.output.preview, "output.preview"}})
+            if (!other.empty() && deep == fs::weakly_canonical(followSymlinks(other), ec))
+                throw InputError(where(scene) + ": output.deep: '" + scene.output.deep + "' is also " + key +
+                                 "; one would replace the other");
+    }
     std::vector<std::string> available = aovNames(scene, scene.render.method);
     for (size_t i = 0; i < scene.output.aovs.size(); ++i) {
         const std::string& name = scene.output.aovs[i];
@@ -135,6 +145,8 @@ void writeOutputs(const Scene& scene, const Film& film)
     writeExr(film, scene.output.file);
     if (!scene.output.preview.empty())
         writePreview(film, scene.output.preview, previewOptions(scene));
+    if (!scene.output.deep.empty() && film.deep)
+        writeDeepExr(film, scene.output.deep);
 }
 
 }  // namespace nimbus

@@ -102,7 +102,8 @@ PathtraceScene buildPathtraceScene(const RenderContext& ctx)
         s.lightTypes |= 1u << e.light.type;
     }
     if (ctx.geometry) {
-        s.geometry = buildKernelBvh(ctx.geometry->geometry());
+        // The planning pass built it for a render (Renderer.cpp); contexts made otherwise build it here.
+        s.geometry = ctx.kernelBvh ? *ctx.kernelBvh : buildKernelBvh(ctx.geometry->geometry());
         s.holdouts = ctx.geometry->hasHoldouts();
         s.shadowCasters = ctx.geometry->hasShadowCasters();
     }

@@ -8,7 +8,9 @@
 
 #include "../core/BulkAllocator.h"
 #include "../scene/CameraMatrices.h"
+#include "DeepFilm.h"
 
+#include <memory>
 #include <string>
 #include <variant>
 #include <vector>
@@ -33,6 +35,8 @@ struct Film {
     // Key/value metadata written to the EXR header (docs/output.md has the list): "<key>" as
     // "nimbus:<key>", except OpenEXR's standard attributes "worldToCamera" and "worldToNDC".
     std::vector<std::pair<std::string, FilmValue>> metadata;
+    // Deep pixels (output.deep), filled by the tile driver beside the AOVs; null: none.
+    std::shared_ptr<DeepFilm> deep;
 
     Aov& add(const std::string& name, int channels, bool isData);
     Aov* find(const std::string& name);

@@ -4,6 +4,7 @@
 
 #include "../geometry/EmbreeScene.h"
 #include "../geometry/HoldoutDepth.h"
+#include "../geometry/KernelBvh.h"
 #include "../scene/Scene.h"
 #include "DeepShadowMap.h"
 #include "LightCache.h"
@@ -65,6 +66,9 @@ struct RenderContext {
     // Scene geometry (docs/geometry.md): null where the scene has none (no Embree device is made).
     std::shared_ptr<const EmbreeScene> geometry;
     std::shared_ptr<const HoldoutDepth> holdoutDepth;  // camera.holdout_depth; null where none
+    // The path tracer's tree of the geometry (KernelBvh.h), built in the planning pass for method
+    // pathtrace and for `nimbus info`; null otherwise (single and wkb trace through Embree).
+    std::shared_ptr<const KernelBvh> kernelBvh;
     // Raised when the render must stop (RenderControl.h): the marches poll it inside tiles and
     // return early, leaving partial samples the driver discards.
     StopFlag stop;

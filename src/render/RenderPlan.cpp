@@ -79,6 +79,12 @@ std::string RenderPlan::describe() const
         s << "  geometry: " << geometry.size() << " object(s), " << triangles << " triangles ("
           << formatBytes(bytes) << "), Embree BVH built in " << buf << " (" << formatBytes(geometryBvhBytes)
           << ")\n";
+        if (kernelBvh) {
+            std::snprintf(buf, sizeof buf, "%.3f s", kernelBvhSeconds);
+            s << "  path tracer's BVH (rtcBuildBVH): " << kernelBvhNodes << " nodes, " << kernelBvhPrims
+              << " primitives, depth " << kernelBvhDepth << ", " << formatBytes(kernelBvhBytes) << ", built in " << buf
+              << "\n";
+        }
         for (auto& g : geometry) {
             s << "    " << g.name << " (" << g.type << "): ";
             if (g.triangles)

@@ -85,6 +85,12 @@ struct RenderPlan {
     std::vector<GeometryPlan> geometry;  // index-aligned with scene.geometry
     double geometryBvhSeconds = 0;       // building the Embree scenes (in the planning pass)
     size_t geometryBvhBytes = 0;         // Embree's allocations
+    // The path tracer's tree (KernelBvh.h), where the planning pass built it (method pathtrace,
+    // `nimbus info`): nodes, primitives, deepest leaf, bytes on the device, build seconds.
+    bool kernelBvh = false;
+    size_t kernelBvhNodes = 0, kernelBvhPrims = 0, kernelBvhBytes = 0;
+    int kernelBvhDepth = 0;
+    double kernelBvhSeconds = 0;
     std::string holdoutDepth;            // the depth-map holdout, described; empty: none
     std::vector<std::string> notes;                    // other omissions and decisions, one line each
     std::shared_ptr<const IntegratorPlan> integrator;  // null for integrators with no decisions of their own

@@ -145,6 +145,14 @@ void planGeometry(const RenderContext& ctx, RenderPlan& plan)
         }
         plan.geometryBvhSeconds = ctx.geometry->buildSeconds();
         plan.geometryBvhBytes = ctx.geometry->bvhBytes();
+        if (ctx.kernelBvh) {
+            plan.kernelBvh = true;
+            plan.kernelBvhNodes = ctx.kernelBvh->nodes.size();
+            plan.kernelBvhPrims = ctx.kernelBvh->prims.size();
+            plan.kernelBvhBytes = ctx.kernelBvh->memoryBytes();
+            plan.kernelBvhDepth = ctx.kernelBvh->depth;
+            plan.kernelBvhSeconds = ctx.kernelBvh->buildSeconds;
+        }
     }
     if (ctx.holdoutDepth)
         plan.holdoutDepth = ctx.scene->camera.holdoutDepth.file + ", channel " + ctx.scene->camera.holdoutDepth.channel +

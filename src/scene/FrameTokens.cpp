@@ -95,6 +95,7 @@ void forEachPath(S& scene, F f)
     f(scene.camera.holdoutDepth.file);
     f(scene.output.file);
     f(scene.output.preview);
+    f(scene.output.deep);
 }
 
 }  // namespace

@@ -199,6 +199,10 @@ struct OutputSettings {
     std::string previewLook;        // an OCIO look applied before the view; empty: none
     float exposure = 0.0f;          // the preview's exposure, stops: scene-linear x 2^exposure before the view
     std::vector<std::string> aovs;  // empty: all the method produces
+    // Deep scanline OpenEXR (docs/output.md "Deep output"): samples along each camera ray;
+    // empty: none. single and wkb only.
+    std::string deep;
+    int deepSamples = 32;  // the most deep samples per pixel (depth slices of the volumes)
 };
 
 struct Scene {

@@ -305,6 +305,8 @@ void visitOutput(V& v, O& o)
     v.field("preview_look", o.previewLook);
     v.field("exposure", o.exposure);
     v.field("aovs", o.aovs);
+    v.field("deep", o.deep);
+    v.field("deep_samples", o.deepSamples);
 }
 
 // ---- camera --------------------------------------------------------------------------------

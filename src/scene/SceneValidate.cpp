@@ -383,6 +383,7 @@ void checkOutput(const Checker& c, const OutputSettings& o)
     }
     // 2^64 overflows nothing a preview shows; beyond that only a typo gets here.
     c.range("output.exposure", o.exposure, Range{-64, 64, false, false, "stops"});
+    c.range("output.deep_samples", o.deepSamples, Range{1, 1024, false, false, "samples per pixel"});
 }
 
 }  // namespace
@@ -396,6 +397,9 @@ void validateScene(const Scene& scene)
     checkGeometry(c, scene.geometry);
     checkRender(c, scene.render);
     checkOutput(c, scene.output);
+    // The path tracer's paths are not binned along their primary rays (docs/output.md).
+    if (!scene.output.deep.empty() && scene.render.method == Method::Pathtrace)
+        c.fail("output.deep", "deep output is written by methods single and wkb, not pathtrace");
     c.nonNegative("background", scene.background);
 }
 

@@ -123,3 +123,40 @@ scene.nimbus.export_json = os.path.join(out_dir, "scene_fire.json")
 scene.render.filepath = os.path.join(out_dir, "blender_fire.exr")
 bpy.ops.render.render(write_still=True)
 print("blender_scene: rendered fire", scene.render.filepath)
+
+# Geometry (issue 14, item 6): a wall in a collection named "holdout" in front of the right part of
+# the smoke, a block between the sun and the smoke (a shadow caster only), and a triangle behind
+# the smoke with Blender's own holdout flag.
+scene.render.use_motion_blur = False
+volume.filepath = vdb_path
+principled.inputs["Blackbody Intensity"].default_value = 0.0
+
+
+def mesh_object(name, verts, faces, collection):
+    mesh = bpy.data.meshes.new(name)
+    mesh.from_pydata(verts, [], faces)
+    mesh.update()
+    obj = bpy.data.objects.new(name, mesh)
+    collection.objects.link(obj)
+    return obj
+
+
+holdouts = bpy.data.collections.new("holdout")
+scene.collection.children.link(holdouts)
+mesh_object("wall", [(0.35, -1.6, -3.0), (3.0, -1.6, -3.0), (3.0, -1.6, 3.0), (0.35, -1.6, 3.0)], [(0, 1, 2, 3)],
+            holdouts)
+cube = [(x, y, z) for x in (-0.4, 0.4) for y in (-0.4, 0.4) for z in (-0.4, 0.4)]
+cube_faces = [(0, 1, 3, 2), (4, 6, 7, 5), (0, 4, 5, 1), (2, 3, 7, 6), (0, 2, 6, 4), (1, 5, 7, 3)]
+block = mesh_object("block", cube, cube_faces, scene.collection)
+bpy.context.view_layer.update()
+sun_direction = (sun_object.matrix_world.to_3x3() @ Vector((0.0, 0.0, -1.0))).normalized()
+block.location = Vector((0.2, 0.0, 0.1)) - 2.6 * sun_direction
+flagged = mesh_object("flagged", [(-1.0, 3.0, -1.0), (1.0, 3.0, -1.0), (0.0, 3.0, 1.0)], [(0, 1, 2)],
+                      scene.collection)
+flagged.is_holdout = True
+scene.render.film_transparent = True
+scene.nimbus.method = "single"
+scene.nimbus.export_json = os.path.join(out_dir, "scene_geometry.json")
+scene.render.filepath = os.path.join(out_dir, "blender_geometry.exr")
+bpy.ops.render.render(write_still=True)
+print("blender_scene: rendered geometry", scene.render.filepath)

@@ -132,6 +132,40 @@ with tempfile.TemporaryDirectory(prefix="nimbus-blender-test-") as tmp:
     smoke_l0 = read_layers(os.path.join(tmp, "blender_single.exr"))["ViewLayer.L0"]
     check(fire_l0[..., 0].max() > 10.0 * max(float(smoke_l0[..., 0].max()), 1e-6), "the fire glows in L0")
 
+    # Geometry: the wall (collection "holdout") and the flagged triangle (Blender's holdout flag)
+    # as holdouts, the block as a shadow caster only; their OBJ files beside the exported JSON.
+    check("blender_scene: rendered geometry" in proc.stdout, "Blender rendered the scene with meshes")
+    with open(os.path.join(tmp, "scene_geometry.json")) as f:
+        geometry = {g["name"]: g for g in json.load(f).get("geometry", [])}
+    check(sorted(geometry) == ["block", "flagged", "wall"], "three meshes exported: %s" % sorted(geometry))
+    flags = {n: (g.get("type"), g.get("holdout"), g.get("shadows")) for n, g in geometry.items()}
+    check(flags.get("wall") == ("mesh", True, True), "the wall in collection 'holdout' is a holdout: %s" % flags)
+    check(flags.get("flagged") == ("mesh", True, True), "the object with Blender's holdout flag is a holdout")
+    check(flags.get("block") == ("mesh", False, True), "the other mesh is a shadow caster only")
+    for name, triangles in (("wall", 2), ("block", 12), ("flagged", 1)):
+        path = geometry.get(name, {}).get("file", "")
+        faces = 0
+        if os.path.isfile(path):
+            with open(path) as f:
+                faces = sum(1 for line in f if line.startswith("f "))
+        check(os.path.dirname(path) == os.path.join(tmp, "scene_geometry_meshes") and faces == triangles,
+              "%s: %d triangles in %s" % (name, triangles, path))
+    cli_exr = os.path.join(tmp, "cli_geometry.exr")
+    _, t = run([cli, "render", os.path.join(tmp, "scene_geometry.json"), "-o", cli_exr])
+    t_cli += t
+    theirs = read_layers(cli_exr)
+    mine = read_layers(os.path.join(tmp, "blender_geometry.exr"))["ViewLayer.Combined"]
+    check(np.array_equal(mine.astype(np.float16).astype(np.float32), theirs["beauty"]),
+          "geometry: Blender's Combined equals the CLI's beauty")
+    alone = read_layers(os.path.join(tmp, "cli_single.exr"))
+    held = (alone["alpha"][..., 0] > 0.05) & (theirs["alpha"][..., 0] == 0.0)
+    check(held.sum() > 100, "the wall holds out the smoke behind it: %d pixels of alpha 0" % held.sum())
+    check(np.all(theirs["alpha"][..., 0] <= alone["alpha"][..., 0] + 1e-6), "holdouts only take alpha away")
+    seen = theirs["alpha"][..., 0] > 0.0
+    l1, l1_alone = theirs["L1"][seen].sum(), alone["L1"][seen].sum()
+    print("geometry: %d pixels held out by the wall; L1 %.4g with the block, %.4g without" % (held.sum(), l1, l1_alone))
+    check(l1 < 0.97 * l1_alone, "the block shadows the smoke: L1 %.4g with it, %.4g without" % (l1, l1_alone))
+
     print("timings: install %.1f s, blender render %.1f s, nimbus render %.1f s" % (t_install, t_blender, t_cli))
 
 print("%d passed, %d failed" % (passed, failed))

@@ -8,6 +8,7 @@ Run by ctest with Debian's python3 (pyopenvdb and OpenImageIO's bindings come fr
 import json
 import math
 import os
+import re
 import subprocess
 import sys
 import tempfile
@@ -538,6 +539,45 @@ class Cli(unittest.TestCase):
         self.assertIn("wall (mesh): 2 triangles, bounds [0 0 0]-[1 1 0] m", out)
         self.assertIn("holdout only", out)
         self.assertIn("ball (sphere): analytic", out)
+        # The path tracer's tree (issue 14, item 7): the 2 triangles and the sphere; 32 bytes a node
+        # and 64 a primitive (kernels/shared/geometry.h).
+        m = re.search(r"path tracer's BVH \(rtcBuildBVH\): (\d+) nodes, 3 primitives, depth \d+, ([\d.]+) KiB, "
+                      r"built in \d+\.\d{3} s", out)
+        self.assertIsNotNone(m, out)
+        self.assertEqual(m.group(2), "%.1f" % ((32 * int(m.group(1)) + 64 * 3) / 1024.0))
+
+    def test_info_lists_the_path_tracers_bvh(self):
+        # A 30 x 30 grid of quads: 1800 triangles. A binary tree whose leaves hold at most 4 of them
+        # has at least 450 leaves, and 2 L - 1 nodes for L leaves.
+        n = 30
+        with open(os.path.join(self.d, "grid.obj"), "w") as f:
+            for j in range(n + 1):
+                for i in range(n + 1):
+                    f.write("v %g %g 0\n" % (i / n, j / n))
+            for j in range(n):
+                for i in range(n):
+                    a = j * (n + 1) + i + 1
+                    f.write("f %d %d %d %d\n" % (a, a + 1, a + n + 2, a + n + 1))
+        s = small_scene(geometry=[{"name": "grid", "type": "mesh", "file": "grid.obj"},
+                                  {"name": "floor", "type": "plane"}])
+        for method in ("single", "pathtrace"):
+            s["render"]["method"] = method
+            code, out, err = run("info", self.scene_file(s))
+            self.assertEqual(code, 0, err)
+            m = re.search(r"path tracer's BVH \(rtcBuildBVH\): (\d+) nodes, (\d+) primitives, depth (\d+), "
+                          r"([\d.]+) KiB, built in (\d+\.\d+) s", out)
+            self.assertIsNotNone(m, out)
+            nodes, prims, depth = int(m.group(1)), int(m.group(2)), int(m.group(3))
+            self.assertEqual(prims, 2 * n * n + 1)  # the triangles, then the infinite plane
+            self.assertEqual(nodes % 2, 1)
+            self.assertGreaterEqual(nodes, 2 * (2 * n * n // 4) - 1)
+            self.assertLessEqual(nodes, 2 * 2 * n * n - 1)
+            self.assertTrue(9 <= depth <= 48, depth)  # at least log2(450) levels; the builder's cap
+            self.assertEqual(m.group(4), "%.1f" % ((32 * nodes + 64 * prims) / 1024.0))
+        # A scene without geometry lists none.
+        code, out, err = run("info", self.scene_file(small_scene()))
+        self.assertEqual(code, 0, err)
+        self.assertNotIn("BVH", out)
 
     def test_neither_holdout_nor_shadows_warns(self):
         s = small_scene(geometry=[{"type": "sphere", "radius": 0.3, "holdout": False, "shadows": False}])

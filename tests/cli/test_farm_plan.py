@@ -186,6 +186,16 @@ class FarmPlan(unittest.TestCase):
         for f in (1, 2):
             self.assert_identical(self.path("whole", f"b.{f:04d}.exr"), self.path("out", f"beauty.{f:04d}.exr"))
 
+    def test_deep_output_goes_where_the_plan_says(self):
+        # output.deep is relative to the plan's directory; the tasks run elsewhere (issue 14, item 5).
+        s = shot("single", 2)
+        s["output"]["deep"] = "out/deep.$F4.exr"
+        plan = self.plan(self.scene_file(s, "deep.json"), "--frames", "1-2")
+        self.assertEqual([t["outputs"] for t in plan["tasks"]],
+                         [[self.path("out", f"beauty.{f:04d}.exr"), self.path("out", f"deep.{f:04d}.exr")]
+                          for f in (1, 2)])
+        self.execute(plan)  # checks every output exists
+
     def test_bad_plans_are_one_line(self):
         wkb = self.scene_file(shot("wkb", 1), "wkb.json")
         noise = shot("pathtrace", 0)
@@ -199,6 +209,10 @@ class FarmPlan(unittest.TestCase):
             ([self.scene_file(still, "still.json"), "--frames", "1-2"], "output.file"),
             ([wkb, "--frames", "3-1"], "--frames"),
             ([wkb, "--tiles", "0"], "--tiles"),
+            ([self.scene_file(dict(shot("wkb", 1), output={"file": "out/b.$F4.exr", "deep": "out/d.$F4.exr"}),
+                              "deep.json"), "--tiles", "2"], "output.deep: --tiles 2"),
+            ([self.scene_file(dict(shot("wkb", 1), output={"file": "out/b.$F4.exr", "deep": "out/d.exr"}),
+                              "deep1.json"), "--frames", "1-2"], "output.deep"),
         ]
         for args, words in cases:
             code, out, err = run("farm", "plan", *args, cwd=self.d)

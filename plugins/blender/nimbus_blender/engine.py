@@ -1,6 +1,7 @@
 """The nimbus RenderEngine: export, render, and hand the image and AOVs back to Blender."""
 import json
 import os
+import tempfile
 
 import bpy
 import numpy as np
@@ -69,20 +70,35 @@ class NimbusRenderEngine(bpy.types.RenderEngine):
     bl_use_postprocess = True
 
     def render(self, depsgraph):
-        scene = depsgraph.scene
-        settings = scene.nimbus
+        settings = depsgraph.scene.nimbus
         warnings = []
+        # Mesh objects become OBJ files (export.export_mesh): beside the exported JSON when there is
+        # one, so that `nimbus render` of it finds them; else in a directory removed after the render.
+        json_path = bpy.path.abspath(settings.export_json) if settings.export_json else ""
+        scratch = None
+        if json_path:
+            mesh_dir = os.path.splitext(json_path)[0] + "_meshes"
+        else:
+            scratch = tempfile.TemporaryDirectory(prefix="nimbus-blender-meshes-")
+            mesh_dir = scratch.name
         try:
-            document = export.scene_document(depsgraph, warnings)
+            self._render(depsgraph, settings, json_path, mesh_dir, warnings)
+        finally:
+            if scratch is not None:
+                scratch.cleanup()
+
+    def _render(self, depsgraph, settings, json_path, mesh_dir, warnings):
+        scene = depsgraph.scene
+        try:
+            document = export.scene_document(depsgraph, warnings, mesh_dir=mesh_dir)
         except export.ExportError as e:
             self.report({"ERROR"}, "nimbus: " + str(e))
             return
         for w in warnings:
             self.report({"WARNING"}, "nimbus: " + w)
-        if settings.export_json:
-            path = bpy.path.abspath(settings.export_json)
-            os.makedirs(os.path.dirname(path) or ".", exist_ok=True)
-            with open(path, "w") as f:
+        if json_path:
+            os.makedirs(os.path.dirname(json_path) or ".", exist_ok=True)
+            with open(json_path, "w") as f:
                 json.dump(document, f, indent=2)
 
         self.update_stats("", "nimbus rendering (%s)" % settings.method)

@@ -6,6 +6,7 @@ that a scene lit and shaded for Cycles renders with the same radiometry in nimbu
 with the reasoning is in docs/embedding.md, "Parameter mapping".
 """
 import math
+import os
 import re
 
 import bpy
@@ -281,8 +282,81 @@ def export_world(world, warnings):
     return {"type": "environment", "name": "world", "radiance": radiance}
 
 
-def scene_document(depsgraph, warnings=None):
-    """The nimbus scene for the evaluated Blender scene. warnings collects what was approximated."""
+# Meshes in a collection of this name are holdouts (docs/embedding.md, "Geometry").
+HOLDOUT_COLLECTION = "holdout"
+
+
+def is_holdout(obj):
+    """A holdout: in a collection named `holdout`, or with Blender's own holdout flag (Object >
+    Visibility > Holdout)."""
+    if getattr(obj, "is_holdout", False):
+        return True
+    original = getattr(obj, "original", obj)
+    return any(c.name == HOLDOUT_COLLECTION for c in original.users_collection)
+
+
+def _file_name(name, used):
+    base = re.sub(r"[^A-Za-z0-9_.-]", "_", name) or "mesh"
+    candidate, i = base, 1
+    while candidate in used:
+        candidate = "%s_%d" % (base, i)
+        i += 1
+    used.add(candidate)
+    return candidate + ".obj"
+
+
+def write_obj(obj, path):
+    """The evaluated mesh's triangles (modifiers applied) in object space as a Wavefront OBJ:
+    `v` lines and triangle `f` lines, nothing else. Returns the triangle count."""
+    import numpy as np
+
+    mesh = obj.to_mesh()
+    try:
+        mesh.calc_loop_triangles()
+        verts = np.empty(len(mesh.vertices) * 3, dtype=np.float64)
+        mesh.vertices.foreach_get("co", verts)
+        tris = np.empty(len(mesh.loop_triangles) * 3, dtype=np.int64)
+        mesh.loop_triangles.foreach_get("vertices", tris)
+    finally:
+        obj.to_mesh_clear()
+    os.makedirs(os.path.dirname(path) or ".", exist_ok=True)
+    with open(path, "w") as f:
+        f.write("# nimbus: Blender object %s, object space\n" % obj.name)
+        for x, y, z in verts.reshape(-1, 3):
+            f.write("v %.9g %.9g %.9g\n" % (x, y, z))
+        for a, b, c in tris.reshape(-1, 3) + 1:
+            f.write("f %d %d %d\n" % (a, b, c))
+    return len(tris) // 3
+
+
+def export_mesh(obj, matrix, mesh_dir, files, warnings):
+    """A visible mesh object as nimbus geometry (docs/scene-format.md, geometry): holdouts (the
+    `holdout` collection or Blender's holdout flag) cut the camera's view and cast shadows unless
+    their shadow visibility is off; other meshes are shadow casters only, unseen by the camera
+    (nimbus renders volumes: a surface render composited over it shows them). None for a mesh
+    that would change nothing. `files` maps an object's name to its OBJ file, written once per
+    object (instances share it)."""
+    holdout = is_holdout(obj)
+    shadows = bool(getattr(obj, "visible_shadow", True))
+    label = "mesh '%s'" % obj.name
+    if not holdout and not shadows:
+        warnings.append("%s: casts no shadow and is no holdout; not exported" % label)
+        return None
+    if obj.name not in files:
+        path = os.path.join(mesh_dir, _file_name(obj.name, set(os.path.basename(f) for f, _ in files.values())))
+        files[obj.name] = (path, write_obj(obj, path))
+    path, triangles = files[obj.name]
+    if triangles == 0:
+        warnings.append("%s: has no faces; not exported" % label)
+        return None
+    return {"name": obj.name, "type": "mesh", "file": path, "transform": _row_major(matrix),
+            "holdout": holdout, "shadows": shadows}
+
+
+def scene_document(depsgraph, warnings=None, mesh_dir=None):
+    """The nimbus scene for the evaluated Blender scene. warnings collects what was approximated.
+    Mesh objects are written as OBJ files into mesh_dir (an absolute directory; None: meshes are
+    not exported, with a warning if there are any)."""
     warnings = [] if warnings is None else warnings
     scene = depsgraph.scene
     r = scene.render
@@ -306,12 +380,33 @@ def scene_document(depsgraph, warnings=None):
     if world is not None:
         world["name"] = names("world")
         doc["lights"].append(world)
+    files, geometry, skipped_meshes = {}, [], 0
     for instance in depsgraph.object_instances:
         obj = instance.object
         if obj.type == "LIGHT":
             doc["lights"].append(export_light(obj, instance.matrix_world.copy(), names(obj.name), warnings))
         elif obj.type == "VOLUME":
             doc["volumes"].append(export_volume(obj, instance.matrix_world.copy(), depsgraph, warnings))
+        elif obj.type == "MESH":
+            if mesh_dir is None:
+                skipped_meshes += 1
+                continue
+            g = export_mesh(obj, instance.matrix_world.copy(), mesh_dir, files, warnings)
+            if g is not None:
+                geometry.append(g)
+    if skipped_meshes:
+        warnings.append("%d mesh object(s) not exported (no directory for their files)" % skipped_meshes)
+    if geometry:
+        # Unique names (nimbus reports objects by name; instances share their object's).
+        used = set()
+        for g in geometry:
+            base, name, i = g["name"], g["name"], 1
+            while name in used:
+                name = "%s_%d" % (base, i)
+                i += 1
+            used.add(name)
+            g["name"] = name
+        doc["geometry"] = geometry
     s = scene.nimbus
     doc["render"] = {
         "method": s.method,
