@@ -198,20 +198,21 @@ SkyLight SkyLight::build(const VolumeSet& volumes, const EmbreeScene* casters, c
     }
     const std::vector<Cell> cells = makeCells(*map, colour, sky.mOrder);
 
-    // The phase tails (tailAlong), per volume: k(mu) = p(mu) - sum_(j<=J) (2j+1)/(4 pi) p_j P_j(mu)
-    // summed over the sky's sources at each table direction.
+    // The phase tails (tailAlong), per volume: k(mu) = p(mu) - sum_(j<=J) (2j+1)/(4 pi) (p_j - f) P_j(mu)
+    // summed over the sky's sources at each table direction (a uniform sky is its constant map).
     sky.mTails.resize(volumes.volumes().size());
-    if (uniform == nullptr) {
+    {
         const std::vector<SkySource> sources = skySources(*map, colour);
         Rgb mean = splat(0.0f);  // the sky's mean radiance, int L dOmega / 4 pi
         for (const SkySource& src : sources)
             mean += src.LdOmega * float(1.0 / (4.0 * M_PI));
         for (size_t v = 0; v < volumes.volumes().size(); ++v) {
             const NbPhase phase = volumes.volumes()[v]->medium.phase;
-            if (std::pow(double(nbPhaseMomentBound(phase)), sky.mOrder + 1) < 1e-3)
+            if (std::pow(double(nbPhaseMomentBound(phase)), sky.mOrder + 1) < kTailNegligible)
                 continue;
             nb_moment pj[kOrderMax + 1] = {};
             nbPhaseAddMoments(phase, 1.0, sky.mOrder, pj);
+            const double f = forwardPeak(phase, sky.mOrder);
             // k tabulated in s = sqrt(1 - mu), even in the scattering angle near the forward
             // direction where a lobe of large g is narrow (s ~ theta / sqrt 2), read linearly.
             constexpr int kTable = 2048;
@@ -220,7 +221,7 @@ SkyLight SkyLight::build(const VolumeSet& volumes, const EmbreeScene* casters, c
                 const double sq = std::sqrt(2.0) * n / kTable, mu = 1.0 - sq * sq;
                 double k = nbPhaseEval(phase, float(mu)), P0 = 1.0, P1 = mu;
                 for (int j = 0; j <= sky.mOrder; ++j) {
-                    k -= (2 * j + 1) / (4 * M_PI) * double(pj[j]) * (j == 0 ? P0 : P1);
+                    k -= (2 * j + 1) / (4 * M_PI) * (double(pj[j]) - f) * (j == 0 ? P0 : P1);
                     if (j >= 1) {  // P_(j+1) from P_j and P_(j-1)
                         const double next = ((2 * j + 1) * mu * P1 - j * P0) / (j + 1);
                         P0 = P1, P1 = next;
@@ -242,11 +243,11 @@ SkyLight SkyLight::build(const VolumeSet& volumes, const EmbreeScene* casters, c
                         acc[0] += k * src.LdOmega.x, acc[1] += k * src.LdOmega.y, acc[2] += k * src.LdOmega.z;
                         kOmega += k * src.dOmega;
                     }
-                    // int k dOmega = 0 (p_0 = 1 is the grid's): the quadrature's own sum of k
-                    // removed with the sky's mean, so that a constant sky has no tail, as the
-                    // uniform sky has none.
+                    // int k dOmega = f (k's moment 0): the quadrature's excess over it removed
+                    // with the sky's mean, so that a constant sky's tail is exactly f L.
                     float* out = tail.rgb.data() + 3 * (size_t(r) * Tail::W + c);
-                    out[0] = acc[0] - kOmega * mean.x, out[1] = acc[1] - kOmega * mean.y, out[2] = acc[2] - kOmega * mean.z;
+                    const float excess = kOmega - float(f);
+                    out[0] = acc[0] - excess * mean.x, out[1] = acc[1] - excess * mean.y, out[2] = acc[2] - excess * mean.z;
                 }
             });
         }
@@ -479,15 +480,25 @@ Rgb SkyLight::tailAlong(size_t volume, float3 d) const
            (at(r0 + 1, c0) * (1 - fc) + at(r0 + 1, c0 + 1) * fc) * fr;
 }
 
+float SkyLight::forwardPeak(NbPhase phase, int order)
+{
+    if (std::pow(double(nbPhaseMomentBound(phase)), order + 1) < kTailNegligible)
+        return 0.0f;  // build() makes no tail table either
+    nb_moment pj[kOrderMax + 2] = {};
+    nbPhaseAddMoments(phase, 1.0, order + 1, pj);
+    return float(std::clamp<nb_moment>(pj[order + 1], 0, 1));
+}
+
 void SkyLight::contraction(NbPhase phase, float3 wo, float* a) const
 {
     nb_moment pj[kOrderMax + 1] = {};
     nbPhaseAddMoments(phase, 1.0, mOrder, pj);
+    const nb_moment f = forwardPeak(phase, mOrder);
     double y[kCountMax];
     shEvaluate(mOrder, wo, y);
     for (int j = 0; j <= mOrder; ++j)
         for (int m = -j; m <= j; ++m)
-            a[shIndex(j, m)] = float(pj[j] * y[shIndex(j, m)]);
+            a[shIndex(j, m)] = float((pj[j] - f) * y[shIndex(j, m)]);
 }
 
 Rgb SkyLight::radiance(size_t volume, float3 q, const float* a, Cursor& cursor) const

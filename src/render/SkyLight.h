@@ -66,8 +66,9 @@ public:
     double buildSeconds() const { return mSeconds; }
     size_t memoryBytes() const;
 
-    // Per camera ray and volume: a_jm = p_j y_jm(w_o) for the outgoing direction w_o (toward the
-    // camera, -d) and the volume's phase function; count() floats.
+    // Per camera ray and volume: a_jm = (p_j - f) y_jm(w_o) for the outgoing direction w_o
+    // (toward the camera, -d), the volume's phase function and its forward peak f (tailAlong);
+    // count() floats.
     void contraction(NbPhase phase, float3 wo, float* a) const;
 
     // Remembers the grid cell a march is in and its eight corners contracted with a: a march
@@ -95,15 +96,23 @@ public:
     }
     void corners(size_t volume, int i, int j, int k, const float* a, Rgb* out) const;
 
-    // The phase function's tail above the grid's order J, seen along a camera ray's direction d:
-    //     L_tail(d) = int k(w . d) L_sky(w) dOmega_w,   k(mu) = p(mu) - sum_(j<=J) (2j+1)/(4 pi) p_j P_j(mu)
-    // (w the direction a texel is seen along; the light travels along -w, then toward the camera
-    // along -d, so the scattering cosine is w . d). The grid carries the bands up to J; the
-    // march adds the rest with the transmittance taken along the ray, k being forward-peaked
-    // where it matters (|g| large): T L_tail(d) int sigma_s dt (single/SkyTail.h). Exact where
-    // the sky is unshadowed; 0 for a uniform sky and where the phase's moments above J are
-    // under 1e-3. Precomputed per volume on a 64 x 32 lat-long table of d, read bilinearly.
+    // The part of the phase function the grid leaves to the camera march (single/SkyTail.h).
+    // A forward-peaked lobe (HG of large g) has moments g^j that an order-J grid cuts off. The
+    // split, after delta-M (Wiscombe 1977): f = p_(J+1) where positive (forwardPeak), the grid
+    // carries moments p_j - f for j <= J (contraction), and the rest,
+    //     k(mu) = p(mu) - sum_(j<=J) (2j+1)/(4 pi) (p_j - f) P_j(mu)
+    // (moments f for j <= J, p_j above: the HG tail plus f times the low bands of a forward
+    // delta), is forward-peaked, so the light it scatters toward the camera at y comes through
+    // the medium behind y along the ray: T(y, end) times, seen along the camera ray's direction d,
+    //     L_tail(d) = int k(w . d) L_sky(w) dOmega_w
+    // (w the direction a texel is seen along: light travels along -w, then toward the camera along
+    // -d, so the scattering cosine is w . d). A uniform sky's L_tail is f L. Exact with an
+    // unshadowed sky; shadowed, the grid's low bands of T L and the ray's T for the peak.
+    // Zero where the moments above J are under kTailNegligible (f too).
+    // Precomputed per volume on a 64 x 32 lat-long table of d, read bilinearly.
     Rgb tailAlong(size_t volume, float3 d) const;
+    static constexpr double kTailNegligible = 1e-3;  // |p_j| bound above J under which there is no tail
+    static float forwardPeak(NbPhase phase, int order);
 
     // Test hook: the grid's coefficients at the node nearest index-space point q, count() RGB.
     std::vector<Rgb> nodeCoefficients(size_t volume, float3 q) const;

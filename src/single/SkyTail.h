@@ -1,14 +1,14 @@
 // SkyTail.h: the part of an environment light's single scattering that the sky grid leaves to the
-// camera march: the phase function's bands above the grid's order J (SkyLight::tailAlong).
+// camera march (SkyLight::tailAlong): the phase function's forward peak f = p_(J+1) and its bands
+// above the grid's order J, the delta-M split.
 //
-// The tail kernel k(mu) = p(mu) - sum_(j<=J) (2j+1)/(4 pi) p_j P_j(mu) is forward-peaked where it
-// matters (a Henyey-Greenstein lobe of large |g|, whose moments g^j fall slowly), so the light it
-// scatters at y toward the camera comes from directions near the ray's own, through the medium
-// behind y: taking that transmittance as the ray's T(y, end) for all of the kernel,
+// That part is forward-peaked, so the light it scatters at y toward the camera comes from
+// directions near the ray's own, through the medium behind y: with that transmittance taken as
+// the ray's T(y, end) for all of it,
 //     int T(0, t) sigma_s(t) T(t, end) L_tail(d) dt = L_tail(d) T int sigma_s dt,
 // since T(0, t) T(t, end) = T(0, end) = T for every t: one product after the march instead of a
-// shadow ray per step. Exact for an unshadowed sky; tests/validation/sky_grid_accuracy.py has
-// what it leaves over a shadowed one. A march stopped at the transmittance cut-off adds nothing.
+// shadow ray per step. tests/validation/sky_grid_accuracy.py measures what it leaves. A march
+// stopped at the transmittance cut-off adds nothing.
 #pragma once
 
 #include "../render/CameraSample.h"

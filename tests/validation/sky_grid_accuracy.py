@@ -3,11 +3,12 @@
 scenes and judged on a scene it was not measured on.
 
 single and wkb read an environment light's in-scattering from the sky grid (src/render/SkyLight.h):
-SH order J of the transmittance-weighted sky radiance at grid nodes. Its error against the exact
-single scattering is, to first order, the first SH band the grid leaves out, seen through the
-phase function's Legendre moment p_(J+1) = g^(J+1) for Henyey-Greenstein, plus the transmittance's
-variation within a node's cell and a sky cell (nearly independent of g). The bound stated in
-docs/single-scattering.md is therefore
+SH order J of the transmittance-weighted sky radiance at grid nodes, the phase function's forward
+peak and higher bands added along the camera ray (src/single/SkyTail.h). Its error against the
+exact single scattering is the transmittance's variation within a node's cell and a sky cell
+(nearly independent of g) plus what the peak's transmittance, taken along the camera ray, leaves;
+the latter grows with the first moment the grid leaves out, p_(J+1) = g^(J+1) for
+Henyey-Greenstein. The bound stated in docs/single-scattering.md is therefore
 
     |L1_grid - L1_exact| / L1_exact <= a + b |g|^(J+1)
 
@@ -19,7 +20,8 @@ is not among them: that test judges the bound held out.
 
 Usage: tests/validation/sky_grid_accuracy.py [--nimbus build/bin/nimbus] [--spp 8192]
 Prints one line per scene (path tracer L1 +- standard error, grid L1 and relative error), then a
-and b. About 2 minutes on 2 cores.
+and b. About 1 minute on 2 cores (--cache keeps the path tracer's renders for reruns); --set
+passes scene overrides to the grid's render (e.g. render.wkb_sh_order_max=4).
 """
 
 import argparse
