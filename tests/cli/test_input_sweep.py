@@ -217,6 +217,9 @@ def keys():
         k.append(Key(f"render.{key}", r + key, "scalar", lo, hi, methods=("pathtrace",), integer=integer))
     k.append(Key("output.exposure", "output.exposure", "scalar", -64, 64,
                  setup=lambda s: s["output"].update(preview="PREVIEW")))
+    # Deep output's slice count, with a deep file to write (single and wkb; pathtrace refuses it).
+    k.append(Key("output.deep_samples", "output.deep_samples", "scalar", 1, 1024, integer=True,
+                 setup=lambda s: s["output"].update(deep="DEEP")))
     return k
 
 
@@ -275,6 +278,8 @@ def run_case(case):
     d = tempfile.mkdtemp(dir=workdir)
     if scene["output"].get("preview") == "PREVIEW":
         scene["output"]["preview"] = os.path.join(d, "out.png")
+    if scene["output"].get("deep") == "DEEP":
+        scene["output"]["deep"] = os.path.join(d, "deep.exr")
     scene["output"]["file"] = os.path.join(d, "out.exr")
     scene["render"]["method"] = method
     if method == "pathtrace":
