@@ -162,8 +162,9 @@ JointSampler::Conditional JointSampler::conditional(double v) const
     c.nodes = count;
     c.cdf[0] = 0;
     for (int j = 0; j < count; ++j) {
-        const double s = std::sin(c.phi[j]), co = std::cos(c.phi[j]);
-        const float cosU = float(-s), cosV = float(co * nv + s * dv);
+        // Float trigonometry: the fit only shapes the distribution (its pdf is what it is).
+        const float s = std::sin(float(c.phi[j])), co = std::cos(float(c.phi[j]));
+        const float cosU = -s, cosV = co * float(nv) + s * float(dv);
         c.f[j] = double(nbPhaseEval(mPhases.atU, cosU)) * double(nbPhaseEval(mPhases.atV, cosV));
         if (j > 0)
             c.cdf[j] = c.cdf[j - 1] + 0.5 * (c.f[j - 1] + c.f[j]) * (c.phi[j] - c.phi[j - 1]);  // eq. 7.23

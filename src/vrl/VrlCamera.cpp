@@ -121,8 +121,7 @@ float3 gatherVrl(const CameraSetup& s, const Vrl& vrl, float3 o, float3 d, float
     return c * m.transmittance(vrl.origin, vrl.dir, float(ps.v), rng);
 }
 
-void traceCameraSample(const CameraSetup& s, float3 o, float3 d, float tCamera, const std::vector<Vrl>& vrls,
-                       NbRng& rng, CameraSample& out)
+void traceCameraPath(const CameraSetup& s, float3 o, float3 d, float tCamera, NbRng& rng, CameraSample& out)
 {
     const PathtraceScene& ps = *s.ps;
     const VrlMedium& m = *s.medium;
@@ -180,8 +179,13 @@ void traceCameraSample(const CameraSetup& s, float3 o, float3 d, float tCamera, 
             po = p;
         }
     }
+}
 
-    // L2plus from the VRLs: the camera segment inside the volumes, up to a holdout.
+void gatherVrls(const CameraSetup& s, float3 o, float3 d, float tCamera, const std::vector<Vrl>& vrls, NbRng& rng,
+                CameraSample& out)
+{
+    const VrlMedium& m = *s.medium;
+    // The camera segment inside the volumes, up to a holdout.
     if (vrls.empty() || (s.maxDepth > 0 && s.maxDepth < 2))
         return;
     float u0, u1;

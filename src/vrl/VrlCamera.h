@@ -39,10 +39,13 @@ struct CameraSetup {
     NbPhase cameraPhase;        // the advanced fit's phase function at u
 };
 
-// Fills `out` (perLight sized to the lights) for the camera ray o + t d, t < tCamera (a holdout;
-// INFINITY where none), gathering from `vrls`.
-void traceCameraSample(const CameraSetup& s, float3 o, float3 d, float tCamera, const std::vector<Vrl>& vrls,
-                       NbRng& rng, CameraSample& out);
+// Fills `out` (perLight sized to the lights) with L0, L1 and emission for the camera ray
+// o + t d, t < tCamera (a holdout; INFINITY where none).
+void traceCameraPath(const CameraSetup& s, float3 o, float3 d, float tCamera, NbRng& rng, CameraSample& out);
+
+// Adds L2plus from every VRL to out.L[2] and out.perLight for the same camera ray.
+void gatherVrls(const CameraSetup& s, float3 o, float3 d, float tCamera, const std::vector<Vrl>& vrls, NbRng& rng,
+                CameraSample& out);
 
 // The L2plus contribution of one VRL to the camera segment o + u d, u in [u0, u1] (for tests).
 float3 gatherVrl(const CameraSetup& s, const Vrl& vrl, float3 o, float3 d, float u0, float u1, NbRng& rng);

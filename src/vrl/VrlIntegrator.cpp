@@ -33,6 +33,19 @@ double secondsBetween(Clock::time_point a, Clock::time_point b)
 }
 
 constexpr long long kMinNoiseTargetSpp = 64;  // the path tracer's
+// Streams of the extra camera paths, keyed apart from the first (the path tracer's stream).
+constexpr nb_uint kCameraStreamKey = 0x63616d00u;
+
+// Camera paths per pixel and iteration for L0 and L1. An iteration's cost is dominated by its
+// gathers (one per VRL, three ratio trackings each, about a camera path's cost each), so a single
+// camera path would leave L0 and L1, which vary from path to path as the path tracer's do, far
+// noisier than L2plus. With as many camera paths as light paths the cheap terms cost a small share
+// of the iteration (a path makes a VRL per segment) and their variance falls with the VRL term's
+// as vrl_paths grows. The iteration stays one unbiased sample per pixel.
+int cameraPathsPerIteration(const Scene& scene)
+{
+    return std::max(1, scene.render.vrlPaths);
+}
 
 // The joint distribution a scene asks for: "auto" is the advanced one where some phase function
 // is anisotropic (Oppitz 7.3.2 gains nothing over 7.3.1 for g = 0 and costs 17 phase evaluations).
@@ -119,6 +132,7 @@ void renderVrl(const RenderContext& ctx, Film& film, const RenderControl& option
                                       : scene.render.spp > 0 ? scene.render.spp
                                                              : (timeLimit > 0 || noiseTarget > 0 ? 0 : 1);
     const int paths = scene.render.vrlPaths;
+    const int cameraPaths = cameraPathsPerIteration(scene);
     std::atomic<long long> bad{0};
     long long vrlCount = 0;
     double noise = INFINITY;
@@ -138,32 +152,52 @@ void renderVrl(const RenderContext& ctx, Film& film, const RenderControl& option
         vrlCount += (long long)vrls.size();
         const float inv = 1.0f / float(sampleIndex - nb_uint(first) + 1u);
         tbb::parallel_for(tbb::blocked_range<long long>(0, pixelCount, 16), [&](const tbb::blocked_range<long long>& r) {
-            vrl::CameraSample cs;
+            vrl::CameraSample cs, one;
             for (long long gid = r.begin(); gid != r.end(); ++gid) {
                 if (ctx.stop.raised())
                     return;
                 const int px = film.x0 + int(gid % cropWidth), py = film.y0 + int(gid / cropWidth);
                 const nb_uint pixelIndex = nb_uint(py) * nb_uint(film.width) + nb_uint(px);
-                NbRng rng = nbRngStart(scene.render.seed, pixelIndex, sampleIndex);
-                const float jx = nbFilterSample(filterType, filterWidth, nbRngNext(&rng));
-                const float jy = nbFilterSample(filterType, filterWidth, nbRngNext(&rng));
-                const float time = nbRngNext(&rng);
-                const float sx = float(px) + 0.5f + jx, sy = float(py) + 0.5f + jy;
-                float3 o, d;
-                nbCameraRay(cam, sx, sy, film.width, film.height, time, &o, &d);
-                float tCamera = NB_INF;
-                if (ps.holdouts)
-                    tCamera = nbGeomTrace(ps.geometry.nodes.data(), ps.geometry.prims.data(), ps.geometry.scene, o, d,
-                                          0.0f, NB_INF, NB_GEOM_HOLDOUT, 0);
-                if (depthMap) {
-                    const float z = nbHoldoutDepthAt(ps.holdoutDepth.data(), ps.holdoutDepthWidth,
-                                                     ps.holdoutDepthHeight, ps.holdoutDepthScale[0],
-                                                     ps.holdoutDepthScale[1], sx, sy);
-                    const float cosAxis = dot(d, nbCameraViewAxis(cam, time));
-                    if (z < NB_INF && cosAxis > 0.0f)
-                        tCamera = std::fmin(tCamera, z / cosAxis);
+                // K camera paths for L0 and L1 (the first is the path tracer's own sample), the
+                // first one's ray also gathering from every VRL (see cameraPathsPerIteration).
+                for (float3& L : cs.L)
+                    L = make_float3(0, 0, 0);
+                cs.transmittance = cs.depth = cs.hasDepth = 0;
+                cs.perLight.assign(ps.lights.size(), make_float3(0, 0, 0));
+                const float share = 1.0f / float(cameraPaths);
+                for (int k = 0; k < cameraPaths; ++k) {
+                    const nb_uint streamSeed =
+                        k == 0 ? scene.render.seed : nbPcgHash(scene.render.seed ^ (kCameraStreamKey + nb_uint(k)));
+                    NbRng rng = nbRngStart(streamSeed, pixelIndex, sampleIndex);
+                    const float jx = nbFilterSample(filterType, filterWidth, nbRngNext(&rng));
+                    const float jy = nbFilterSample(filterType, filterWidth, nbRngNext(&rng));
+                    const float time = nbRngNext(&rng);
+                    const float sx = float(px) + 0.5f + jx, sy = float(py) + 0.5f + jy;
+                    float3 o, d;
+                    nbCameraRay(cam, sx, sy, film.width, film.height, time, &o, &d);
+                    float tCamera = NB_INF;
+                    if (ps.holdouts)
+                        tCamera = nbGeomTrace(ps.geometry.nodes.data(), ps.geometry.prims.data(), ps.geometry.scene,
+                                              o, d, 0.0f, NB_INF, NB_GEOM_HOLDOUT, 0);
+                    if (depthMap) {
+                        const float z = nbHoldoutDepthAt(ps.holdoutDepth.data(), ps.holdoutDepthWidth,
+                                                         ps.holdoutDepthHeight, ps.holdoutDepthScale[0],
+                                                         ps.holdoutDepthScale[1], sx, sy);
+                        const float cosAxis = dot(d, nbCameraViewAxis(cam, time));
+                        if (z < NB_INF && cosAxis > 0.0f)
+                            tCamera = std::fmin(tCamera, z / cosAxis);
+                    }
+                    vrl::traceCameraPath(setup, o, d, tCamera, rng, one);
+                    for (int t = 0; t < 3; ++t)
+                        cs.L[t] += one.L[t] * share;
+                    cs.transmittance += one.transmittance * share;
+                    cs.depth += one.depth * one.hasDepth * share;
+                    cs.hasDepth += one.hasDepth * share;
+                    for (size_t i = 0; i < cs.perLight.size(); ++i)
+                        cs.perLight[i] += one.perLight[i] * share;
+                    if (k == 0)
+                        vrl::gatherVrls(setup, o, d, tCamera, vrls, rng, cs);
                 }
-                vrl::traceCameraSample(setup, o, d, tCamera, vrls, rng, cs);
                 float3 beauty = cs.L[0] + cs.L[1] + cs.L[2];
                 float y = nbAverage(beauty);
                 if (!std::isfinite(y)) {  // dropped and counted, as the path tracer does
@@ -181,7 +215,7 @@ void renderVrl(const RenderContext& ctx, Film& film, const RenderControl& option
                     a[3 * k + 2] += (cs.L[k].z - a[3 * k + 2]) * inv;
                 }
                 a[NB_ACC_TRANSMITTANCE] += (cs.transmittance - a[NB_ACC_TRANSMITTANCE]) * inv;
-                a[NB_ACC_DEPTH_SUM] += (cs.depth * cs.hasDepth - a[NB_ACC_DEPTH_SUM]) * inv;
+                a[NB_ACC_DEPTH_SUM] += (cs.depth - a[NB_ACC_DEPTH_SUM]) * inv;  // depth x hit, averaged
                 a[NB_ACC_DEPTH_HITS] += (cs.hasDepth - a[NB_ACC_DEPTH_HITS]) * inv;
                 const float delta = y - a[NB_ACC_MEAN_Y];
                 a[NB_ACC_MEAN_Y] += delta * inv;
