@@ -194,7 +194,7 @@ struct RenderSettings {
     double noiseTarget = 1e-4;  // pathtrace with spp 0: stop at this beauty relMSE (from the variance AOV); 0 = none
     // vrl (docs/vrl.md): light paths per iteration (each iteration is one sample per pixel that
     // gathers from all their segments) and the joint distribution of the gather.
-    int vrlPaths = 4;
+    int vrlPaths = 16;
     VrlSampling vrlSampling = VrlSampling::Auto;
     // wkb (docs/wkb.md has the derivation of each):
     WkbKernel wkbKernel = WkbKernel::Exact;
