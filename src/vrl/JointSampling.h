@@ -75,12 +75,12 @@ private:
     LinePair mL;
     JointKind mKind;
     PhasePair mPhases;
-    double mSinTheta = 0;  // sine of the angle between the lines
-    double mVh = 0;        // where on the VRL the lines come closest (v parameter)
-    double mH = 0;         // their distance there (floored)
+    double mSinTheta = 0;     // sine of the angle between the lines
+    double mVh = 0;           // where on the VRL the lines come closest (v parameter)
+    double mH = 0;            // their distance there (floored)
     double mA0 = 0, mA1 = 0;  // A(v0 - vh), A(v1 - vh): eq. 7.12's asinh terms
-    bool mUniformV = false;    // (nearly) parallel lines: 1 / h(v) is flat; v uniform
-    double mFloor = 0;         // the smallest distance the distributions resolve, metres
+    bool mUniformV = false;   // (nearly) parallel lines: 1 / h(v) is flat; v uniform
+    double mFloor = 0;        // the smallest distance the distributions resolve, metres
 };
 
 }  // namespace nimbus::vrl

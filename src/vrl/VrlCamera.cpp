@@ -136,10 +136,11 @@ void traceCameraPath(const CameraSetup& s, float3 o, float3 d, float tCamera, Nb
         float3 po = o, pd = d, w = make_float3(1, 1, 1);
         for (int order = 0;;) {
             const float tEnd =
-                order == 0 ? tCamera
-                           : (ps.shadowCasters ? nbGeomTrace(ps.geometry.nodes.data(), ps.geometry.prims.data(),
-                                                             ps.geometry.scene, po, pd, 0.0f, NB_INF, NB_GEOM_SHADOWS, 0)
-                                               : NB_INF);
+                order == 0
+                    ? tCamera
+                    : (ps.shadowCasters ? nbGeomTrace(ps.geometry.nodes.data(), ps.geometry.prims.data(),
+                                                      ps.geometry.scene, po, pd, 0.0f, NB_INF, NB_GEOM_SHADOWS, 0)
+                                        : NB_INF);
             float3 emitted = make_float3(0, 0, 0);
             const FlightResult f = m.freeFlight(po, pd, tEnd, w, rng, ps.emission ? &emitted : nullptr);
             out.L[order < 2 ? order : 2] += emitted;

@@ -34,9 +34,9 @@ struct CameraSetup {
     const PathtraceScene* ps = nullptr;
     const VrlMedium* medium = nullptr;
     float3 background;
-    int maxDepth = 0;           // scattering events; 0: unbounded
+    int maxDepth = 0;  // scattering events; 0: unbounded
     JointKind kind = JointKind::Advanced;
-    NbPhase cameraPhase;        // the advanced fit's phase function at u
+    NbPhase cameraPhase;  // the advanced fit's phase function at u
 };
 
 // Fills `out` (perLight sized to the lights) with L0, L1 and emission for the camera ray

@@ -128,9 +128,9 @@ void renderVrl(const RenderContext& ctx, Film& film, const RenderControl& option
 
     const double timeLimit = scene.render.timeLimit;
     const double noiseTarget = split || scene.render.spp > 0 ? 0.0 : scene.render.noiseTarget;
-    const long long sppTarget = split ? pt.sampleEnd - pt.sampleBegin
-                                      : scene.render.spp > 0 ? scene.render.spp
-                                                             : (timeLimit > 0 || noiseTarget > 0 ? 0 : 1);
+    const long long sppTarget = split                  ? pt.sampleEnd - pt.sampleBegin
+                                : scene.render.spp > 0 ? scene.render.spp
+                                                       : (timeLimit > 0 || noiseTarget > 0 ? 0 : 1);
     const int paths = scene.render.vrlPaths;
     const int cameraPaths = cameraPathsPerIteration(scene);
     std::atomic<long long> bad{0};
@@ -151,83 +151,84 @@ void renderVrl(const RenderContext& ctx, Film& film, const RenderControl& option
         const std::vector<vrl::Vrl> vrls = lightPass.trace(scene.render.seed, sampleIndex, paths);
         vrlCount += (long long)vrls.size();
         const float inv = 1.0f / float(sampleIndex - nb_uint(first) + 1u);
-        tbb::parallel_for(tbb::blocked_range<long long>(0, pixelCount, 16), [&](const tbb::blocked_range<long long>& r) {
-            vrl::CameraSample cs, one;
-            for (long long gid = r.begin(); gid != r.end(); ++gid) {
-                if (ctx.stop.raised())
-                    return;
-                const int px = film.x0 + int(gid % cropWidth), py = film.y0 + int(gid / cropWidth);
-                const nb_uint pixelIndex = nb_uint(py) * nb_uint(film.width) + nb_uint(px);
-                // K camera paths for L0 and L1 (the first is the path tracer's own sample), the
-                // first one's ray also gathering from every VRL (see cameraPathsPerIteration).
-                for (float3& L : cs.L)
-                    L = make_float3(0, 0, 0);
-                cs.transmittance = cs.depth = cs.hasDepth = 0;
-                cs.perLight.assign(ps.lights.size(), make_float3(0, 0, 0));
-                const float share = 1.0f / float(cameraPaths);
-                for (int k = 0; k < cameraPaths; ++k) {
-                    const nb_uint streamSeed =
-                        k == 0 ? scene.render.seed : nbPcgHash(scene.render.seed ^ (kCameraStreamKey + nb_uint(k)));
-                    NbRng rng = nbRngStart(streamSeed, pixelIndex, sampleIndex);
-                    const float jx = nbFilterSample(filterType, filterWidth, nbRngNext(&rng));
-                    const float jy = nbFilterSample(filterType, filterWidth, nbRngNext(&rng));
-                    const float time = nbRngNext(&rng);
-                    const float sx = float(px) + 0.5f + jx, sy = float(py) + 0.5f + jy;
-                    float3 o, d;
-                    nbCameraRay(cam, sx, sy, film.width, film.height, time, &o, &d);
-                    float tCamera = NB_INF;
-                    if (ps.holdouts)
-                        tCamera = nbGeomTrace(ps.geometry.nodes.data(), ps.geometry.prims.data(), ps.geometry.scene,
-                                              o, d, 0.0f, NB_INF, NB_GEOM_HOLDOUT, 0);
-                    if (depthMap) {
-                        const float z = nbHoldoutDepthAt(ps.holdoutDepth.data(), ps.holdoutDepthWidth,
-                                                         ps.holdoutDepthHeight, ps.holdoutDepthScale[0],
-                                                         ps.holdoutDepthScale[1], sx, sy);
-                        const float cosAxis = dot(d, nbCameraViewAxis(cam, time));
-                        if (z < NB_INF && cosAxis > 0.0f)
-                            tCamera = std::fmin(tCamera, z / cosAxis);
-                    }
-                    vrl::traceCameraPath(setup, o, d, tCamera, rng, one);
-                    for (int t = 0; t < 3; ++t)
-                        cs.L[t] += one.L[t] * share;
-                    cs.transmittance += one.transmittance * share;
-                    cs.depth += one.depth * one.hasDepth * share;
-                    cs.hasDepth += one.hasDepth * share;
-                    for (size_t i = 0; i < cs.perLight.size(); ++i)
-                        cs.perLight[i] += one.perLight[i] * share;
-                    if (k == 0)
-                        vrl::gatherVrls(setup, o, d, tCamera, vrls, rng, cs);
-                }
-                float3 beauty = cs.L[0] + cs.L[1] + cs.L[2];
-                float y = nbAverage(beauty);
-                if (!std::isfinite(y)) {  // dropped and counted, as the path tracer does
-                    ++bad;
+        tbb::parallel_for(
+            tbb::blocked_range<long long>(0, pixelCount, 16), [&](const tbb::blocked_range<long long>& r) {
+                vrl::CameraSample cs, one;
+                for (long long gid = r.begin(); gid != r.end(); ++gid) {
+                    if (ctx.stop.raised())
+                        return;
+                    const int px = film.x0 + int(gid % cropWidth), py = film.y0 + int(gid / cropWidth);
+                    const nb_uint pixelIndex = nb_uint(py) * nb_uint(film.width) + nb_uint(px);
+                    // K camera paths for L0 and L1 (the first is the path tracer's own sample), the
+                    // first one's ray also gathering from every VRL (see cameraPathsPerIteration).
                     for (float3& L : cs.L)
                         L = make_float3(0, 0, 0);
-                    for (float3& L : cs.perLight)
-                        L = make_float3(0, 0, 0);
-                    y = 0;
+                    cs.transmittance = cs.depth = cs.hasDepth = 0;
+                    cs.perLight.assign(ps.lights.size(), make_float3(0, 0, 0));
+                    const float share = 1.0f / float(cameraPaths);
+                    for (int k = 0; k < cameraPaths; ++k) {
+                        const nb_uint streamSeed =
+                            k == 0 ? scene.render.seed : nbPcgHash(scene.render.seed ^ (kCameraStreamKey + nb_uint(k)));
+                        NbRng rng = nbRngStart(streamSeed, pixelIndex, sampleIndex);
+                        const float jx = nbFilterSample(filterType, filterWidth, nbRngNext(&rng));
+                        const float jy = nbFilterSample(filterType, filterWidth, nbRngNext(&rng));
+                        const float time = nbRngNext(&rng);
+                        const float sx = float(px) + 0.5f + jx, sy = float(py) + 0.5f + jy;
+                        float3 o, d;
+                        nbCameraRay(cam, sx, sy, film.width, film.height, time, &o, &d);
+                        float tCamera = NB_INF;
+                        if (ps.holdouts)
+                            tCamera = nbGeomTrace(ps.geometry.nodes.data(), ps.geometry.prims.data(), ps.geometry.scene,
+                                                  o, d, 0.0f, NB_INF, NB_GEOM_HOLDOUT, 0);
+                        if (depthMap) {
+                            const float z =
+                                nbHoldoutDepthAt(ps.holdoutDepth.data(), ps.holdoutDepthWidth, ps.holdoutDepthHeight,
+                                                 ps.holdoutDepthScale[0], ps.holdoutDepthScale[1], sx, sy);
+                            const float cosAxis = dot(d, nbCameraViewAxis(cam, time));
+                            if (z < NB_INF && cosAxis > 0.0f)
+                                tCamera = std::fmin(tCamera, z / cosAxis);
+                        }
+                        vrl::traceCameraPath(setup, o, d, tCamera, rng, one);
+                        for (int t = 0; t < 3; ++t)
+                            cs.L[t] += one.L[t] * share;
+                        cs.transmittance += one.transmittance * share;
+                        cs.depth += one.depth * one.hasDepth * share;
+                        cs.hasDepth += one.hasDepth * share;
+                        for (size_t i = 0; i < cs.perLight.size(); ++i)
+                            cs.perLight[i] += one.perLight[i] * share;
+                        if (k == 0)
+                            vrl::gatherVrls(setup, o, d, tCamera, vrls, rng, cs);
+                    }
+                    float3 beauty = cs.L[0] + cs.L[1] + cs.L[2];
+                    float y = nbAverage(beauty);
+                    if (!std::isfinite(y)) {  // dropped and counted, as the path tracer does
+                        ++bad;
+                        for (float3& L : cs.L)
+                            L = make_float3(0, 0, 0);
+                        for (float3& L : cs.perLight)
+                            L = make_float3(0, 0, 0);
+                        y = 0;
+                    }
+                    float* a = acc.data() + size_t(gid) * size_t(stride);
+                    for (int k = 0; k < 3; ++k) {
+                        a[3 * k + 0] += (cs.L[k].x - a[3 * k + 0]) * inv;
+                        a[3 * k + 1] += (cs.L[k].y - a[3 * k + 1]) * inv;
+                        a[3 * k + 2] += (cs.L[k].z - a[3 * k + 2]) * inv;
+                    }
+                    a[NB_ACC_TRANSMITTANCE] += (cs.transmittance - a[NB_ACC_TRANSMITTANCE]) * inv;
+                    a[NB_ACC_DEPTH_SUM] += (cs.depth - a[NB_ACC_DEPTH_SUM]) * inv;  // depth x hit, averaged
+                    a[NB_ACC_DEPTH_HITS] += (cs.hasDepth - a[NB_ACC_DEPTH_HITS]) * inv;
+                    const float delta = y - a[NB_ACC_MEAN_Y];
+                    a[NB_ACC_MEAN_Y] += delta * inv;
+                    a[NB_ACC_M2_Y] += delta * (y - a[NB_ACC_MEAN_Y]);
+                    for (size_t i = 0; i < cs.perLight.size(); ++i) {
+                        float* q = a + NB_ACC_LIGHTS + 3 * i;
+                        q[0] += (cs.perLight[i].x - q[0]) * inv;
+                        q[1] += (cs.perLight[i].y - q[1]) * inv;
+                        q[2] += (cs.perLight[i].z - q[2]) * inv;
+                    }
                 }
-                float* a = acc.data() + size_t(gid) * size_t(stride);
-                for (int k = 0; k < 3; ++k) {
-                    a[3 * k + 0] += (cs.L[k].x - a[3 * k + 0]) * inv;
-                    a[3 * k + 1] += (cs.L[k].y - a[3 * k + 1]) * inv;
-                    a[3 * k + 2] += (cs.L[k].z - a[3 * k + 2]) * inv;
-                }
-                a[NB_ACC_TRANSMITTANCE] += (cs.transmittance - a[NB_ACC_TRANSMITTANCE]) * inv;
-                a[NB_ACC_DEPTH_SUM] += (cs.depth - a[NB_ACC_DEPTH_SUM]) * inv;  // depth x hit, averaged
-                a[NB_ACC_DEPTH_HITS] += (cs.hasDepth - a[NB_ACC_DEPTH_HITS]) * inv;
-                const float delta = y - a[NB_ACC_MEAN_Y];
-                a[NB_ACC_MEAN_Y] += delta * inv;
-                a[NB_ACC_M2_Y] += delta * (y - a[NB_ACC_MEAN_Y]);
-                for (size_t i = 0; i < cs.perLight.size(); ++i) {
-                    float* q = a + NB_ACC_LIGHTS + 3 * i;
-                    q[0] += (cs.perLight[i].x - q[0]) * inv;
-                    q[1] += (cs.perLight[i].y - q[1]) * inv;
-                    q[2] += (cs.perLight[i].z - q[2]) * inv;
-                }
-            }
-        });
+            });
         if (ctx.stop.raised() || (options.cancel && options.cancel->load()))
             throw Cancelled();
         const auto now = Clock::now();

@@ -37,13 +37,13 @@
 namespace nimbus::vrl {
 
 struct Vrl {
-    float3 origin;    // where the segment starts: the light, or a scattering vertex (T from here)
-    float3 dir;       // unit, the direction light travels
+    float3 origin;         // where the segment starts: the light, or a scattering vertex (T from here)
+    float3 dir;            // unit, the direction light travels
     float t0 = 0, t1 = 0;  // the part inside the volumes' boxes, before any shadow caster
-    float3 flux;      // Phi w, W (already divided by P_light N)
-    NbPhase phase;    // the advanced distribution's fit of the phase function at v
-    int order = 0;    // scattering events before it: 0 leaves the light
-    int light = 0;    // index in PathtraceScene::lights (per-light AOVs)
+    float3 flux;           // Phi w, W (already divided by P_light N)
+    NbPhase phase;         // the advanced distribution's fit of the phase function at v
+    int order = 0;         // scattering events before it: 0 leaves the light
+    int light = 0;         // index in PathtraceScene::lights (per-light AOVs)
 };
 
 class LightPass {

@@ -121,9 +121,9 @@ float3 VrlMedium::scattering(float3 p, float cosTheta) const
     for (int v = 0; v < mCount; ++v) {
         const NbVolumeDesc& vd = mPs->volumes[size_t(v)];
         const float* m = vd.indexFromWorld;
-        const float3 q = make_float3(m[0] * p.x + m[1] * p.y + m[2] * p.z + m[3],
-                                     m[4] * p.x + m[5] * p.y + m[6] * p.z + m[7],
-                                     m[8] * p.x + m[9] * p.y + m[10] * p.z + m[11]);
+        const float3 q =
+            make_float3(m[0] * p.x + m[1] * p.y + m[2] * p.z + m[3], m[4] * p.x + m[5] * p.y + m[6] * p.z + m[7],
+                        m[8] * p.x + m[9] * p.y + m[10] * p.z + m[11]);
         // The majorant walk reads densities only inside the active box (state 1): the same here.
         if (!(q.x >= vd.boundsLo[0] && q.x <= vd.boundsHi[0] && q.y >= vd.boundsLo[1] && q.y <= vd.boundsHi[1] &&
               q.z >= vd.boundsLo[2] && q.z <= vd.boundsHi[2]))

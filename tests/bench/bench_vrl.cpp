@@ -118,13 +118,15 @@ std::vector<Named> equalTimeScenes()
         Scene s = baseScene(make_float3(0, 0.3f, 3.5f), make_float3(0, 0, 0), n);
         s.volumes.push_back(sphere(1.0f, 1.9f, 0.1f, 0.5f));
         s.lights.push_back(point(make_float3(1.5f, 1.0f, 0.4f), 4.0f));
-        out.push_back({"medium_sphere", "sphere of radius 1 m, sigma_t 2 per m, albedo 0.95, g 0.5, point light outside", s});
+        out.push_back(
+            {"medium_sphere", "sphere of radius 1 m, sigma_t 2 per m, albedo 0.95, g 0.5, point light outside", s});
     }
     {
         Scene s = baseScene(make_float3(0, 0.3f, 3.2f), make_float3(0, 0, 0), n);
         s.volumes.push_back(box(4.0f, 0.25f, 0.02f, 0.9f, 0.125));
         s.lights.push_back(point(make_float3(0.2f, 0.1f, -1.2f), 4.0f));
-        out.push_back({"forward_haze", "4 m haze box, sigma_t 0.27 per m, g 0.9, a point light inside behind the view's centre", s});
+        out.push_back({"forward_haze",
+                       "4 m haze box, sigma_t 0.27 per m, g 0.9, a point light inside behind the view's centre", s});
     }
     {
         Scene s = baseScene(make_float3(0.4f, 0.3f, 3.5f), make_float3(0, 0, 0), n);

@@ -185,19 +185,21 @@ TEST_P(JointChi2, SamplesFollowPdf)
         const double p = js.pdf(s.u, s.v);
         if (!(s.pdf > 0) || std::fabs(s.pdf - p) > 1e-6 * p + 1e-12) {
             if (++bad < 5)
-                ADD_FAILURE() << cfg.name << ": sample " << n << " (xi " << xi0 << ", " << xi1 << ") u " << s.u
-                              << " v " << s.v << " reports pdf " << s.pdf << ", pdf() says " << p;
+                ADD_FAILURE() << cfg.name << ": sample " << n << " (xi " << xi0 << ", " << xi1 << ") u " << s.u << " v "
+                              << s.v << " reports pdf " << s.pdf << ", pdf() says " << p;
             continue;
         }
-        const int iu = std::min(kBinsU - 1, int(std::upper_bound(uEdges.begin(), uEdges.end(), s.u) - uEdges.begin()) - 1);
-        const int iv = std::min(kBinsV - 1, int(std::upper_bound(vEdges.begin(), vEdges.end(), s.v) - vEdges.begin()) - 1);
+        const int iu =
+            std::min(kBinsU - 1, int(std::upper_bound(uEdges.begin(), uEdges.end(), s.u) - uEdges.begin()) - 1);
+        const int iv =
+            std::min(kBinsV - 1, int(std::upper_bound(vEdges.begin(), vEdges.end(), s.v) - vEdges.begin()) - 1);
         observed[size_t(std::max(0, iv) * kBinsU + std::max(0, iu))] += 1;
     }
     double total = 0;
     for (int j = 0; j < kBinsV; ++j)
         for (int i = 0; i < kBinsU; ++i) {
-            const double m = binMass(js, l, geo, uEdges[size_t(i)], uEdges[size_t(i + 1)], vEdges[size_t(j)],
-                                     vEdges[size_t(j + 1)]);
+            const double m =
+                binMass(js, l, geo, uEdges[size_t(i)], uEdges[size_t(i + 1)], vEdges[size_t(j)], vEdges[size_t(j + 1)]);
             expected[size_t(j * kBinsU + i)] = m * kSamples;
             total += m;
         }
