@@ -94,8 +94,8 @@ void addSceneArgs(CLI::App* cmd, SceneArgs& a)
     cmd->add_option("scene", a.file, "Scene file (JSON)");
     cmd->add_flag("--default", a.useDefault, "Use the embedded default scene");
     cmd->add_option("--set", a.sets, "Override a scene value: key.path=value (JSON value)")->take_all();
-    cmd->add_option("--method", a.method, "single | wkb | pathtrace")
-        ->check(CLI::IsMember({"single", "wkb", "pathtrace"}));
+    cmd->add_option("--method", a.method, "single | wkb | pathtrace | vrl")
+        ->check(CLI::IsMember({"single", "wkb", "pathtrace", "vrl"}));
 }
 
 // The preview controls: shorthands for --set output.preview_view=... and so on.
@@ -312,7 +312,7 @@ int runRender(const SceneArgs& args, const OutputArgs& out, bool explain, bool q
     const bool checkpoints = pt.checkpointSeconds > 0;
     std::vector<Scene> scenes;
     std::vector<std::string> missing;
-    if (templ.render.method != Method::Pathtrace) {
+    if (!isProgressive(templ.render.method)) {
         if (split.split)
             throw InputError("--samples: only the path tracer splits a frame's samples (method " +
                              std::string(methodName(templ.render.method)) + " splits it into tiles: --tile I/N)");
@@ -466,7 +466,7 @@ int runInfo(const SceneArgs& args)
               << methodName(scene.render.method) << ", spp ";
     if (scene.render.spp > 0)
         std::cout << scene.render.spp;
-    else if (scene.render.method != Method::Pathtrace)
+    else if (!isProgressive(scene.render.method))
         std::cout << kDefaultMarchSpp;
     else
         std::cout << "until relMSE " << scene.render.noiseTarget;

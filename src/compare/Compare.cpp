@@ -1,8 +1,9 @@
 // Compare.cpp: runCompare (Compare.h), the runs of `nimbus compare`: the reference (cached,
 // ReferenceCache.h), the path tracer at a ladder of times and seeds, WKB for each source model
 // and kernel and at a ladder of quality steps, single scattering, and the path tracer at WKB's
-// time. Each run's errors come from ErrorMetrics.cpp; the files are written by Report.cpp and
-// Sheet.cpp, and the charts drawn from them by compare_charts.py (Charts.h).
+// time, and virtual ray lights at the path tracer's ladder and at WKB's time. Each run's errors
+// come from ErrorMetrics.cpp; the files are written by Report.cpp and Sheet.cpp, and the charts
+// drawn from them by compare_charts.py (Charts.h).
 #include "Compare.h"
 #include "Charts.h"
 #include "FilmAccess.h"
@@ -14,6 +15,7 @@
 #include "../core/Error.h"
 #include "../engine/Renderer.h"
 #include "../io/ExrWriter.h"
+#include "../io/Preview.h"
 
 #include <algorithm>
 #include <cstdio>
@@ -37,7 +39,7 @@ CompareRow makeRow(const std::string& method, const std::string& label, const Sc
     }
     row.seed = s.render.seed;
     row.seconds = r.seconds;
-    row.spp = method == "pathtrace" ? sppOf(r.film) : (s.render.spp > 0 ? s.render.spp : kDefaultMarchSpp);
+    row.spp = method == "pathtrace" || method == "vrl" ? sppOf(r.film) : (s.render.spp > 0 ? s.render.spp : kDefaultMarchSpp);
     row.beauty = measureError(r.film, ref, "beauty");
     row.L1 = measureError(r.film, ref, "L1");
     row.L2plus = r.film.find("L2plus") ? measureError(r.film, ref, "L2plus") : ErrorMetrics{1, 1, -1};
@@ -97,6 +99,22 @@ CompareResult runCompare(const Scene& input, const CompareOptions& opt)
             RenderResult r = render(pt);
             rows.push_back(makeRow("pathtrace", "t=" + fmt("%g", limit) + "s", pt, r, ref));
             say("pathtrace " + rows.back().label + " seed " + std::to_string(k) + ": beauty relMSE " +
+                fmt("%.3g", rows.back().beauty.relMse));
+        }
+    }
+
+    // (a') Virtual ray lights (docs/vrl.md) at the same ladder and seeds: the other unbiased
+    // estimator, its error against time beside the path tracer's.
+    Scene vrl = pt;
+    vrl.render.method = Method::Vrl;
+    for (double t : {0.5, 1.0, 2.0, 4.0, 8.0}) {
+        const double limit = t * opt.minutes;
+        for (int k = 0; k < opt.seeds; ++k) {
+            vrl.render.timeLimit = limit;
+            vrl.render.seed = 1000u + uint32_t(k);
+            RenderResult r = render(vrl);
+            rows.push_back(makeRow("vrl", "t=" + fmt("%g", limit) + "s", vrl, r, ref));
+            say("vrl " + rows.back().label + " seed " + std::to_string(k) + ": beauty relMSE " +
                 fmt("%.3g", rows.back().beauty.relMse));
         }
     }
@@ -161,9 +179,14 @@ CompareResult runCompare(const Scene& input, const CompareOptions& opt)
     pt.render.seed = 2000u;
     RenderResult eq = render(pt);
     rows.push_back(makeRow("pathtrace", "equal-time", pt, eq, ref));
+    vrl.render.timeLimit = pt.render.timeLimit;
+    vrl.render.seed = 2000u;
+    RenderResult eqVrl = render(vrl);
+    rows.push_back(makeRow("vrl", "equal-time", vrl, eqVrl, ref));
 
     writeCsv(rows, opt.outDir + "/compare.csv");
     writeSheetPanels(ref, baseWkb, eq.film, opt.outDir + "/panels");
+    writePreview(eqVrl.film, opt.outDir + "/panels/vrl.png");
     writeSummary(input, ref, result, opt.outDir + "/summary.md");
     say("wrote " + opt.outDir + "/{compare.csv,summary.md,panels/}");
 

@@ -63,7 +63,7 @@ void writeSummary(const Scene& input, const Film& ref, const CompareResult& resu
     md << "| method | step | source | kernel | time s | beauty relMSE | beauty energy | L1 energy | L2plus energy | "
           "L2plus meanRel | PT time to equal beauty relMSE s |\n|---|---|---|---|---|---|---|---|---|---|---|\n";
     for (const CompareRow& r : rows) {
-        if (r.method == "pathtrace" && r.seed != 1000u && r.label != "equal-time")
+        if ((r.method == "pathtrace" || r.method == "vrl") && r.seed != 1000u && r.label != "equal-time")
             continue;
         md << "| " << r.method << " | " << r.label << " | " << r.source << " | " << r.kernel << " | "
            << fmt("%.2f", r.seconds) << " | " << fmt("%.3g", r.beauty.relMse) << " | "

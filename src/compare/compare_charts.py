@@ -9,15 +9,17 @@ Reads what `nimbus compare` wrote in DIR (src/compare/Compare.cpp, docs/validati
   panels/reference.png         the reference, WKB at the scene's own model and the path tracer at
   panels/wkb.png               WKB's time, each through the preview transform (8-bit sRGB)
   panels/pathtrace.png
+  panels/vrl.png               (optional) virtual ray lights at WKB's time: a fourth image panel
   panels/difference.exr        signed luminance WKB - reference, one float channel Y, linear
                                radiance W/(m^2 sr) (Rec. 709 weights), as the film stores it
 and writes
   error_vs_time.png            log-log beauty relMSE against render time: the path tracer's
                                seed mean per time step (each seed a faint dot), WKB's source
                                models x kernels and its quality ladder as points, single, the
-                               path tracer at WKB's time, the reference's own noise as a dashed
+                               path tracer at WKB's time, virtual ray lights' seed mean per
+                               time step and at WKB's time, the reference's own noise as a dashed
                                floor (--reference-noise, omitted when 0), a legend
-  sheet.png                    the four panels with titles, the difference in a diverging map
+  sheet.png                    the four (five with vrl) panels with titles, the difference in a diverging map
                                symmetric about 0 at the largest |difference|, with its colour bar
 
 --title names the scene in the chart's title; --wkb is the model the sheet's WKB panel shows
@@ -51,6 +53,7 @@ WKB_COLOURS = {
     "random_walk/exact": "#8c33b3",
 }
 PT_COLOUR = "#1f59cc"
+VRL_COLOUR = "#2a9d3a"
 
 
 class ChartError(Exception):
@@ -101,6 +104,20 @@ def draw_chart(plt, rows, title, noise, path):
     if eq:
         ax.scatter([r["seconds"] for r in eq], [r["beauty_relmse"] for r in eq], s=60, marker="D",
                    facecolors="none", edgecolors=PT_COLOUR, linewidths=1.5, label="path tracer at WKB's time")
+    vrl = positive([r for r in rows if r["method"] == "vrl" and r["label"].startswith("t=")])
+    if vrl:
+        steps = {}
+        for r in vrl:
+            steps.setdefault(r["label"], []).append(r)
+        mean = sorted((sum(r["seconds"] for r in g) / len(g), sum(r["beauty_relmse"] for r in g) / len(g), len(g))
+                      for g in steps.values())
+        seeds = max(m[2] for m in mean)
+        ax.plot([m[0] for m in mean], [m[1] for m in mean], "-o", color=VRL_COLOUR, lw=2, ms=5,
+                label=f"virtual ray lights, mean of {seeds} seed{'s' if seeds != 1 else ''}")
+    eqv = positive([r for r in rows if r["method"] == "vrl" and r["label"] == "equal-time"])
+    if eqv:
+        ax.scatter([r["seconds"] for r in eqv], [r["beauty_relmse"] for r in eqv], s=60, marker="D",
+                   facecolors="none", edgecolors=VRL_COLOUR, linewidths=1.5, label="virtual ray lights at WKB's time")
 
     wkb = [r for r in rows if r["method"] == "wkb"]
     for model, colour in WKB_COLOURS.items():
@@ -177,6 +194,9 @@ def caption(name, row):
 
 def draw_sheet(plt, rows, panels_dir, wkb_model, path):
     names = ["reference", "wkb", "pathtrace"]
+    # The vrl panel (virtual ray lights at WKB's time) where compare rendered one.
+    if os.path.exists(os.path.join(panels_dir, "vrl.png")):
+        names.append("vrl")
     images = [read_image(os.path.join(panels_dir, n + ".png"), 3) for n in names]
     diff = read_image(os.path.join(panels_dir, "difference.exr"), 1)[:, :, 0]
     h, w = diff.shape
@@ -190,19 +210,22 @@ def draw_sheet(plt, rows, panels_dir, wkb_model, path):
         "reference\n(path tracer, converged)",
         caption(wkb_name, run_row(rows, "wkb", "base", wkb_model) if wkb_model else None),
         caption("path tracer at WKB's time", run_row(rows, "pathtrace", "equal-time")),
-        "WKB \u2212 reference, luminance\n(red brighter, blue darker)",
     ]
+    if "vrl" in names:
+        titles.append(caption("virtual ray lights at WKB's time", run_row(rows, "vrl", "equal-time")))
+    titles.append("WKB \u2212 reference, luminance\n(red brighter, blue darker)")
+    n = len(titles)
     panel_h = SHEET_PANEL_INCHES * h / w
-    fig, axes = plt.subplots(1, 4, figsize=(4 * SHEET_PANEL_INCHES + 1.2, panel_h + 1.1), dpi=DPI,
+    fig, axes = plt.subplots(1, n, figsize=(n * SHEET_PANEL_INCHES + 1.2, panel_h + 1.1), dpi=DPI,
                              constrained_layout=True)
-    for ax, im, t in zip(axes[:3], images, titles):
+    for ax, im, t in zip(axes[:n - 1], images, titles):
         ax.imshow(im.clip(0.0, 1.0), interpolation="nearest")
-    shown = axes[3].imshow(diff, cmap="RdBu_r", vmin=-scale, vmax=scale, interpolation="nearest")
+    shown = axes[n - 1].imshow(diff, cmap="RdBu_r", vmin=-scale, vmax=scale, interpolation="nearest")
     for ax, t in zip(axes, titles):
         ax.set_title(t, fontsize=10)
         ax.set_xticks([])
         ax.set_yticks([])
-    bar = fig.colorbar(shown, ax=axes[3], fraction=0.08, pad=0.03)
+    bar = fig.colorbar(shown, ax=axes[n - 1], fraction=0.08, pad=0.03)
     bar.set_label("\u0394Y = Y(WKB) \u2212 Y(reference)\nlinear radiance, W/(m\u00b2 sr)", fontsize=9)
     save(fig, path)
     described = {

@@ -3,6 +3,7 @@
 #include "Renderer.h"
 
 #include "../pathtracer/Pathtracer.h"
+#include "../vrl/VrlIntegrator.h"
 #include "../single/SingleIntegrator.h"
 #include "../wkb/WkbIntegrator.h"
 
@@ -46,11 +47,22 @@ IntegratorEntry pathtraceEntry()
     return e;
 }
 
+IntegratorEntry vrlEntry()
+{
+    IntegratorEntry e;
+    e.traits = vrlTraits();
+    e.create = [](const RenderContext& ctx, const RenderPlan&, const RenderOptions& options,
+                  RenderStats&) -> std::unique_ptr<Integrator> {
+        return std::make_unique<VrlIntegrator>(ctx, options.pathtrace);
+    };
+    return e;
+}
+
 }  // namespace
 
 const IntegratorEntry& integratorEntry(Method method)
 {
-    static const IntegratorEntry entries[] = {singleEntry(), wkbEntry(), pathtraceEntry()};
+    static const IntegratorEntry entries[] = {singleEntry(), wkbEntry(), pathtraceEntry(), vrlEntry()};
     for (const IntegratorEntry& e : entries)
         if (e.traits.method == method)
             return e;

@@ -87,7 +87,7 @@ int sppReached(const Film& film, const Scene& scene)
     if (const FilmValue* v = film.meta("pathtrace_spp"))
         if (const std::string* text = std::get_if<std::string>(v))
             return std::atoi(text->c_str());
-    if (scene.render.method == Method::Pathtrace)
+    if (isProgressive(scene.render.method))
         return 0;
     return scene.render.spp > 0 ? scene.render.spp : kDefaultMarchSpp;
 }

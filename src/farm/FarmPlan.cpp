@@ -49,7 +49,7 @@ json planFarm(const Scene& templ, const FarmPlanOptions& o)
         throw InputError("--tiles: want a count of 1 or more, got " + std::to_string(o.tiles));
     if (o.sampleSplits < 1)
         throw InputError("--sample-splits: want a count of 1 or more, got " + std::to_string(o.sampleSplits));
-    const bool pathtrace = templ.render.method == Method::Pathtrace;
+    const bool pathtrace = isProgressive(templ.render.method);
     const long long spp = templ.render.spp;
     if (o.sampleSplits > 1) {
         if (!pathtrace)

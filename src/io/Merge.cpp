@@ -135,7 +135,7 @@ void checkSameFrame(const Part& first, const Part& p)
         throw partError(p, "frame " + std::to_string(p.frame) + ", but " + quoted(first.path) + " is frame " +
                                std::to_string(first.frame) + ": the parts are not of one frame");
     // Splits of the path tracer may differ in their stopping rules and seed; nothing else may.
-    const std::string where = p.method == "pathtrace"
+    const std::string where = p.method == "pathtrace" || p.method == "vrl"
                                   ? sceneDifference(first.scene, p.scene, {"spp", "seed", "time_limit", "noise_target"})
                                   : sceneDifference(first.scene, p.scene, {});
     if (!where.empty())
@@ -208,7 +208,7 @@ MergeSummary mergeParts(const std::string& output, const std::vector<std::string
                              " is missing: the parts do not cover the frame");
 
     // Within a tile, samples no two parts share; every tile the same samples.
-    const bool pooled = first.method == "pathtrace";
+    const bool pooled = first.method == "pathtrace" || first.method == "vrl";
     std::vector<std::tuple<long long, long long, long long>> samplesOfFirstTile;
     for (const auto& [index, group] : tiles) {
         const Part& a = *group.front();

@@ -3,6 +3,7 @@
 #include "../../kernels/shared/ptscene.h"
 
 #include <algorithm>
+#include <cmath>
 
 namespace nimbus {
 
@@ -188,6 +189,24 @@ std::vector<float> poolStates(const std::vector<StatePart>& parts, size_t lightC
             out[base + size_t(k)] = float(sum[size_t(k)]);
     }
     return out;
+}
+
+double stateNoiseRelMse(const std::vector<float>& acc, int stride, long long n)
+{
+    const size_t pixels = acc.size() / size_t(stride);
+    if (pixels == 0 || n < 2)
+        return INFINITY;
+    double mean = 0;
+    for (size_t i = 0; i < pixels; ++i)
+        mean += acc[i * stride + NB_ACC_MEAN_Y];
+    mean /= double(pixels);
+    const double eps = 0.01 * mean * mean + 1e-20, varianceScale = 1.0 / (double(n) * double(n - 1));
+    double sum = 0;
+    for (size_t i = 0; i < pixels; ++i) {
+        const double y = acc[i * stride + NB_ACC_MEAN_Y];
+        sum += double(acc[i * stride + NB_ACC_M2_Y]) * varianceScale / (y * y + eps);
+    }
+    return sum / double(pixels);
 }
 
 }  // namespace nimbus

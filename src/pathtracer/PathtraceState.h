@@ -49,6 +49,13 @@ bool readState(const Film& film, const std::vector<std::string>& lightAovs, std:
 // alpha, depth, variance and each light AOV.
 void resolveState(const std::vector<float>& acc, long long n, const std::vector<std::string>& lightAovs, Film& film);
 
+// The beauty's relMSE from its own noise after n samples: the mean over pixels of var / (y^2 +
+// eps), y the running mean's channel average (NB_ACC_MEAN_Y) and var its variance of the mean
+// (M2 / (n (n - 1))), eps = (0.1 mean(y))^2 so that black pixels do not dominate (nimbus
+// compare's measure of its reference's floor). INFINITY below 2 samples. The noise target of the
+// path tracer and of vrl.
+double stateNoiseRelMse(const std::vector<float>& acc, int stride, long long n);
+
 // One part of a pooled estimate: its accumulator and sample count.
 struct StatePart {
     const std::vector<float>* acc = nullptr;

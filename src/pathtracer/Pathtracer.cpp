@@ -42,28 +42,6 @@ constexpr int kSafetyMaxDepth = 1000000;
 // heavy-tailed estimator is underestimated from few samples.
 constexpr long long kMinNoiseTargetSpp = 64;
 
-// The beauty's relMSE from its own noise: the mean over pixels of var / (y^2 + eps), y the
-// channel average of the running mean and var the variance of that mean (M2 / (n (n - 1))),
-// eps = (0.1 mean(y))^2 so that black pixels do not dominate (nimbus compare's measure of its
-// reference's floor, there with luminance).
-double noiseRelMse(const std::vector<float>& acc, int stride, long long n)
-{
-    const size_t pixels = acc.size() / size_t(stride);
-    if (pixels == 0 || n < 2)
-        return INFINITY;
-    double mean = 0;
-    for (size_t i = 0; i < pixels; ++i)
-        mean += acc[i * stride + NB_ACC_MEAN_Y];
-    mean /= double(pixels);
-    const double eps = 0.01 * mean * mean + 1e-20, varianceScale = 1.0 / (double(n) * double(n - 1));
-    double sum = 0;
-    for (size_t i = 0; i < pixels; ++i) {
-        const double y = acc[i * stride + NB_ACC_MEAN_Y];
-        sum += double(acc[i * stride + NB_ACC_M2_Y]) * varianceScale / (y * y + eps);
-    }
-    return sum / double(pixels);
-}
-
 // The launch configuration for this kernel on this device (LaunchSize.h); a requested local
 // size (PathtraceOptions::localSize) is checked against the kernel's limit instead.
 LaunchSize launchSize(cl_kernel kernel, const ocl::DeviceInfo& device, size_t items, size_t requestedLocal)
@@ -270,7 +248,7 @@ void renderPathtrace(const RenderContext& ctx, Film& film, const RenderControl& 
         bool converged = false;
         if (noiseTarget > 0 && done >= kMinNoiseTargetSpp) {
             readAccumulator();
-            noise = noiseRelMse(acc, stride, done);
+            noise = stateNoiseRelMse(acc, stride, done);
             converged = noise <= noiseTarget;
         }
         if (options.progress) {

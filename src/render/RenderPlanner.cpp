@@ -105,7 +105,7 @@ RenderPlan planScene(const Scene& scene, const VolumeSet& volumes)
             lp.projection = l.type == LightType::Distant                           ? "orthographic"
                             : (l.type == LightType::Spot && l.coneAngle <= 120.0f) ? "perspective"
                                                                                    : "cube";
-        } else if (l.type == LightType::Environment && scene.render.method != Method::Pathtrace) {
+        } else if (l.type == LightType::Environment && !isProgressive(scene.render.method)) {
             lp.skyGrid = true;
             lp.reason = "SH order " + std::to_string(scene.render.wkbShOrderMax) + ", " +
                         std::to_string(skyNodesAcross(scene)) + " nodes across each volume, " +

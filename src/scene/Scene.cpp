@@ -31,6 +31,7 @@ const char* methodName(Method m)
     case Method::Single: return "single";
     case Method::Wkb: return "wkb";
     case Method::Pathtrace: return "pathtrace";
+    case Method::Vrl: return "vrl";
     }
     return "?";
 }
@@ -53,6 +54,16 @@ const char* wkbKernelName(WkbKernel k)
 const char* wkbSourceName(WkbSource s)
 {
     return s == WkbSource::RandomWalk ? "random_walk" : "straight";
+}
+
+const char* vrlSamplingName(VrlSampling s)
+{
+    switch (s) {
+    case VrlSampling::Auto: return "auto";
+    case VrlSampling::Simple: return "simple";
+    case VrlSampling::Advanced: return "advanced";
+    }
+    return "auto";
 }
 
 const char* wkbOrder2Name(WkbOrder2 o)

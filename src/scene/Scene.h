@@ -133,7 +133,19 @@ struct Geometry {
     bool shadows = true;   // it blocks light (shadow maps, light volumes, light samples)
 };
 
-enum class Method { Single, Wkb, Pathtrace };
+enum class Method { Single, Wkb, Pathtrace, Vrl };
+
+// The progressive, unbiased methods (pathtrace, vrl): they render until spp, a noise target or a
+// time limit, keep a running estimate with a variance, write checkpoints and split samples.
+inline bool isProgressive(Method m)
+{
+    return m == Method::Pathtrace || m == Method::Vrl;
+}
+
+// vrl: the joint distribution of the point pair of a camera ray and a virtual ray light
+// (docs/vrl.md): Oppitz 2018 7.3.1 (simple), 7.3.2 (advanced), or advanced where some phase
+// function is anisotropic (auto).
+enum class VrlSampling { Auto, Simple, Advanced };
 
 // WKB multiple scattering (docs/wkb.md). The angular kernel per Legendre order j: Tessendorf's
 // Gaussian-phase (e^l - 1) A_j(l) (eq. 62-63) or the exact infinite-medium e^{l p_j} - 1.
@@ -154,6 +166,7 @@ const char* pixelFilterName(PixelFilter f);  // "box", "gaussian", "blackman_har
 const char* wkbKernelName(WkbKernel k);      // "gaussian", "exact"
 const char* wkbSourceName(WkbSource s);      // "straight", "random_walk"
 const char* wkbOrder2Name(WkbOrder2 o);      // "traced", "kernel"
+const char* vrlSamplingName(VrlSampling s);  // "auto", "simple", "advanced"
 
 // Samples per pixel of single and wkb when `spp` is 0 (the default).
 constexpr int kDefaultMarchSpp = 4;
@@ -179,6 +192,10 @@ struct RenderSettings {
     int maxDepth = 0;           // pathtrace: the most scattering events; 0 = unbounded, 1 = single scattering
     double timeLimit = 0.0;     // pathtrace: seconds, 0 = none
     double noiseTarget = 1e-4;  // pathtrace with spp 0: stop at this beauty relMSE (from the variance AOV); 0 = none
+    // vrl (docs/vrl.md): light paths per iteration (each iteration is one sample per pixel that
+    // gathers from all their segments) and the joint distribution of the gather.
+    int vrlPaths = 16;
+    VrlSampling vrlSampling = VrlSampling::Auto;
     // wkb (docs/wkb.md has the derivation of each):
     WkbKernel wkbKernel = WkbKernel::Exact;
     WkbSource wkbSource = WkbSource::RandomWalk;

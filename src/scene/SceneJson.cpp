@@ -62,6 +62,7 @@ public:
     void field(const std::string& key, WkbKernel k) { mJson[key] = wkbKernelName(k); }
     void field(const std::string& key, WkbSource k) { mJson[key] = wkbSourceName(k); }
     void field(const std::string& key, WkbOrder2 k) { mJson[key] = wkbOrder2Name(k); }
+    void field(const std::string& key, VrlSampling s) { mJson[key] = vrlSamplingName(s); }
     void field(const std::string& key, PixelFilter f) { mJson[key] = pixelFilterName(f); }
     void rgb(const std::string& key, Rgb v) { mJson[key] = array(v); }
     template <int N>
@@ -158,12 +159,12 @@ public:
         if (!v)
             return;
         std::string name = JsonValue{*v, keyPath(key), file()}.string();
-        for (Method m : {Method::Single, Method::Wkb, Method::Pathtrace})
+        for (Method m : {Method::Single, Method::Wkb, Method::Pathtrace, Method::Vrl})
             if (name == methodName(m)) {
                 out = m;
                 return;
             }
-        fail(key, "unknown method '" + name + "' (expected single, wkb, pathtrace)");
+        fail(key, "unknown method '" + name + "' (expected single, wkb, pathtrace, vrl)");
     }
     void field(const std::string& key, WkbKernel& out)
     {
@@ -177,6 +178,11 @@ public:
     void field(const std::string& key, WkbSource& out)
     {
         named(key, out, {WkbSource::Straight, WkbSource::RandomWalk}, wkbSourceName, "source placement");
+    }
+    void field(const std::string& key, VrlSampling& out)
+    {
+        named(key, out, {VrlSampling::Auto, VrlSampling::Simple, VrlSampling::Advanced}, vrlSamplingName,
+              "VRL joint distribution");
     }
     void field(const std::string& key, WkbOrder2& out)
     {
@@ -284,6 +290,8 @@ void visitRender(V& v, R& r)
     v.field("max_depth", r.maxDepth);
     v.field("time_limit", r.timeLimit);
     v.field("noise_target", r.noiseTarget);
+    v.field("vrl_paths", r.vrlPaths);
+    v.field("vrl_sampling", r.vrlSampling);
     v.field("wkb_kernel", r.wkbKernel);
     v.field("wkb_source", r.wkbSource);
     v.field("wkb_order2", r.wkbOrder2);

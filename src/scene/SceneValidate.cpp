@@ -356,8 +356,10 @@ void checkRender(const Checker& c, const RenderSettings& r)
     c.atLeast("render.max_depth", r.maxDepth, 0);
     c.range("render.time_limit", r.timeLimit, Range{0, kInf, false, true, "seconds"});
     c.range("render.noise_target", r.noiseTarget, Range{0, 1, false, false, "relMSE"});
-    if (r.method == Method::Pathtrace && r.spp == 0 && r.noiseTarget == 0 && r.timeLimit == 0)
-        c.fail("render.noise_target", "pathtrace with spp 0 needs a noise_target or a time_limit to end the render");
+    if (isProgressive(r.method) && r.spp == 0 && r.noiseTarget == 0 && r.timeLimit == 0)
+        c.fail("render.noise_target", std::string(methodName(r.method)) +
+                                          " with spp 0 needs a noise_target or a time_limit to end the render");
+    c.range("render.vrl_paths", r.vrlPaths, Range{1, 4096, false, false, "light paths per iteration"});
     c.range("render.wkb_blur_k", r.wkbBlurK, Range{0, 1000, true, false, "(Tessendorf eq. 79: 24)"});
     c.range("render.wkb_l_step", r.wkbLStep, Range{0, 10, true, false, "scattering lengths"});
     c.range("render.wkb_order_max", r.wkbOrderMax, Range{0, 4096, false, false, ""});

@@ -215,6 +215,8 @@ def keys():
     for key, lo, hi, integer in (("max_depth", 0, None, True), ("time_limit", 0, None, False),
                                  ("noise_target", 0, 1, False)):
         k.append(Key(f"render.{key}", r + key, "scalar", lo, hi, methods=("pathtrace",), integer=integer))
+    # Virtual ray lights' own key, rendered by vrl (docs/vrl.md).
+    k.append(Key("render.vrl_paths", r + "vrl_paths", "scalar", 1, 4096, methods=("vrl",), integer=True))
     k.append(Key("output.exposure", "output.exposure", "scalar", -64, 64,
                  setup=lambda s: s["output"].update(preview="PREVIEW")))
     # Deep output's slice count, with a deep file to write (single and wkb; pathtrace refuses it).
@@ -282,7 +284,7 @@ def run_case(case):
         scene["output"]["deep"] = os.path.join(d, "deep.exr")
     scene["output"]["file"] = os.path.join(d, "out.exr")
     scene["render"]["method"] = method
-    if method == "pathtrace":
+    if method in ("pathtrace", "vrl"):
         scene["render"]["spp"] = scene["render"].get("spp", 1) or 1
     path = os.path.join(d, "scene.json")
     with open(path, "w") as f:

@@ -43,8 +43,13 @@ def row(method, label, source, kernel, seed, seconds, relmse):
     return r
 
 
-def write_dir(d, panels=True):
+def write_dir(d, panels=True, vrl=False):
     rows = []
+    if vrl:  # virtual ray lights at the path tracer's ladder and at WKB's time (issue 15)
+        for t in (0.5, 1, 2, 4, 8):
+            for k in range(2):
+                rows.append(row("vrl", f"t={t:g}s", "", "", 1000 + k, t * 1.02, 0.02 / t * (1 + 0.1 * k)))
+        rows.append(row("vrl", "equal-time", "", "", 2000, 0.46, 0.05))
     for t in (0.5, 1, 2, 4, 8):
         for k in range(2):
             rows.append(row("pathtrace", f"t={t:g}s", "", "", 1000 + k, t * 1.01, 0.05 / t * (1 + 0.1 * k)))
@@ -64,7 +69,7 @@ def write_dir(d, panels=True):
     os.makedirs(os.path.join(d, "panels"))
     h, w = 12, 16
     ramp = np.linspace(0, 1, w * h * 3, dtype=np.float32).reshape(h, w, 3)
-    for name in ("reference", "wkb", "pathtrace"):
+    for name in ("reference", "wkb", "pathtrace") + (("vrl",) if vrl else ()):
         out = oiio.ImageOutput.create("png")
         check(out.open(os.path.join(d, "panels", name + ".png"), oiio.ImageSpec(w, h, 3, oiio.UINT8)), "open png")
         out.write_image(ramp)
@@ -123,6 +128,20 @@ with tempfile.TemporaryDirectory() as d:
     p = run(d)
     lines = p.stderr.strip().splitlines()
     check(p.returncode == 1 and len(lines) == 1 and "reference.png" in lines[0], f"missing panels: {p.stderr!r}")
+
+# With vrl's rows and panel: its ladder and equal-time point in the chart, a fifth sheet panel.
+with tempfile.TemporaryDirectory() as d:
+    write_dir(d, vrl=True)
+    p = run(d, "--wkb", "random_walk/exact", "--describe")
+    check(p.returncode == 0, f"the script failed with vrl rows: {p.stderr.strip()}")
+    if p.returncode == 0:
+        desc = json.loads(p.stdout)
+        c, s = desc["error_vs_time"], desc["sheet"]
+        check("virtual ray lights, mean of 2 seeds" in c["legend"] and "virtual ray lights at WKB's time" in c["legend"],
+              f"legend with vrl {c['legend']}")
+        check(len(s["panels"]) == 5, f"{len(s['panels'])} panels with vrl")
+        check(s["panels"][3] == "virtual ray lights at WKB's time\n0.46 s, beauty relMSE 0.05", f"vrl panel {s['panels'][3]!r}")
+        check(s["panels"][4].startswith("WKB \u2212 reference, luminance"), f"panel 5 {s['panels'][4]!r}")
 
 print("test_compare_charts: " + ("%d failures" % len(failures) if failures else "all checks passed"))
 sys.exit(1 if failures else 0)

@@ -114,7 +114,7 @@ TEST(SceneErrors, WrongTypes)
 TEST(SceneErrors, UnknownNames)
 {
     EXPECT_ERROR(R"({"render": {"method": "raytrace"}})",
-                 "render.method: unknown method 'raytrace' (expected single, wkb, pathtrace)");
+                 "render.method: unknown method 'raytrace' (expected single, wkb, pathtrace, vrl)");
     EXPECT_ERROR(R"({"volumes": [{"source": {"type": "houdini"}}]})",
                  "volumes[0].source.type: unknown source type 'houdini' (expected vdb, procedural, plugin)");
     EXPECT_ERROR(R"({"volumes": [{"source": {"type": "procedural", "generator": "torus"}}]})",
@@ -214,6 +214,9 @@ TEST(SceneErrors, RenderRanges)
     EXPECT_ERROR(R"({"render": {"shadow_step": 0}})", "render.shadow_step: must be in (0, 100]");
     EXPECT_ERROR(R"({"render": {"time_limit": -1}})", "render.time_limit: must be in [0, inf) seconds");
     EXPECT_ERROR(R"({"render": {"noise_target": -1e-4}})", "render.noise_target: must be in [0, 1] relMSE");
+    EXPECT_ERROR(R"({"render": {"vrl_paths": 0}})", "render.vrl_paths: must be in [1, 4096]");
+    EXPECT_ERROR(R"({"render": {"vrl_sampling": "uniform"}})",
+                 "render.vrl_sampling: unknown VRL joint distribution 'uniform' (expected auto, simple, advanced)");
     EXPECT_ERROR(R"({"output": {"aovs": ["L0", "L0"]}})", "output.aovs[1]: 'L0' is listed twice");
     EXPECT_ERROR(R"({"background": -1})", "background: must be non-negative");
 }
@@ -236,6 +239,8 @@ TEST(SceneErrors, PathTracerWithoutSppNeedsANoiseTargetOrATimeLimit)
         EXPECT_NO_THROW(sceneFromJson(json::parse(ok), "scene.json")) << ok;
     EXPECT_ERROR(R"({"render": {"method": "pathtrace", "noise_target": 0}})",
                  "render.noise_target: pathtrace with spp 0 needs a noise_target or a time_limit");
+    EXPECT_ERROR(R"({"render": {"method": "vrl", "noise_target": 0}})",
+                 "render.noise_target: vrl with spp 0 needs a noise_target or a time_limit");
 }
 
 TEST(SceneErrors, EmptySceneIsValid)

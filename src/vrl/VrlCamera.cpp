@@ -1,0 +1,202 @@
+#include "VrlCamera.h"
+
+#include "../../kernels/shared/envmap.h"
+#include "../../kernels/shared/geometry.h"
+#include "../../kernels/shared/light.h"
+
+#include <cmath>
+
+namespace nimbus::vrl {
+
+namespace {
+
+constexpr int kRussianRouletteDepth = 3;  // the path tracer's
+constexpr int kSafetyMaxDepth = 1000000;
+
+bool blocked(const PathtraceScene& ps, float3 p, float3 d, float dist)
+{
+    return ps.shadowCasters && nbGeomTrace(ps.geometry.nodes.data(), ps.geometry.prims.data(), ps.geometry.scene, p, d,
+                                           0.0f, dist, NB_GEOM_SHADOWS, 1) < NB_INF;
+}
+
+// Next-event estimation at p for every light, light arriving along -wi and leaving along -d
+// (pathtrace.cl's loop, one sample each).
+void nextEvent(const CameraSetup& s, float3 p, float3 d, NbPhase phase, float3 w, NbRng& rng, CameraSample& out)
+{
+    const PathtraceScene& ps = *s.ps;
+    const VrlMedium& m = *s.medium;
+    for (size_t i = 0; i < ps.lights.size(); ++i) {
+        const NbLight& l = ps.lights[i];
+        const float u0 = nbRngNext(&rng), u1 = nbRngNext(&rng);
+        if (int(i) == ps.envLight) {
+            const float3 colour = nbLoad3(l.color);
+            float3 c = make_float3(0, 0, 0);
+            float pdfMap;
+            float3 wi = nbEnvSample(ps.envMap, ps.envData.data(), u0, u1, &pdfMap);
+            float fp = nbPhaseEval(phase, dot(wi, d));
+            if (pdfMap > 0.0f && fp > 0.0f) {
+                const float3 L = colour * nbEnvLookup(ps.envMap, ps.envData.data(), wi);
+                if (nbMaxComponent(L) > 0.0f && !blocked(ps, p, wi, NB_INF)) {
+                    const float mis = pdfMap * pdfMap / (pdfMap * pdfMap + fp * fp);
+                    c += L * m.transmittance(p, wi, NB_INF, rng) * (fp * mis / pdfMap);
+                }
+            }
+            const float v0 = nbRngNext(&rng), v1 = nbRngNext(&rng), v2 = nbRngNext(&rng);
+            wi = nbPhaseSample(phase, d, v0, v1, v2);
+            fp = nbPhaseEval(phase, dot(wi, d));
+            const float3 L = colour * nbEnvLookup(ps.envMap, ps.envData.data(), wi);
+            if (fp > 0.0f && nbMaxComponent(L) > 0.0f && !blocked(ps, p, wi, NB_INF)) {
+                pdfMap = nbEnvPdf(ps.envMap, ps.envData.data(), wi);
+                const float mis = fp * fp / (pdfMap * pdfMap + fp * fp);
+                c += L * m.transmittance(p, wi, NB_INF, rng) * mis;
+            }
+            c = w * c;
+            out.L[1] += c;
+            out.perLight[i] += c;
+            continue;
+        }
+        NbLightSample ls;
+        float f;
+        if (l.type == NB_LIGHT_ENVIRONMENT) {
+            ls.wi = nbPhaseSample(phase, d, u0, u1, nbRngNext(&rng));
+            ls.distance = NB_INF;
+            ls.weight = nbLoad3(l.color);
+            f = 1.0f;
+        } else {
+            ls = nbLightSample(l, p, u0, u1);
+            f = nbPhaseEval(phase, dot(ls.wi, d));
+        }
+        if (!(nbMaxComponent(ls.weight) > 0.0f) || !(f > 0.0f))
+            continue;
+        if (blocked(ps, p, ls.wi, ls.distance))
+            continue;
+        const float3 c = w * ls.weight * m.transmittance(p, ls.wi, ls.distance, rng) * f;
+        out.L[1] += c;
+        out.perLight[i] += c;
+    }
+}
+
+}  // namespace
+
+float3 gatherVrl(const CameraSetup& s, const Vrl& vrl, float3 o, float3 d, float u0, float u1, NbRng& rng)
+{
+    const float xi0 = nbRngNext(&rng), xi1 = nbRngNext(&rng);
+    LinePair lines;
+    lines.oU = o;
+    lines.dU = d;
+    lines.u0 = u0;
+    lines.u1 = u1;
+    lines.oV = vrl.origin;
+    lines.dV = vrl.dir;
+    lines.v0 = vrl.t0;
+    lines.v1 = vrl.t1;
+    const JointSampler sampler(lines, s.kind, PhasePair{s.cameraPhase, vrl.phase});
+    const PairSample ps = sampler.sample(xi0, xi1);
+    if (!(ps.pdf > 0.0) || !std::isfinite(ps.pdf))
+        return make_float3(0, 0, 0);
+    const float3 pu = o + d * float(ps.u), pv = vrl.origin + vrl.dir * float(ps.v);
+    const float3 between = pu - pv;
+    const float dist2 = dot(between, between);
+    if (!(dist2 > 0.0f))
+        return make_float3(0, 0, 0);
+    const float dist = std::sqrt(dist2);
+    const float3 w = between / dist;  // light travels v -> u
+    const VrlMedium& m = *s.medium;
+    const float3 atV = m.scattering(pv, dot(vrl.dir, w));
+    if (!(nbMaxComponent(atV) > 0.0f))
+        return make_float3(0, 0, 0);
+    const float3 atU = m.scattering(pu, -dot(w, d));
+    if (!(nbMaxComponent(atU) > 0.0f))
+        return make_float3(0, 0, 0);
+    if (blocked(*s.ps, pv, w, dist))
+        return make_float3(0, 0, 0);
+    float3 c = vrl.flux * atV * atU * float(1.0 / (double(dist2) * ps.pdf));
+    // The transmittances last, each only while the product can still be non-zero.
+    c = c * m.transmittance(pv, w, dist, rng);
+    if (!(nbMaxComponent(c) > 0.0f))
+        return c;
+    c = c * m.transmittance(o, d, float(ps.u), rng);
+    if (!(nbMaxComponent(c) > 0.0f))
+        return c;
+    return c * m.transmittance(vrl.origin, vrl.dir, float(ps.v), rng);
+}
+
+void traceCameraPath(const CameraSetup& s, float3 o, float3 d, float tCamera, NbRng& rng, CameraSample& out)
+{
+    const PathtraceScene& ps = *s.ps;
+    const VrlMedium& m = *s.medium;
+    for (float3& L : out.L)
+        L = make_float3(0, 0, 0);
+    out.transmittance = out.depth = out.hasDepth = 0;
+    out.perLight.assign(ps.lights.size(), make_float3(0, 0, 0));
+    const int maxDepth = s.maxDepth > 0 ? s.maxDepth : kSafetyMaxDepth;
+
+    // L0, L1 and emission: the path tracer's camera path.
+    {
+        float3 po = o, pd = d, w = make_float3(1, 1, 1);
+        for (int order = 0;;) {
+            const float tEnd =
+                order == 0
+                    ? tCamera
+                    : (ps.shadowCasters ? nbGeomTrace(ps.geometry.nodes.data(), ps.geometry.prims.data(),
+                                                      ps.geometry.scene, po, pd, 0.0f, NB_INF, NB_GEOM_SHADOWS, 0)
+                                        : NB_INF);
+            float3 emitted = make_float3(0, 0, 0);
+            const FlightResult f = m.freeFlight(po, pd, tEnd, w, rng, ps.emission ? &emitted : nullptr);
+            out.L[order < 2 ? order : 2] += emitted;
+            if (!f.scattered) {
+                if (order == 0) {
+                    float3 bg = s.background;
+                    if (ps.envLight >= 0)
+                        bg += nbLoad3(ps.lights[size_t(ps.envLight)].color) *
+                              nbEnvLookup(ps.envMap, ps.envData.data(), d);
+                    if (!(tEnd < NB_INF))
+                        out.L[0] += w * bg;
+                    out.transmittance = nbAverage(w);
+                }
+                break;
+            }
+            if (order >= maxDepth)
+                break;
+            ++order;
+            const float3 p = po + pd * f.t;
+            if (order == 1) {
+                out.depth = f.t;
+                out.hasDepth = 1.0f;
+            }
+            const NbPhase phase = m.phase(f.volume);
+            if (order == 1)
+                nextEvent(s, p, pd, phase, w, rng, out);
+            if (!ps.emission)
+                break;  // nothing more to gather: a further flight could only meet emission
+            if (order >= kRussianRouletteDepth) {
+                const float q = std::fmin(1.0f, nbMaxComponent(w));
+                if (nbRngNext(&rng) >= q)
+                    break;
+                w = w / q;
+            }
+            const float u0 = nbRngNext(&rng), u1 = nbRngNext(&rng), u2 = nbRngNext(&rng);
+            pd = nbPhaseSample(phase, pd, u0, u1, u2);
+            po = p;
+        }
+    }
+}
+
+void gatherVrls(const CameraSetup& s, float3 o, float3 d, float tCamera, const std::vector<Vrl>& vrls, NbRng& rng,
+                CameraSample& out)
+{
+    const VrlMedium& m = *s.medium;
+    // The camera segment inside the volumes, up to a holdout.
+    if (vrls.empty() || (s.maxDepth > 0 && s.maxDepth < 2))
+        return;
+    float u0, u1;
+    if (!m.span(o, d, 0.0f, tCamera, u0, u1))
+        return;
+    for (const Vrl& vrl : vrls) {
+        const float3 c = gatherVrl(s, vrl, o, d, u0, u1, rng);
+        out.L[2] += c;
+        out.perLight[size_t(vrl.light)] += c;
+    }
+}
+
+}  // namespace nimbus::vrl

@@ -1,0 +1,287 @@
+#include "VrlIntegrator.h"
+
+#include "../../kernels/shared/camera.h"
+#include "../../kernels/shared/filter.h"
+#include "../../kernels/shared/holdoutdepth.h"
+#include "../core/Error.h"
+#include "../core/Log.h"
+#include "../pathtracer/PathtraceScene.h"
+#include "../pathtracer/PathtraceState.h"
+#include "../render/FilmLayout.h"
+#include "../scene/KernelScene.h"
+#include "VrlCamera.h"
+#include "VrlLightPass.h"
+#include "VrlMedium.h"
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <cmath>
+
+namespace nimbus {
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double secondsBetween(Clock::time_point a, Clock::time_point b)
+{
+    return std::chrono::duration<double>(b - a).count();
+}
+
+constexpr long long kMinNoiseTargetSpp = 64;  // the path tracer's
+// Streams of the extra camera paths, keyed apart from the first (the path tracer's stream).
+constexpr nb_uint kCameraStreamKey = 0x63616d00u;
+
+// Camera paths per pixel and iteration for L0 and L1. An iteration's cost is dominated by its
+// gathers (one per VRL, three ratio trackings each, about a camera path's cost each), so a single
+// camera path would leave L0 and L1, which vary from path to path as the path tracer's do, far
+// noisier than L2plus. With as many camera paths as light paths the cheap terms cost a small share
+// of the iteration (a path makes a VRL per segment) and their variance falls with the VRL term's
+// as vrl_paths grows. The iteration stays one unbiased sample per pixel.
+int cameraPathsPerIteration(const Scene& scene)
+{
+    return std::max(1, scene.render.vrlPaths);
+}
+
+// The joint distribution a scene asks for: "auto" is the advanced one where some phase function
+// is anisotropic (Oppitz 7.3.2 gains nothing over 7.3.1 for g = 0 and costs 17 phase evaluations).
+vrl::JointKind jointKind(const Scene& scene)
+{
+    switch (scene.render.vrlSampling) {
+    case VrlSampling::Simple: return vrl::JointKind::Simple;
+    case VrlSampling::Advanced: return vrl::JointKind::Advanced;
+    case VrlSampling::Auto: break;
+    }
+    for (const Volume& v : scene.volumes) {
+        const NbPhase p = v.medium.phase;
+        if (p.g != 0.0f || (p.blend > 0.0f && p.g2 != 0.0f))
+            return vrl::JointKind::Advanced;
+    }
+    return vrl::JointKind::Simple;
+}
+
+}  // namespace
+
+IntegratorTraits vrlTraits()
+{
+    IntegratorTraits t;
+    t.method = Method::Vrl;
+    t.terms = {"L0", "L1", "L2plus"};
+    t.dataAovs = {"variance"};
+    t.shadowMaps = false;
+    return t;
+}
+
+void renderVrl(const RenderContext& ctx, Film& film, const RenderControl& options, const PathtraceOptions& pt)
+{
+    if (!ctx.scene)
+        throw Error("vrl: the render context has no scene");
+    const Scene& scene = *ctx.scene;
+    if (film.aovs.empty())
+        setupFilm(film, scene, vrlTraits());
+    const int cropWidth = film.x1 - film.x0, cropHeight = film.y1 - film.y0;
+    const long long pixelCount = (long long)std::max(0, cropWidth) * std::max(0, cropHeight);
+    if (pixelCount == 0)
+        return;
+
+    const PathtraceScene ps = buildPathtraceScene(ctx);
+    const vrl::VrlMedium medium(ps);
+    const int stride = NB_ACC_STRIDE(int(ps.lights.size()));
+    std::vector<std::string> lightAovs;
+    for (int entry : ps.lightEntry)
+        lightAovs.push_back(ctx.lights[size_t(entry)].aov);
+    if (pt.keepState)
+        addStateAovs(film, lightAovs);
+    const bool split = pt.sampleEnd > 0;
+    if (split && (pt.sampleBegin < 0 || pt.sampleEnd <= pt.sampleBegin || pt.sampleEnd > 0x7fffffffLL))
+        throw Error("vrl: sample range [" + std::to_string(pt.sampleBegin) + ", " + std::to_string(pt.sampleEnd) +
+                    ") is empty or beyond 2^31 - 1");
+    const long long first = split ? pt.sampleBegin : 0;
+    std::vector<float> acc(size_t(pixelCount) * size_t(stride), 0.0f);
+    if (pt.resumeFrom) {
+        const Film& from = *pt.resumeFrom;
+        if (from.x0 != film.x0 || from.x1 != film.x1 || from.y0 != film.y0 || from.y1 != film.y1 ||
+            from.width != film.width || from.height != film.height)
+            throw Error("vrl: the checkpoint's data window differs from the render's");
+        if (!readState(from, lightAovs, acc))
+            throw Error("vrl: the checkpoint lacks the running estimate (state AOVs) of this scene's lights");
+        if (pt.resumeSamples < 0)
+            throw Error("vrl: the checkpoint's sample count is negative");
+    }
+
+    const vrl::LightPass lightPass(ctx, ps, medium, scene.render.maxDepth);
+    vrl::CameraSetup setup;
+    setup.ps = &ps;
+    setup.medium = &medium;
+    setup.background = make_float3(ctx.background.x, ctx.background.y, ctx.background.z);
+    setup.maxDepth = scene.render.maxDepth;
+    setup.kind = jointKind(scene);
+    setup.cameraPhase = medium.dominantPhase();
+    const NbCamera cam = makeNbCamera(scene.camera);
+    const int filterType = nbFilterType(scene.render.pixelFilter);
+    const float filterWidth = scene.render.filterWidth;
+    const bool depthMap = !ps.holdoutDepth.empty();
+
+    const double timeLimit = scene.render.timeLimit;
+    const double noiseTarget = split || scene.render.spp > 0 ? 0.0 : scene.render.noiseTarget;
+    const long long sppTarget = split                  ? pt.sampleEnd - pt.sampleBegin
+                                : scene.render.spp > 0 ? scene.render.spp
+                                                       : (timeLimit > 0 || noiseTarget > 0 ? 0 : 1);
+    const int paths = scene.render.vrlPaths;
+    const int cameraPaths = cameraPathsPerIteration(scene);
+    std::atomic<long long> bad{0};
+    long long vrlCount = 0;
+    double noise = INFINITY;
+
+    const auto start = Clock::now();
+    auto lastCheckpoint = start;
+    long long done = pt.resumeFrom ? pt.resumeSamples : 0;
+    const double startSeconds = pt.resumeFrom ? std::max(0.0, pt.resumeSeconds) : 0.0;
+    int passes = 0;
+    for (;;) {
+        if (sppTarget > 0 && done >= sppTarget)
+            break;
+        if (first + done >= 0xffffffffLL)
+            break;  // the RNG's sample index is 32 bits
+        const nb_uint sampleIndex = nb_uint(first + done);
+        const std::vector<vrl::Vrl> vrls = lightPass.trace(scene.render.seed, sampleIndex, paths);
+        vrlCount += (long long)vrls.size();
+        const float inv = 1.0f / float(sampleIndex - nb_uint(first) + 1u);
+        tbb::parallel_for(
+            tbb::blocked_range<long long>(0, pixelCount, 16), [&](const tbb::blocked_range<long long>& r) {
+                vrl::CameraSample cs, one;
+                for (long long gid = r.begin(); gid != r.end(); ++gid) {
+                    if (ctx.stop.raised())
+                        return;
+                    const int px = film.x0 + int(gid % cropWidth), py = film.y0 + int(gid / cropWidth);
+                    const nb_uint pixelIndex = nb_uint(py) * nb_uint(film.width) + nb_uint(px);
+                    // K camera paths for L0 and L1 (the first is the path tracer's own sample), the
+                    // first one's ray also gathering from every VRL (see cameraPathsPerIteration).
+                    for (float3& L : cs.L)
+                        L = make_float3(0, 0, 0);
+                    cs.transmittance = cs.depth = cs.hasDepth = 0;
+                    cs.perLight.assign(ps.lights.size(), make_float3(0, 0, 0));
+                    const float share = 1.0f / float(cameraPaths);
+                    for (int k = 0; k < cameraPaths; ++k) {
+                        const nb_uint streamSeed =
+                            k == 0 ? scene.render.seed : nbPcgHash(scene.render.seed ^ (kCameraStreamKey + nb_uint(k)));
+                        NbRng rng = nbRngStart(streamSeed, pixelIndex, sampleIndex);
+                        const float jx = nbFilterSample(filterType, filterWidth, nbRngNext(&rng));
+                        const float jy = nbFilterSample(filterType, filterWidth, nbRngNext(&rng));
+                        const float time = nbRngNext(&rng);
+                        const float sx = float(px) + 0.5f + jx, sy = float(py) + 0.5f + jy;
+                        float3 o, d;
+                        nbCameraRay(cam, sx, sy, film.width, film.height, time, &o, &d);
+                        float tCamera = NB_INF;
+                        if (ps.holdouts)
+                            tCamera = nbGeomTrace(ps.geometry.nodes.data(), ps.geometry.prims.data(), ps.geometry.scene,
+                                                  o, d, 0.0f, NB_INF, NB_GEOM_HOLDOUT, 0);
+                        if (depthMap) {
+                            const float z =
+                                nbHoldoutDepthAt(ps.holdoutDepth.data(), ps.holdoutDepthWidth, ps.holdoutDepthHeight,
+                                                 ps.holdoutDepthScale[0], ps.holdoutDepthScale[1], sx, sy);
+                            const float cosAxis = dot(d, nbCameraViewAxis(cam, time));
+                            if (z < NB_INF && cosAxis > 0.0f)
+                                tCamera = std::fmin(tCamera, z / cosAxis);
+                        }
+                        vrl::traceCameraPath(setup, o, d, tCamera, rng, one);
+                        for (int t = 0; t < 3; ++t)
+                            cs.L[t] += one.L[t] * share;
+                        cs.transmittance += one.transmittance * share;
+                        cs.depth += one.depth * one.hasDepth * share;
+                        cs.hasDepth += one.hasDepth * share;
+                        for (size_t i = 0; i < cs.perLight.size(); ++i)
+                            cs.perLight[i] += one.perLight[i] * share;
+                        if (k == 0)
+                            vrl::gatherVrls(setup, o, d, tCamera, vrls, rng, cs);
+                    }
+                    float3 beauty = cs.L[0] + cs.L[1] + cs.L[2];
+                    float y = nbAverage(beauty);
+                    if (!std::isfinite(y)) {  // dropped and counted, as the path tracer does
+                        ++bad;
+                        for (float3& L : cs.L)
+                            L = make_float3(0, 0, 0);
+                        for (float3& L : cs.perLight)
+                            L = make_float3(0, 0, 0);
+                        y = 0;
+                    }
+                    float* a = acc.data() + size_t(gid) * size_t(stride);
+                    for (int k = 0; k < 3; ++k) {
+                        a[3 * k + 0] += (cs.L[k].x - a[3 * k + 0]) * inv;
+                        a[3 * k + 1] += (cs.L[k].y - a[3 * k + 1]) * inv;
+                        a[3 * k + 2] += (cs.L[k].z - a[3 * k + 2]) * inv;
+                    }
+                    a[NB_ACC_TRANSMITTANCE] += (cs.transmittance - a[NB_ACC_TRANSMITTANCE]) * inv;
+                    a[NB_ACC_DEPTH_SUM] += (cs.depth - a[NB_ACC_DEPTH_SUM]) * inv;  // depth x hit, averaged
+                    a[NB_ACC_DEPTH_HITS] += (cs.hasDepth - a[NB_ACC_DEPTH_HITS]) * inv;
+                    const float delta = y - a[NB_ACC_MEAN_Y];
+                    a[NB_ACC_MEAN_Y] += delta * inv;
+                    a[NB_ACC_M2_Y] += delta * (y - a[NB_ACC_MEAN_Y]);
+                    for (size_t i = 0; i < cs.perLight.size(); ++i) {
+                        float* q = a + NB_ACC_LIGHTS + 3 * i;
+                        q[0] += (cs.perLight[i].x - q[0]) * inv;
+                        q[1] += (cs.perLight[i].y - q[1]) * inv;
+                        q[2] += (cs.perLight[i].z - q[2]) * inv;
+                    }
+                }
+            });
+        if (ctx.stop.raised() || (options.cancel && options.cancel->load()))
+            throw Cancelled();
+        const auto now = Clock::now();
+        ++done;
+        ++passes;
+        const double elapsed = startSeconds + secondsBetween(start, now);
+        bool converged = false;
+        if (noiseTarget > 0 && done >= kMinNoiseTargetSpp) {
+            noise = stateNoiseRelMse(acc, stride, done);
+            converged = noise <= noiseTarget;
+        }
+        if (options.progress) {
+            float fraction = sppTarget > 0 ? float(double(done) / double(sppTarget)) : 0.0f;
+            if (noiseTarget > 0 && std::isfinite(noise))
+                fraction = std::max(fraction, float(std::min(1.0, noiseTarget / noise)));
+            if (timeLimit > 0)
+                fraction = std::max(fraction, float(std::min(1.0, elapsed / timeLimit)));
+            if (!options.progress(std::min(fraction, 1.0f)))
+                throw Cancelled();
+        }
+        if (converged || (timeLimit > 0 && elapsed >= timeLimit))
+            break;
+        if (pt.checkpointSeconds > 0 && pt.onCheckpoint &&
+            secondsBetween(lastCheckpoint, now) >= pt.checkpointSeconds && !(sppTarget > 0 && done >= sppTarget)) {
+            resolveState(acc, done, lightAovs, film);
+            film.set("pathtrace_spp", std::to_string(done));
+            if (split)
+                film.set("sample_start", int(first));
+            pt.onCheckpoint(film);
+            lastCheckpoint = Clock::now();
+        }
+    }
+    resolveState(acc, done, lightAovs, film);
+    const double renderSeconds = secondsBetween(start, Clock::now());
+    if (bad > 0)
+        logWarning("vrl: " + std::to_string(bad.load()) + " non-finite samples dropped");
+    // The samples-per-pixel key the progressive machinery reads (checkpoints, resume, merge,
+    // compare) is the path tracer's: one iteration is one sample per pixel.
+    film.set("pathtrace_spp", std::to_string(done));
+    film.set("vrl_paths", paths);
+    film.set("vrl_sampling", std::string(setup.kind == vrl::JointKind::Simple ? "simple" : "advanced"));
+    if (split)
+        film.set("sample_start", int(first));
+    if (pt.stats) {
+        PathtraceStats& s = *pt.stats;
+        s.samplesPerPixel = done;
+        s.pathSamples = done * pixelCount;
+        s.renderSeconds = renderSeconds;
+        s.passes = passes;
+        s.badSamples = bad;
+        s.noiseRelMse = noiseTarget > 0 ? noise : 0;
+        s.device = "cpu (TBB), " + std::to_string(vrlCount) + " VRLs";
+    }
+}
+
+}  // namespace nimbus

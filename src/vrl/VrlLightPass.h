@@ -1,0 +1,78 @@
+// VrlLightPass.h: the light pass of virtual ray lights (Novak et al. 2012, sec. 4; Oppitz 2018,
+// sec. 7.2 and Algorithm 8.x "trace photon" with segments): light paths from the scene's lights,
+// each segment a virtual ray light (VRL).
+//
+// A path starts at a light chosen with probability proportional to its power, from a point and
+// direction sampled on the light with flux W / (P_light N) (N paths per iteration), and is traced
+// with the path tracer's free flights (VrlMedium::freeFlight: delta tracking on the brick
+// majorants, spectral tracking of the RGB throughput w) and its Russian roulette (from the third
+// scattering event on, survival min(1, max w)). Every segment, the one leaving the light and the
+// one after each scattering event, becomes a VRL with flux Phi w.
+//
+// Why a VRL reaches to where the ray leaves the volumes (or meets a shadow caster) rather than to
+// the next scattering event: its transmittance T(origin -> v) is then estimated at gather time by
+// ratio tracking, which is unbiased for any medium, chromatic ones included. Ending it at the
+// next scattering event instead would count T(v) twice (once as the probability of reaching v,
+// once in the gather) unless the gather dropped T(v), which is exact only for grey media tracked
+// without weights. The path itself continues from its next scattering event as the path tracer's.
+//
+// Light emission (W per path before the division by P_light N):
+//  - point: uniform direction, W = 4 pi I;  spot: uniform in the outer cone, W = 2 pi (1 - cos_o) I
+//    falloff;
+//  - distant and environment: a direction (the cone of a distant light with an angle; the map's
+//    distribution, or uniform), then a point on the disc of radius R (the volumes' bounding
+//    sphere) across it: W = (L / pdf) pi R^2, L / pdf as in light.h;
+//  - rect: a uniform point and a cosine-weighted direction on the emitting side, W = pi A L;
+//  - sphere: a uniform point and a cosine-weighted direction outward, W = pi 4 pi r^2 L; where a
+//    volume reaches inside the sphere, half the paths leave the surface inward instead (a point
+//    inside sees radiance L from every direction, light.h) and end at its far side, W doubled.
+#pragma once
+
+#include "../pathtracer/PathtraceScene.h"
+#include "../render/RenderContext.h"
+#include "VrlMedium.h"
+
+#include <vector>
+
+namespace nimbus::vrl {
+
+struct Vrl {
+    float3 origin;         // where the segment starts: the light, or a scattering vertex (T from here)
+    float3 dir;            // unit, the direction light travels
+    float t0 = 0, t1 = 0;  // the part inside the volumes' boxes, before any shadow caster
+    float3 flux;           // Phi w, W (already divided by P_light N)
+    NbPhase phase;         // the advanced distribution's fit of the phase function at v
+    int order = 0;         // scattering events before it: 0 leaves the light
+    int light = 0;         // index in PathtraceScene::lights (per-light AOVs)
+};
+
+class LightPass {
+public:
+    // maxDepth: scene.render.max_depth (0: unbounded); a VRL of order k carries paths with k + 2
+    // scattering events and is kept only where that is allowed.
+    LightPass(const RenderContext& ctx, const PathtraceScene& ps, const VrlMedium& medium, int maxDepth);
+
+    // The VRLs of `paths` light paths of one iteration, in path order (any thread count gives
+    // the same list). seed: scene.render.seed.
+    std::vector<Vrl> trace(uint32_t seed, uint32_t iteration, int paths) const;
+
+    bool empty() const { return mCdf.empty(); }
+
+private:
+    void tracePath(uint32_t seed, uint32_t iteration, int path, int paths, std::vector<Vrl>& out) const;
+    // A point, direction and W on light i; false for a void sample. tEnd: where the first
+    // segment ends (INFINITY, or the far side of a sphere light seen from inside).
+    bool emit(int i, NbRng& rng, float3& x, float3& dir, float3& W, float& tEnd) const;
+
+    const PathtraceScene* mPs;
+    const VrlMedium* mMedium;
+    int mMaxDepth;
+    std::vector<double> mCdf;   // by power, normalised
+    std::vector<double> mProb;  // P_light
+    std::vector<char> mInward;  // sphere lights with a volume inside
+    float3 mCentre;             // the volumes' bounding sphere
+    float mRadius = 0;
+    NbPhase mDefaultPhase;
+};
+
+}  // namespace nimbus::vrl

@@ -1,0 +1,167 @@
+#include "VrlMedium.h"
+
+#include <cmath>
+
+namespace nimbus::vrl {
+
+namespace {
+
+float advance(float t, float dt)
+{
+    const float tn = t + dt;
+    return tn > t ? tn : std::nextafter(t, INFINITY);
+}
+
+float weighted(float3 w, float3 v)
+{
+    return nbAverage(w * v);
+}
+
+}  // namespace
+
+FlightResult VrlMedium::freeFlight(float3 o, float3 d, float tEnd, float3& w, NbRng& rng, float3* emission) const
+{
+    const PathtraceScene& ps = *mPs;
+    const NbVolumeDesc* vols = ps.volumes.data();
+    FlightResult r;
+    NbMajorantIter it;
+    nbMajorantInit(&it, vols, mCount, o, d, 0.0f, tEnd);
+    float tau = -std::log(rngOpen(rng));
+    float segEnd, mu;
+    float rho[NB_NUM_VOLUMES];
+    while (nbMajorantNext(&it, vols, ps.majorants.data(), &segEnd, &mu)) {
+        const float span = mu * (segEnd - it.t);
+        if (tau >= span) {
+            tau -= span;
+            it.t = segEnd;
+            continue;
+        }
+        it.t = advance(it.t, tau / mu);
+        nbMajorantDensities(&it, vols, ps.tables.data(), ps.pools.data(), rho);
+        if (emission && ps.emission)
+            *emission += w * nbMajorantEmission(&it, vols, ps.tables.data(), ps.pools.data()) / mu;
+        float3 sigma_t = make_float3(0, 0, 0), sigma_s = sigma_t;
+        for (int v = 0; v < mCount; ++v) {
+            sigma_t += nbLoad3(vols[v].sigma_t) * rho[v];
+            sigma_s += nbLoad3(vols[v].sigma_s) * rho[v];
+        }
+        const float3 sigma_n = fmax(make_float3(0, 0, 0), make_float3(mu, mu, mu) - sigma_t);
+        const float pS = weighted(w, sigma_s), pN = weighted(w, sigma_n), total = pS + pN;
+        if (!(total > 0.0f)) {  // only absorption is left: the path ends
+            w = make_float3(0, 0, 0);
+            return r;
+        }
+        const float u = nbRngNext(&rng) * total;
+        if (u < pS) {
+            // The scattering volume in proportion to its share of avg(w sigma_s).
+            int chosen = 0;
+            float3 sigma_sv = nbLoad3(vols[0].sigma_s) * rho[0];
+            float acc = 0;
+            for (int v = 0; v < mCount; ++v) {
+                const float3 s = nbLoad3(vols[v].sigma_s) * rho[v];
+                const float sv = weighted(w, s);
+                if (sv > 0.0f) {
+                    chosen = v;
+                    sigma_sv = s;
+                }
+                acc += sv;
+                if (u < acc)
+                    break;
+            }
+            const float pv = weighted(w, sigma_sv) / total;
+            w = w * sigma_sv / (mu * pv);
+            r.scattered = true;
+            r.t = it.t;
+            r.volume = chosen;
+            return r;
+        }
+        w = w * sigma_n / (mu * (pN / total));
+        tau = -std::log(rngOpen(rng));
+    }
+    return r;
+}
+
+float3 VrlMedium::transmittance(float3 o, float3 d, float tMax, NbRng& rng) const
+{
+    const PathtraceScene& ps = *mPs;
+    const NbVolumeDesc* vols = ps.volumes.data();
+    float3 T = make_float3(1, 1, 1);
+    NbMajorantIter it;
+    nbMajorantInit(&it, vols, mCount, o, d, 0.0f, tMax);
+    float tau = -std::log(rngOpen(rng));
+    float segEnd, mu;
+    float rho[NB_NUM_VOLUMES];
+    while (nbMajorantNext(&it, vols, ps.majorants.data(), &segEnd, &mu)) {
+        const float span = mu * (segEnd - it.t);
+        if (tau >= span) {
+            tau -= span;
+            it.t = segEnd;
+            continue;
+        }
+        it.t = advance(it.t, tau / mu);
+        nbMajorantDensities(&it, vols, ps.tables.data(), ps.pools.data(), rho);
+        float3 sigma_t = make_float3(0, 0, 0);
+        for (int v = 0; v < mCount; ++v)
+            sigma_t += nbLoad3(vols[v].sigma_t) * rho[v];
+        T = T * fmax(make_float3(0, 0, 0), make_float3(1, 1, 1) - sigma_t / mu);
+        const float m = nbMaxComponent(T);
+        if (m < 0.1f) {  // Russian roulette: survive with probability 10 m
+            if (nbRngNext(&rng) >= m * 10.0f)
+                return make_float3(0, 0, 0);
+            T = T / (m * 10.0f);
+        }
+        tau = -std::log(rngOpen(rng));
+    }
+    return T;
+}
+
+float3 VrlMedium::scattering(float3 p, float cosTheta) const
+{
+    float3 out = make_float3(0, 0, 0);
+    for (int v = 0; v < mCount; ++v) {
+        const NbVolumeDesc& vd = mPs->volumes[size_t(v)];
+        const float* m = vd.indexFromWorld;
+        const float3 q =
+            make_float3(m[0] * p.x + m[1] * p.y + m[2] * p.z + m[3], m[4] * p.x + m[5] * p.y + m[6] * p.z + m[7],
+                        m[8] * p.x + m[9] * p.y + m[10] * p.z + m[11]);
+        // The majorant walk reads densities only inside the active box (state 1): the same here.
+        if (!(q.x >= vd.boundsLo[0] && q.x <= vd.boundsHi[0] && q.y >= vd.boundsLo[1] && q.y <= vd.boundsHi[1] &&
+              q.z >= vd.boundsLo[2] && q.z <= vd.boundsHi[2]))
+            continue;
+        const float rho = std::fmax(0.0f, nbGridSample(vd.density, mPs->tables.data(), mPs->pools.data(), q));
+        if (rho > 0.0f)
+            out += nbLoad3(vd.sigma_s) * (rho * nbPhaseEval(vd.phase, cosTheta));
+    }
+    return out;
+}
+
+bool VrlMedium::span(float3 o, float3 d, float tMin, float tMax, float& t0, float& t1) const
+{
+    NbMajorantIter it;
+    nbMajorantInit(&it, mPs->volumes.data(), mCount, o, d, tMin, tMax);
+    t0 = INFINITY;
+    t1 = -INFINITY;
+    for (int v = 0; v < mCount; ++v)
+        if (it.state[v] == 0) {
+            t0 = std::fmin(t0, it.tEvent[v]);
+            t1 = std::fmax(t1, it.tEnd[v]);
+        }
+    return t1 > t0;
+}
+
+NbPhase VrlMedium::dominantPhase() const
+{
+    int best = 0;
+    float bestS = -1;
+    for (int v = 0; v < mCount; ++v) {
+        const NbVolumeDesc& vd = mPs->volumes[size_t(v)];
+        const float s = nbAverage(nbLoad3(vd.sigma_s)) * vd.density.maxValue;
+        if (s > bestS) {
+            bestS = s;
+            best = v;
+        }
+    }
+    return mCount > 0 ? mPs->volumes[size_t(best)].phase : NbPhase{0, 0, 0, 0};
+}
+
+}  // namespace nimbus::vrl

@@ -1,0 +1,66 @@
+// VrlMedium.h: the scene's media as the VRL estimator reads them on the CPU: the path tracer's
+// flattened scene (PathtraceScene.h: the same volume descriptors, brick tables, pools and slot
+// majorants) walked with kernels/shared/majorant.h, so that free flights, ratio tracking and
+// Russian roulette are the path tracer's own (kernels/pathtrace.cl), here in C++:
+//  - freeFlight: delta tracking with the spectral-tracking choice of events (Kutz et al. 2017),
+//    the throughput w updated as in nbTracePath;
+//  - transmittance: ratio tracking (Novak et al. 2014) with Russian roulette below 0.1, as
+//    nbRatioTransmittance;
+//  - scattering: sum over volumes of sigma_s(p) phase(cos), at a point (the VRL gather's two
+//    vertices);
+//  - span: where a ray is inside some volume's active box (the extent of a VRL or of the
+//    camera segment the gather samples).
+// The OpenCL functions are not shared with this file because kernels/pathtrace.cl keeps them
+// private to the kernel (their address-space qualifiers); the loops here mirror them line for line.
+#pragma once
+
+#include "../../kernels/shared/majorant.h"
+#include "../../kernels/shared/rng.h"
+#include "../pathtracer/PathtraceScene.h"
+
+namespace nimbus::vrl {
+
+struct FlightResult {
+    bool scattered = false;
+    float t = 0;      // where it scattered
+    int volume = -1;  // which volume scattered
+};
+
+class VrlMedium {
+public:
+    explicit VrlMedium(const PathtraceScene& ps) : mPs(&ps), mCount(int(ps.volumes.size())) {}
+
+    // Delta tracking from o along d (unit) over [0, tEnd]: a real scattering event, or none (the
+    // ray left the volumes or reached tEnd). w: the RGB throughput, updated (Kutz et al. 2017).
+    // emission: where non-null, w j / mu is added at every tentative collision.
+    FlightResult freeFlight(float3 o, float3 d, float tEnd, float3& w, NbRng& rng, float3* emission) const;
+
+    // Ratio-tracking estimate of the RGB transmittance along o + t d, t in [0, tMax].
+    float3 transmittance(float3 o, float3 d, float tMax, NbRng& rng) const;
+
+    // sum_v sigma_s,v(p) phase_v(cosTheta), 1/(m sr), RGB.
+    float3 scattering(float3 p, float cosTheta) const;
+
+    // [t0, t1]: the part of [tMin, tMax] where o + t d is inside some volume's active box;
+    // false when there is none.
+    bool span(float3 o, float3 d, float tMin, float tMax, float& t0, float& t1) const;
+
+    // The phase function of the volume with the largest scattering majorant (the advanced joint
+    // distribution's fit where the medium at a point is not known yet).
+    NbPhase dominantPhase() const;
+    NbPhase phase(int volume) const { return mPs->volumes[size_t(volume)].phase; }
+    bool hasEmission() const { return mPs->emission; }
+    int volumeCount() const { return mCount; }
+
+private:
+    const PathtraceScene* mPs;
+    int mCount;
+};
+
+// Uniform in (0, 1]: safe for -log (pathtrace.cl's nbRngOpen).
+inline float rngOpen(NbRng& rng)
+{
+    return 1.0f - nbRngNext(&rng);
+}
+
+}  // namespace nimbus::vrl
