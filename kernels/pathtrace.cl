@@ -181,13 +181,13 @@ NB_FN NbLightSample nbSampleLight(NbLight l, float3 p, float u0, float u1)
 
 /* Ratio-tracking transmittance along o + t d, t in [0, tMax] (Novak et al. 2014, eq. 6): an
  * unbiased estimate of exp(-int sigma_t) per channel. */
-NB_FN float3 nbRatioTransmittance(float3 o, float3 d, float tMax, __global const NbVolumeDesc* vols, int volumeCount,
-                                  __global const int* tables, __global const float* pools,
+NB_FN float3 nbRatioTransmittance(float3 o, float3 d, float tMax, float seconds, __global const NbVolumeDesc* vols,
+                                  int volumeCount, __global const int* tables, __global const float* pools,
                                   __global const float* majorants, __private NbRng* rng)
 {
     float3 T = make_float3(1.0f, 1.0f, 1.0f);
     NbMajorantIter it;
-    nbMajorantInit(&it, vols, volumeCount, o, d, 0.0f, tMax);
+    nbMajorantInit(&it, vols, volumeCount, o, d, 0.0f, tMax, seconds);
     float tau = -log(nbRngOpen(rng));
     float segEnd, mu;
     float rho[NB_NUM_VOLUMES];
@@ -227,8 +227,10 @@ typedef struct {
 #endif
 } NbPathSample;
 
-/* tCamera: where the camera ray ends at a holdout (INFINITY: nowhere). */
-NB_FN void nbTracePath(float3 o, float3 d, float tCamera, __global const NbPtParams* P, __global const NbLight* lights,
+/* tCamera: where the camera ray ends at a holdout (INFINITY: nowhere). seconds: the path's shutter
+ * time after the frame's; every segment of the path reads moving volumes at it (ptscene.h). */
+NB_FN void nbTracePath(float3 o, float3 d, float tCamera, float seconds, __global const NbPtParams* P,
+                       __global const NbLight* lights,
                        __global const NbVolumeDesc* vols, __global const int* tables, __global const float* pools,
                        __global const float* majorants, __global const float* envData,
                        __global const NbBvhNode* bvhNodes, __global const NbGeomPrim* geomPrims,
@@ -248,7 +250,7 @@ NB_FN void nbTracePath(float3 o, float3 d, float tCamera, __global const NbPtPar
             tEnd = nbGeomTrace(bvhNodes, geomPrims, P->geom, o, d, 0.0f, NB_INF, NB_GEOM_SHADOWS, 0);
 #endif
         NbMajorantIter it;
-        nbMajorantInit(&it, vols, volumeCount, o, d, 0.0f, tEnd);
+        nbMajorantInit(&it, vols, volumeCount, o, d, 0.0f, tEnd, seconds);
         float tau = -log(nbRngOpen(rng));
         float segEnd, mu;
         int scatterVolume = -1;
@@ -357,7 +359,7 @@ NB_FN void nbTracePath(float3 o, float3 d, float tCamera, __global const NbPtPar
                     float3 L = colour * nbEnvLookup(P->envMap, envData, wi);
                     if (nbMaxComponent(L) > 0.0f) {
                         float mis = pdfMap * pdfMap / (pdfMap * pdfMap + fp * fp);
-                        float3 T = nbRatioTransmittance(p, wi, NB_INF, vols, volumeCount, tables, pools, majorants, rng);
+                        float3 T = nbRatioTransmittance(p, wi, NB_INF, seconds, vols, volumeCount, tables, pools, majorants, rng);
                         c += L * T * (fp * mis / pdfMap);
                     }
                 }
@@ -368,7 +370,7 @@ NB_FN void nbTracePath(float3 o, float3 d, float tCamera, __global const NbPtPar
                 if (fp > 0.0f && nbMaxComponent(L) > 0.0f) {
                     pdfMap = nbEnvPdf(P->envMap, envData, wi);
                     float mis = fp * fp / (pdfMap * pdfMap + fp * fp);
-                    float3 T = nbRatioTransmittance(p, wi, NB_INF, vols, volumeCount, tables, pools, majorants, rng);
+                    float3 T = nbRatioTransmittance(p, wi, NB_INF, seconds, vols, volumeCount, tables, pools, majorants, rng);
                     c += L * T * mis; /* p / pdf = 1 */
                 }
                 c = w * c;
@@ -401,7 +403,7 @@ NB_FN void nbTracePath(float3 o, float3 d, float tCamera, __global const NbPtPar
             if (nbGeomTrace(bvhNodes, geomPrims, P->geom, p, s.wi, 0.0f, s.distance, NB_GEOM_SHADOWS, 1) < NB_INF)
                 continue;
 #endif
-            float3 T = nbRatioTransmittance(p, s.wi, s.distance, vols, volumeCount, tables, pools, majorants, rng);
+            float3 T = nbRatioTransmittance(p, s.wi, s.distance, seconds, vols, volumeCount, tables, pools, majorants, rng);
             float3 c = w * s.weight * T * f;
             out->L[nb] += c;
             out->perLight[i] += c;
@@ -476,7 +478,13 @@ __kernel void nbPathtrace(__global const NbPtParams* P, __global const NbLight* 
         for (int i = 0; i < NB_NUM_LIGHTS; ++i)
             r.perLight[i] = make_float3(0.0f, 0.0f, 0.0f);
 #endif
-        nbTracePath(o, d, tCamera, P, lights, vols, tables, pools, majorants, envData, bvhNodes, geomPrims, counters,
+        /* Velocity blur: the camera's time sample as seconds after the frame's (ptscene.h). */
+        float seconds = 0.0f;
+#if NB_HAS_VELOCITY
+        if (P->volumeCount > 0)
+            seconds = vols[0].shutter[0] + (vols[0].shutter[1] - vols[0].shutter[0]) * time;
+#endif
+        nbTracePath(o, d, tCamera, seconds, P, lights, vols, tables, pools, majorants, envData, bvhNodes, geomPrims, counters,
                     &rng, &r);
 
         /* A non-finite sample (a bug or a float overflow) would poison the pixel for good:

@@ -4,7 +4,8 @@
  * Image plane: pixel (0,0) is the top-left; x right, y down. The vertical field of view is
  * `fov`; the basis is right-handed with y up (DESIGN "Units and conventions").
  * Motion blur (Tessendorf sec. 7, eq. 90): each pixel sample draws a time in the shutter and the
- * camera frame is interpolated linearly between open and close; the volumes do not move.
+ * camera frame is interpolated linearly between open and close. The volumes move only by
+ * velocity motion blur, at the same time sample (docs/motion-blur.md).
  */
 #ifndef NIMBUS_KERNELS_SHARED_CAMERA_H
 #define NIMBUS_KERNELS_SHARED_CAMERA_H

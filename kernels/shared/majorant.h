@@ -30,6 +30,9 @@
 #ifndef NB_GLOBAL_MAJORANT
 #define NB_GLOBAL_MAJORANT 0
 #endif
+#ifndef NB_HAS_VELOCITY
+#define NB_HAS_VELOCITY 1
+#endif
 
 #define NB_INF INFINITY
 
@@ -47,6 +50,7 @@ typedef struct {
     float maj[NB_NUM_VOLUMES];      /* current majorant, 1/m; 0 outside */
     int state[NB_NUM_VOLUMES];      /* 0 before the box, 1 inside, 2 past it */
     float t;                        /* the tracker's position along the ray */
+    float seconds;                  /* the path's shutter time (velocity blur, ptscene.h) */
 } NbMajorantIter;
 
 /* The majorant (1/m) of volume vd over brick slot (cx, cy, cz). An emitting slot gets at least
@@ -54,6 +58,10 @@ typedef struct {
  * the collision rate must be positive wherever there is emission, even with zero density. */
 NB_FN float nbSlotMajorant(NB_GLOBAL const NbVolumeDesc* vd, NB_GLOBAL const float* majorants, int cx, int cy, int cz)
 {
+#if NB_HAS_VELOCITY
+    if (vd->motionMajorant.dims[3] > 0) /* a moving volume: the grown, max-filtered slots */
+        return nbGridMajorant(vd->motionMajorant, majorants, cx, cy, cz);
+#endif
     float m = vd->sigma_t[3] * nbGridMajorant(vd->density, majorants, cx, cy, cz);
 #if NB_HAS_EMISSION
     if (vd->emission.dims[3] > 0 && nbGridMajorant(vd->emission, majorants, cx, cy, cz) > 0.0f)
@@ -64,6 +72,10 @@ NB_FN float nbSlotMajorant(NB_GLOBAL const NbVolumeDesc* vd, NB_GLOBAL const flo
 
 NB_FN float nbVolumeMajorant(NB_GLOBAL const NbVolumeDesc* vd)
 {
+#if NB_HAS_VELOCITY
+    if (vd->motionMajorant.dims[3] > 0)
+        return vd->motionMajorant.maxValue;
+#endif
     float m = vd->sigma_t[3] * vd->density.maxValue;
 #if NB_HAS_EMISSION
     if (vd->emission.dims[3] > 0 && vd->emission.maxValue > 0.0f)
@@ -72,11 +84,13 @@ NB_FN float nbVolumeMajorant(NB_GLOBAL const NbVolumeDesc* vd)
     return m;
 }
 
-/* Starts the walk along o + t d (world space, d unit), t in [tMin, tMax]. */
+/* Starts the walk along o + t d (world space, d unit), t in [tMin, tMax], of a path at shutter
+ * time `seconds` (0 without velocity blur). */
 NB_FN void nbMajorantInit(NB_PRIVATE NbMajorantIter* it, NB_GLOBAL const NbVolumeDesc* vols, int count, float3 o,
-                          float3 d, float tMin, float tMax)
+                          float3 d, float tMin, float tMax, float seconds)
 {
     it->t = tMin;
+    it->seconds = seconds;
     for (int v = 0; v < NB_NUM_VOLUMES; ++v) {
         it->state[v] = 2;
         it->tEvent[v] = NB_INF;
@@ -180,6 +194,19 @@ NB_FN int nbMajorantNext(NB_PRIVATE NbMajorantIter* it, NB_GLOBAL const NbVolume
     return 0;
 }
 
+/* Volume v's index-space lookup point at the tracker's position: with velocity blur moved back
+ * along the velocity read there, q - v(q) s (ptscene.h). */
+NB_FN float3 nbMajorantLookup(NB_PRIVATE const NbMajorantIter* it, NB_GLOBAL const NbVolumeDesc* vols, int v,
+                              NB_GLOBAL const int* tables, NB_GLOBAL const float* pools)
+{
+    float3 q = it->o[v] + it->d[v] * it->t;
+#if NB_HAS_VELOCITY
+    if (vols[v].velocity.dims[3] > 0)
+        q = q - nbGridSample3(vols[v].velocity, tables, pools, q) * it->seconds;
+#endif
+    return q;
+}
+
 /* Density (after the shader, before the density scale is applied by sigma) of every volume at
  * the tracker's position; 0 for volumes the point is not inside. */
 NB_FN void nbMajorantDensities(NB_PRIVATE const NbMajorantIter* it, NB_GLOBAL const NbVolumeDesc* vols,
@@ -188,7 +215,7 @@ NB_FN void nbMajorantDensities(NB_PRIVATE const NbMajorantIter* it, NB_GLOBAL co
     for (int v = 0; v < NB_NUM_VOLUMES; ++v) {
         rho[v] = 0.0f;
         if (it->state[v] == 1)
-            rho[v] = fmax(0.0f, nbGridSample(vols[v].density, tables, pools, it->o[v] + it->d[v] * it->t));
+            rho[v] = fmax(0.0f, nbGridSample(vols[v].density, tables, pools, nbMajorantLookup(it, vols, v, tables, pools)));
     }
 }
 
@@ -201,7 +228,8 @@ NB_FN float3 nbMajorantEmission(NB_PRIVATE const NbMajorantIter* it, NB_GLOBAL c
     float3 e = make_float3(0.0f, 0.0f, 0.0f);
     for (int v = 0; v < NB_NUM_VOLUMES; ++v)
         if (it->state[v] == 1 && vols[v].emission.dims[3] > 0)
-            e = e + nbGridSample3(vols[v].emission, tables, pools, it->o[v] + it->d[v] * it->t) * vols[v].boundsHi[3];
+            e = e + nbGridSample3(vols[v].emission, tables, pools, nbMajorantLookup(it, vols, v, tables, pools)) *
+                        vols[v].boundsHi[3];
     return e;
 }
 #endif

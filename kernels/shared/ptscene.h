@@ -16,8 +16,14 @@
 #include "geometry.h"
 #include "phase.h"
 
-/* 224 bytes. Coefficients in 1/m with the density scale folded in: sigma at a point is
- * sigma_* times the trilinear density there. */
+/* 336 bytes. Coefficients in 1/m with the density scale folded in: sigma at a point is
+ * sigma_* times the trilinear density there.
+ *
+ * Velocity motion blur (docs/motion-blur.md): a path at shutter time s (seconds after the
+ * frame's) reads the volume at index point q - v(q) s, v the velocity grid. Then boundsLo/Hi
+ * are grown by the largest displacement over the shutter, and motionMajorant holds, over the
+ * grown box's brick slots, the slot extinction majorants max-filtered over that displacement:
+ * a bound on sigma_t at any point and any time of the shutter, so tracking stays unbiased. */
 typedef struct {
     float indexFromWorld[12]; /* 3x4 row-major: p_index = M p_world + t (rows: M | t) */
     float sigma_s[4];         /* xyz RGB scattering; w: 0 */
@@ -29,6 +35,11 @@ typedef struct {
     float boundsHi[4];   /* xyz: upper corner; w: emission scale (medium.emissionScale) */
     NbGridDesc density;  /* 1 channel: density after the shader */
     NbGridDesc emission; /* 3 channels: emitted radiance per metre W/(m^3 sr); or absent */
+    NbGridDesc velocity; /* 3 channels: index voxels per second (velocity blur); or absent */
+    NbGridDesc motionMajorant; /* velocity blur: slot majorants (1/m) of the grown box, no
+                                * table or pool; or absent */
+    float shutter[4];          /* velocity blur: xy the shutter's open and close, seconds after
+                                * the frame's time (the same in every volume); zw unused */
 } NbVolumeDesc;
 
 /* Per-launch parameters, 260 bytes. */

@@ -117,6 +117,7 @@ Planned planPass(const Scene& scene, const IntegratorEntry& entry, RenderStats& 
 {
     auto t = std::chrono::steady_clock::now();
     VolumeSet volumes(buildVolumes(scene, cache), scene.render.step);
+    setShutterOf(volumes, scene);
     stats.addStage("volumes", secondsSince(t));
     Planned p;
     p.plan = planScene(scene, volumes);

@@ -156,7 +156,8 @@ void renderTiles(const RenderContext& ctx, const Integrator& integrator, Film& f
     std::vector<char> seesBricks(size_t(tileCount), 1);
     if (skipEmpty) {
         std::fill(seesBricks.begin(), seesBricks.end(), 0);
-        bool bounded = true;
+        // Moving volumes (velocity blur) reach beyond their bricks: their grown box alone culls.
+        bool bounded = !ctx.volumes.moving();
         for (const auto& v : ctx.volumes.volumes()) {
             bounded = bounded && markTilesSeeingBricks(cam, film.width, film.height, film.x0, film.y0, kTile, tilesX,
                                                        tilesY, v->density, v->worldFromIndex, seesBricks, margin);
@@ -259,7 +260,7 @@ void renderTiles(const RenderContext& ctx, const Integrator& integrator, Film& f
             const int tx1 = std::min(tx0 + kTile, film.x1), ty1 = std::min(ty0 + kTile, film.y1);
             const bool empty =
                 skipEmpty && (!seesBricks[size_t(tile)] || tileMissesBox(cam, film.width, film.height, tx0, ty0, tx1,
-                                                                         ty1, ctx.volumes.worldBounds(), margin));
+                                                                         ty1, ctx.volumes.movingBounds(), margin));
             for (int y = ty0; y < ty1; ++y) {
                 if (stopped())
                     return;
@@ -301,15 +302,16 @@ void renderTiles(const RenderContext& ctx, const Integrator& integrator, Film& f
                     origins.resize(rays), directions.resize(rays), rngs.resize(rays);
                     samples.assign(rays, CameraSample());
                     perLight.assign(rays * perLightStride, 0.0f);
+                    sampleTime.resize(rays);
                     if (holdoutDepth || deep)
-                        sampleX.resize(rays), sampleY.resize(rays), sampleTime.resize(rays);
+                        sampleX.resize(rays), sampleY.resize(rays);
                     for (size_t i = 0; i < rays; ++i) {
                         const size_t k = first + i;  // the row's sample k: pixel k / spp, sample k % spp
                         const int x = tx0 + int(k / size_t(spp)), s = int(k % size_t(spp));
-                        float px, py, time;
-                        cameraSample(x, y, s, rngs[i], origins[i], directions[i], px, py, time);
+                        float px, py;
+                        cameraSample(x, y, s, rngs[i], origins[i], directions[i], px, py, sampleTime[i]);
                         if (holdoutDepth || deep)
-                            sampleX[i] = px, sampleY[i] = py, sampleTime[i] = time;
+                            sampleX[i] = px, sampleY[i] = py;
                     }
                     if (holdouts) {
                         tFar.assign(rays, INFINITY);
@@ -327,7 +329,7 @@ void renderTiles(const RenderContext& ctx, const Integrator& integrator, Film& f
                     if (deep)
                         rngStarts.assign(rngs.begin(), rngs.end());  // each prefix march replays them
                     integrator.marchRays(int(rays), origins.data(), directions.data(),
-                                         holdouts ? tFar.data() : nullptr, rngs.data(), samples.data(),
+                                         holdouts ? tFar.data() : nullptr, sampleTime.data(), rngs.data(), samples.data(),
                                          perLight.data());
                     if (stopped())  // the marches may have ended early: nothing of theirs is kept
                         return;
@@ -354,7 +356,8 @@ void renderTiles(const RenderContext& ctx, const Integrator& integrator, Film& f
                             deepSamples.assign(rays, CameraSample());
                             deepPerLight.assign(rays * perLightStride, 0.0f);
                             integrator.marchRays(int(rays), origins.data(), directions.data(), deepTFar.data(),
-                                                 deepRngs.data(), deepSamples.data(), deepPerLight.data());
+                                                 sampleTime.data(), deepRngs.data(), deepSamples.data(),
+                                                 deepPerLight.data());
                             if (stopped())
                                 return;
                             for (size_t i = 0; i < rays; ++i) {

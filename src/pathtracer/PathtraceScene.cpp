@@ -3,12 +3,13 @@
 #include "../core/Error.h"
 
 #include <algorithm>
+#include <cmath>
 #include <sstream>
 
 namespace nimbus {
 
 static_assert(sizeof(NbGridDesc) == 48, "NbGridDesc layout is shared with OpenCL");
-static_assert(sizeof(NbVolumeDesc) == 224, "NbVolumeDesc layout is shared with OpenCL");
+static_assert(sizeof(NbVolumeDesc) == 336, "NbVolumeDesc layout is shared with OpenCL");
 static_assert(sizeof(NbPtParams) == 260, "NbPtParams layout is shared with OpenCL");
 static_assert(sizeof(NbLight) == 96, "NbLight layout is shared with OpenCL");
 
@@ -44,6 +45,72 @@ NbGridDesc appendGrid(const BrickGrid& g, PathtraceScene& s)
     return d;
 }
 
+// The slot majorant of grid g at brick (bx, by, bz): 0 outside its table (brickgrid.h).
+float slotMajorant(const BrickGrid& g, int bx, int by, int bz)
+{
+    if (g.empty())
+        return 0.0f;
+    const int x = bx - g.brickLo().x, y = by - g.brickLo().y, z = bz - g.brickLo().z;
+    if (x < 0 || y < 0 || z < 0 || x >= g.dims().x || y >= g.dims().y || z >= g.dims().z)
+        return 0.0f;
+    return g.majorants()[(size_t(z) * size_t(g.dims().y) + size_t(y)) * size_t(g.dims().x) + size_t(x)];
+}
+
+// Velocity blur (ptscene.h): the volume's box grown by its largest displacement over the shutter
+// (plus a voxel), brick aligned, and over its slots the extinction majorant that bounds every
+// point at every shutter time: a lookup from slot b lands at most ceil(grow / 8) slots away per
+// axis, so the static slot majorants (nbSlotMajorant's, emission's collision rate included) are
+// max-filtered over that many slots, one axis at a time.
+NbGridDesc appendMotionMajorant(const VolumeData& v, const NbVolumeDesc& d, float grow, PathtraceScene& s)
+{
+    NbGridDesc g{};
+    const float B = float(BrickGrid::kBrick);
+    int lo[3], hi[3], dims[3];
+    for (int a = 0; a < 3; ++a) {
+        lo[a] = int(std::floor(d.boundsLo[a] / B));
+        hi[a] = int(std::ceil(d.boundsHi[a] / B)) - 1;
+        dims[a] = std::max(1, hi[a] - lo[a] + 1);
+        g.brickLo[a] = lo[a];
+        g.dims[a] = dims[a];
+    }
+    g.dims[3] = 1;
+    const int r = int(std::ceil(grow / B)) + 1;
+    const size_t n = size_t(dims[0]) * size_t(dims[1]) * size_t(dims[2]);
+    if (n > (size_t(1) << 30))
+        throw Error("path tracer: volume '" + v.name + "' moves across more than 2^30 brick slots over the shutter; "
+                    "lower velocity_scale or the shutter");
+    std::vector<float> m(n), tmp(n);
+    auto at = [&](int x, int y, int z) { return (size_t(z) * size_t(dims[1]) + size_t(y)) * size_t(dims[0]) + size_t(x); };
+    for (int z = 0; z < dims[2]; ++z)
+        for (int y = 0; y < dims[1]; ++y)
+            for (int x = 0; x < dims[0]; ++x) {
+                const int bx = lo[0] + x, by = lo[1] + y, bz = lo[2] + z;
+                float value = d.sigma_t[3] * slotMajorant(v.density, bx, by, bz);
+                if (v.hasEmission() && slotMajorant(v.emission, bx, by, bz) > 0.0f)
+                    value = std::max(value, d.boundsLo[3]);
+                m[at(x, y, z)] = value;
+            }
+    for (int axis = 0; axis < 3; ++axis) {
+        tmp = m;
+        for (int z = 0; z < dims[2]; ++z)
+            for (int y = 0; y < dims[1]; ++y)
+                for (int x = 0; x < dims[0]; ++x) {
+                    const int c[3] = {x, y, z};
+                    float best = 0.0f;
+                    for (int k = std::max(0, c[axis] - r); k <= std::min(dims[axis] - 1, c[axis] + r); ++k) {
+                        int e[3] = {x, y, z};
+                        e[axis] = k;
+                        best = std::max(best, tmp[at(e[0], e[1], e[2])]);
+                    }
+                    m[at(x, y, z)] = best;
+                }
+    }
+    g.majorantOffset = nb_uint(s.majorants.size());
+    g.maxValue = *std::max_element(m.begin(), m.end());
+    s.majorants.insert(s.majorants.end(), m.begin(), m.end());
+    return g;
+}
+
 bool isGrey(Rgb c)
 {
     return c.x == c.y && c.y == c.z;
@@ -58,8 +125,8 @@ PathtraceScene buildPathtraceScene(const RenderContext& ctx)
     if (int(vols.size()) > kMaxPathtraceVolumes)
         throw Error("path tracer: " + std::to_string(vols.size()) + " volumes; at most " +
                     std::to_string(kMaxPathtraceVolumes) + " are supported (merge grids into one volume)");
-    for (const auto& vp : vols) {
-        const VolumeData& v = *vp;
+    for (size_t vi = 0; vi < vols.size(); ++vi) {
+        const VolumeData& v = *vols[vi];
         NbVolumeDesc d{};
         for (int r = 0; r < 3; ++r)
             for (int c = 0; c < 4; ++c)
@@ -74,9 +141,9 @@ PathtraceScene buildPathtraceScene(const RenderContext& ctx)
         s.twoLobe |= d.phase.blend > 0.0f;
         s.chromatic |= !isGrey(ss) || !isGrey(st);
 
-        Bbox b = v.density.activeIndexBounds();
-        if (v.hasEmission())
-            b.expand(v.emission.activeIndexBounds());
+        // With velocity blur, the box the volume sweeps over the shutter (VolumeSet::setShutter).
+        const float grow = ctx.volumes.maxDisplacement(vi);
+        const Bbox b = ctx.volumes.movingIndexBounds(vi);
         d.boundsLo[0] = b.lo.x, d.boundsLo[1] = b.lo.y, d.boundsLo[2] = b.lo.z;
         d.boundsHi[0] = b.hi.x, d.boundsHi[1] = b.hi.y, d.boundsHi[2] = b.hi.z;
         d.boundsLo[3] = kEmissionCollisionsPerVoxel / std::max(v.voxelSize, 1e-12f);
@@ -86,6 +153,13 @@ PathtraceScene buildPathtraceScene(const RenderContext& ctx)
             d.emission = appendGrid(v.emission, s);
             s.emission = true;
         }
+        if (grow > 0.0f) {
+            d.velocity = appendGrid(v.velocity, s);
+            d.motionMajorant = appendMotionMajorant(v, d, grow, s);
+            s.velocity = true;
+        }
+        d.shutter[0] = ctx.volumes.shutterSeconds(0.0f);
+        d.shutter[1] = ctx.volumes.shutterSeconds(1.0f);
         s.volumes.push_back(d);
     }
     for (size_t i = 0; i < ctx.lights.size(); ++i) {
@@ -128,7 +202,7 @@ std::string PathtraceScene::defines(bool globalMajorant) const
     o << " -D NB_HAS_EMISSION=" << (emission ? 1 : 0) << " -D NB_TWO_LOBE=" << (twoLobe ? 1 : 0)
       << " -D NB_CHROMATIC=" << (chromatic ? 1 : 0) << " -D NB_GLOBAL_MAJORANT=" << (globalMajorant ? 1 : 0)
       << " -D NB_GEOM_HOLDOUTS=" << (holdouts ? 1 : 0) << " -D NB_GEOM_SHADOW_CASTERS=" << (shadowCasters ? 1 : 0)
-      << " -D NB_HOLDOUT_DEPTH=" << (holdoutDepth.empty() ? 0 : 1);
+      << " -D NB_HOLDOUT_DEPTH=" << (holdoutDepth.empty() ? 0 : 1) << " -D NB_HAS_VELOCITY=" << (velocity ? 1 : 0);
     return o.str();
 }
 

@@ -28,6 +28,7 @@ struct PathtraceScene {
     std::vector<NbLight> lights;  // the lights that can reach a volume
     std::vector<int> lightEntry;  // for each, its index in RenderContext::lights (AOV)
     bool emission = false;        // some volume has an emission grid
+    bool velocity = false;        // some volume moves over the shutter (velocity blur)
     bool twoLobe = false;         // some phase function has a second lobe
     bool chromatic = false;       // some medium's coefficients differ between channels
     uint32_t lightTypes = 0;      // bit NB_LIGHT_<TYPE> set for each type present

@@ -46,9 +46,11 @@ public:
     // writing out[i] (zeroed by the caller) and per-light L1 into perLight[3 lights i + 3 l + c]
     // (zeroed by the caller). tFar[i]: where a holdout stops ray i (docs/geometry.md: nothing at
     // or past it is marched, the ray sees no background), INFINITY where none; tFar null: no
-    // holdouts in the scene. Called concurrently from worker threads: const and re-entrant.
-    virtual void marchRays(int n, const float3* o, const float3* d, const float* tFar, NbRng* rng, CameraSample* out,
-                           float* perLight) const
+    // holdouts in the scene. time[i]: ray i's shutter fraction in [0, 1] (the camera's time
+    // sample), at which moving volumes are read (VolumeSet::sampleAt). Called concurrently from
+    // worker threads: const and re-entrant.
+    virtual void marchRays(int n, const float3* o, const float3* d, const float* tFar, const float* time, NbRng* rng,
+                           CameraSample* out, float* perLight) const
     {
         throw std::logic_error("marchRays called on a whole-image integrator");
     }

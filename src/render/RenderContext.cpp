@@ -58,6 +58,7 @@ std::unique_ptr<RenderContext> RenderContext::create(const Scene& scene, VolumeS
 std::unique_ptr<RenderContext> RenderContext::create(const Scene& scene, bool buildShadowMaps)
 {
     VolumeSet volumes(buildVolumes(scene), scene.render.step);
+    setShutterOf(volumes, scene);
     const RenderPlan plan = planScene(scene, volumes);
     auto ctx = create(scene, std::move(volumes), plan);
     if (buildShadowMaps) {

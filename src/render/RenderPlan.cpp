@@ -30,6 +30,14 @@ std::string RenderPlan::describe() const
         if (v.clampedVoxels)
             s << "; " << v.clampedVoxels << " bad voxel values clamped";
         s << "\n";
+        if (v.velocity) {
+            char buf[200];
+            std::snprintf(buf, sizeof buf,
+                          "      velocity blur: vel up to %.3g voxels/s; largest displacement %.3g voxels over the "
+                          "shutter%s\n",
+                          v.maxSpeed, v.maxDisplacement, v.maxDisplacement > 0.0f ? "" : " (closed or still: no blur)");
+            s << buf;
+        }
         if (wkb.enabled && wkb.l2plus) {
             s << "      L2+ light grid: " << v.lightGrid << " (" << v.lightVoxelFactor << " density voxels each), "
               << v.mipLevels << " mip levels, " << formatBytes(v.pyramidBytes) << "; ";

@@ -39,6 +39,11 @@ struct VolumePlan {
     float opticalDepthAcross = 0;       // max sigma_t * (bounding-box diagonal), an upper bound
     size_t clampedVoxels = 0;
     std::string bounds;
+    // Velocity motion blur (docs/motion-blur.md): the vel grid read, its largest speed (index
+    // voxels per second) and the largest displacement over the shutter (index voxels).
+    bool velocity = false;
+    float maxSpeed = 0;
+    float maxDisplacement = 0;
     // wkb light pyramid (docs/wkb.md "render plan"):
     bool l2plus = false;       // light channels built for this volume
     double l2plusBound = 0;    // bound on this volume's share of L2+, in units of E / (4 pi)

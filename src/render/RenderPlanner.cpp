@@ -73,6 +73,9 @@ RenderPlan planScene(const Scene& scene, const VolumeSet& volumes)
         vp.maxOpticalDepthPerVoxel = maxSigma * v->voxelSize;
         vp.opticalDepthAcross = maxSigma * length(v->worldBounds.extent());
         vp.clampedVoxels = v->clampedVoxels;
+        vp.velocity = v->hasVelocity();
+        vp.maxSpeed = v->maxSpeed;
+        vp.maxDisplacement = volumes.maxDisplacement(plan.volumes.size());
         char buf[160];
         std::snprintf(buf, sizeof buf, "[%.3g %.3g %.3g]-[%.3g %.3g %.3g] m", v->worldBounds.lo.x, v->worldBounds.lo.y,
                       v->worldBounds.lo.z, v->worldBounds.hi.x, v->worldBounds.hi.y, v->worldBounds.hi.z);

@@ -25,6 +25,10 @@ struct MediumSample {
     Rgb emission = splat(0.0f);  // W/(m^3 sr)
 };
 
+class VolumeSet;
+// VolumeSet::setShutter from the scene: camera.shutter (frames after the frame) / render.fps.
+void setShutterOf(VolumeSet& volumes, const Scene& scene);
+
 class VolumeSet {
 public:
     VolumeSet() = default;
@@ -48,6 +52,36 @@ public:
     // does not reach p), through which grids sharing its topology are read.
     MediumSample sample(float3 p, float* phaseWeights, BrickGrid::Stencil* stencils) const;
 
+    // ---- velocity motion blur (docs/motion-blur.md) ----
+    // The shutter [open, close] in seconds after the frame's time (camera.shutter / render.fps).
+    // The set then moves where some volume has a velocity grid and the shutter is open: at
+    // shutter time s the medium at world point p is each volume's at its index point
+    // q - v(q) s, q = p in that volume's index space (rho(x - v (t - t0)), the convention of
+    // Arnold, Karma, Cycles and RenderMan; exact for a uniform v, first order otherwise).
+    void setShutter(float openSeconds, float closeSeconds);
+    bool moving() const { return mMoving; }
+    // Seconds after the frame's time at shutter fraction u in [0, 1] (the camera's time sample).
+    float shutterSeconds(float u) const { return mShutterOpen + (mShutterClose - mShutterOpen) * u; }
+    // The largest displacement of volume i over the shutter, in its index voxels.
+    float maxDisplacement(size_t i) const { return i < mMaxDisplacement.size() ? mMaxDisplacement[i] : 0.0f; }
+    // What the moving set can reach over the whole shutter: each moving volume's occupied box
+    // grown by its largest displacement (and a voxel for the trilinear velocity read).
+    const Bbox& movingBounds() const { return mMoving ? mMovingBounds : mBounds; }
+    Bbox movingIndexBounds(size_t i) const;
+    // spans and sample at shutter time `seconds` (as above when the set does not move). A
+    // moving volume's span is its whole grown box: which bricks hold density depends on the time.
+    void spansAt(float seconds, float3 o, float3 d, float tmin, float tmax, float stepFraction,
+                 std::vector<Span>& out) const;
+    MediumSample sampleAt(float seconds, float3 p, float* phaseWeights = nullptr) const;
+    // The same with the stencils at each volume's moved index point, and `lightPoint`: the world
+    // point whose light this sample sees, p moved back with the volume that scatters most there
+    // (the light maps, baked transmittance, sky grids and light volumes are the frame's, so
+    // they are read where that volume's matter was at the frame's time).
+    MediumSample sampleAt(float seconds, float3 p, float* phaseWeights, BrickGrid::Stencil* stencils,
+                          float3* lightPoint) const;
+    // lightPoint alone.
+    float3 lightPointAt(float seconds, float3 p) const;
+
     // Optical depth (RGB) along the segment o + t d, t in [t0, t1], by midpoint marching at
     // `stepFraction` voxels over the non-empty spans. Used by shadow maps and shadow rays.
     Rgb opticalDepth(float3 o, float3 d, float t0, float t1, float stepFraction) const;
@@ -67,6 +101,14 @@ private:
         }
     };
     std::vector<Hot> mHot;
+    // Velocity motion blur: the shutter in seconds, per volume its largest displacement (index
+    // voxels), and the union of the grown boxes in world space.
+    bool mMoving = false;
+    float mShutterOpen = 0.0f, mShutterClose = 0.0f;
+    std::vector<float> mMaxDisplacement;
+    Bbox mMovingBounds;
+    // Volume i's index point at shutter time s: q - v(q) s.
+    float3 movedIndex(size_t i, float3 q, float seconds) const;
     std::vector<std::shared_ptr<VolumeData>> mVolumes;
     Bbox mBounds;
     bool mHasEmission = false;

@@ -86,6 +86,10 @@ struct Medium {
     float densityScale = 1.0f;
     NbPhase phase = {0.0f, 0.0f, 0.0f, 0.0f};  // HG g; two-lobe: g2 with weight blend
     float emissionScale = 1.0f;                // multiplies the shader's emission
+    // Velocity motion blur (docs/motion-blur.md): 0 leaves the `vel` grid unread; otherwise the
+    // grid, in world units per second, times this, moves the density and emission over the
+    // shutter: each camera sample at time t reads rho(x - v(x) velocityScale (t - t_frame)).
+    float velocityScale = 0.0f;
 };
 
 enum class SourceType { Vdb, Procedural, Plugin };
@@ -176,6 +180,9 @@ struct RenderSettings {
     uint32_t seed = 1;
     // The frame rendered: replaces the frame tokens ($F, $F4, ####) of every path (FrameTokens.h).
     int frame = 1;
+    // Frames per second of the shot: turns the shutter (in frames) into seconds for velocity
+    // motion blur (vel grids are in world units per second, as Houdini, Arnold and Karma write them).
+    float fps = 24.0f;
     int threads = 0;  // 0: all cores
     // Camera samples per pixel (single, wkb); path samples per pixel (pathtrace). 0: the method's
     // default, kDefaultMarchSpp for single and wkb, and for pathtrace no sample count (it renders

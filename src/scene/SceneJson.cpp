@@ -277,6 +277,7 @@ void visitRender(V& v, R& r)
     v.field("method", r.method);
     v.field("seed", r.seed);
     v.field("frame", r.frame);
+    v.field("fps", r.fps);
     v.field("threads", r.threads);
     v.field("spp", r.spp);
     v.field("pixel_filter", r.pixelFilter);
@@ -596,6 +597,7 @@ void visitMedium(V& v, M& m)
     v.rgb("sigma_a", m.sigma_a);
     v.field("density_scale", m.densityScale);
     v.field("emission_scale", m.emissionScale);
+    v.field("velocity_scale", m.velocityScale);
 }
 
 NbPhase readPhase(SceneReader r)

@@ -298,6 +298,8 @@ void checkMedium(const Checker& c, const Medium& m, const std::string& p)
                                         " 1/m at density 1 is beyond the " + num(kMaxExtinction) +
                                         " 1/m nimbus renders in float; lower density_scale, sigma_s or sigma_a");
     c.range(p + "emission_scale", m.emissionScale, kNonNegative);
+    // Any finite number: negative runs the motion backwards, as Arnold's velocity_scale does.
+    c.range(p + "velocity_scale", m.velocityScale, Range{-kInf, kInf, true, true, ""});
     c.range(p + "phase.g", m.phase.g, kAsymmetry);
     c.range(p + "phase.g2", m.phase.g2, kAsymmetry);
     c.range(p + "phase.blend", m.phase.blend, Range{0, 1, false, false, ""});
@@ -354,6 +356,7 @@ void checkRender(const Checker& c, const RenderSettings& r)
     c.range("render.shadow_step", r.shadowStep, Range{0, 100, true, false, "voxels"});
     c.atLeast("render.light_samples", r.lightSamples, 1);
     c.atLeast("render.max_depth", r.maxDepth, 0);
+    c.range("render.fps", r.fps, Range{0, kInf, true, true, "frames per second"});
     c.range("render.time_limit", r.timeLimit, Range{0, kInf, false, true, "seconds"});
     c.range("render.noise_target", r.noiseTarget, Range{0, 1, false, false, "relMSE"});
     if (isProgressive(r.method) && r.spp == 0 && r.noiseTarget == 0 && r.timeLimit == 0)

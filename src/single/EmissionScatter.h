@@ -22,7 +22,9 @@ namespace nimbus {
 // Emitted radiance arriving at x from direction u (travelling along -u), W/(m^2 sr): the integral
 // of T * emission along x + t u (eq. 26's source term), midpoint steps of `stepFraction` voxels, up
 // to the first shadow caster.
-Rgb emittedRadiance(const VolumeSet& vs, float3 x, float3 u, float stepFraction, const EmbreeScene* casters);
+// seconds: the shutter time at which moving volumes are read (VolumeSet::sampleAt).
+Rgb emittedRadiance(const VolumeSet& vs, float3 x, float3 u, float stepFraction, const EmbreeScene* casters,
+                    float seconds = 0.0f);
 
 class EmissionScatter {
 public:
@@ -30,8 +32,8 @@ public:
     // Whether the scene has emission to scatter (else add does nothing).
     bool active() const { return mActive; }
     // Adds emission's single scattering along o + s d, s in [0, tFar), to out.L1. Draws its numbers
-    // from rng.
-    void add(float3 o, float3 d, NbRng& rng, CameraSample& out, float tFar = INFINITY) const;
+    // from rng. seconds: the ray's shutter time (velocity blur, VolumeSet::sampleAt).
+    void add(float3 o, float3 d, NbRng& rng, CameraSample& out, float tFar = INFINITY, float seconds = 0.0f) const;
 
 private:
     const RenderContext* mCtx;

@@ -28,12 +28,12 @@ float expIntegral(float c, float dt)
 
 }  // namespace
 
-bool ScatterPointSampler::march(const RenderContext& ctx, float3 o, float3 d, float tFar, NbRng& rng)
+bool ScatterPointSampler::march(const RenderContext& ctx, float3 o, float3 d, float tFar, NbRng& rng, float seconds)
 {
     const VolumeSet& vs = ctx.volumes;
     mSteps.clear();
     mTotal = 0.0;
-    vs.spans(o, d, 0.0f, std::min(tFar, 1e30f), ctx.scene->render.step, mSpans);
+    vs.spansAt(seconds, o, d, 0.0f, std::min(tFar, 1e30f), ctx.scene->render.step, mSpans);
     if (mSpans.empty())
         return false;
     const float jitter = nbRngNext(&rng);
@@ -52,7 +52,7 @@ bool ScatterPointSampler::march(const RenderContext& ctx, float3 o, float3 d, fl
             if (unsigned(k) % kStopPollInterval == kStopPollInterval - 1 && ctx.stop.raised())
                 return false;
             const float t = span.t0 + float(k) * dt;
-            const MediumSample m = vs.sample(o + d * (t + jitter * dt));
+            const MediumSample m = vs.sampleAt(seconds, o + d * (t + jitter * dt));
             Step st;
             st.t = t;
             st.dt = dt;
@@ -115,10 +115,10 @@ std::vector<NbPhase> PhaseMix::phasesOf(const RenderContext& ctx)
     return phases;
 }
 
-bool PhaseMix::at(const VolumeSet& vs, float3 x)
+bool PhaseMix::at(const VolumeSet& vs, float3 x, float seconds)
 {
     mWeights.assign(mPhases->size(), 0.0f);
-    vs.sample(x, mWeights.data());
+    vs.sampleAt(seconds, x, mWeights.data());
     mTotal = 0.0f;
     for (float& w : mWeights) {
         w = std::max(w, 0.0f);

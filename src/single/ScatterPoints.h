@@ -29,7 +29,8 @@ class ScatterPointSampler {
 public:
     // Marches o + s d (d unit), s in [0, tFar); false if the ray meets no scattering medium or the
     // render was stopped. Draws one number from rng.
-    bool march(const RenderContext& ctx, float3 o, float3 d, float tFar, NbRng& rng);
+    // seconds: the ray's shutter time, at which moving volumes are read (VolumeSet::sampleAt).
+    bool march(const RenderContext& ctx, float3 o, float3 d, float tFar, NbRng& rng, float seconds = 0.0f);
     // Draw k of K (stratified), after a successful march.
     ScatterPoint draw(float3 o, float3 d, int k, int K, NbRng& rng) const;
 
@@ -54,7 +55,7 @@ public:
     void use(const std::vector<NbPhase>& phases) { mPhases = &phases; }
     // Reads the volumes' shares at x; false where no volume scatters there (then the first
     // volume's phase function stands in).
-    bool at(const VolumeSet& vs, float3 x);
+    bool at(const VolumeSet& vs, float3 x, float seconds = 0.0f);
     // p(cos theta), normalised over the sphere (1/sr).
     float eval(float cosTheta) const;
     // A direction whose cosine with `axis` has density eval (u0 picks the volume, then is reused).

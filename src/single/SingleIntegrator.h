@@ -8,6 +8,8 @@
 #include "EmissionScatter.h"
 #include "SingleScatter.h"
 
+#include <vector>
+
 namespace nimbus {
 
 // What single produces: L0 and L1, over deep shadow maps (engine registry).
@@ -25,13 +27,22 @@ public:
     explicit SingleIntegrator(const RenderContext& ctx) : mCtx(&ctx), mEmission(ctx) {}
 
     Drive drive() const override { return Drive::CameraRays; }
-    void marchRays(int n, const float3* o, const float3* d, const float* tFar, NbRng* rng, CameraSample* out,
-                   float* perLight) const override
+    void marchRays(int n, const float3* o, const float3* d, const float* tFar, const float* time, NbRng* rng,
+                   CameraSample* out, float* perLight) const override
     {
-        marchSingleRays(*mCtx, n, o, d, rng, out, perLight, tFar);
+        // Velocity blur: each ray's shutter fraction as seconds after the frame's time.
+        thread_local std::vector<float> seconds;
+        const bool moving = mCtx->volumes.moving() && time;
+        if (moving) {
+            seconds.resize(size_t(n));
+            for (int i = 0; i < n; ++i)
+                seconds[size_t(i)] = mCtx->volumes.shutterSeconds(time[i]);
+        }
+        marchSingleRays(*mCtx, n, o, d, rng, out, perLight, tFar, moving ? seconds.data() : nullptr);
         if (mEmission.active())
             for (int i = 0; i < n; ++i)
-                mEmission.add(o[i], d[i], rng[i], out[i], tFar ? tFar[i] : INFINITY);
+                mEmission.add(o[i], d[i], rng[i], out[i], tFar ? tFar[i] : INFINITY,
+                              moving ? seconds[size_t(i)] : 0.0f);
     }
 
 private:

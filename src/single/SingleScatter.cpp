@@ -543,7 +543,7 @@ bool marchSingleFast(const RenderContext& ctx, float3 o, float3 d, float jitter,
 // marchSingleGeneralReference) instead of one per span.
 [[gnu::noinline]] void marchSingleGeneral(const RenderContext& ctx, float3 o, float3 d, float jitter, Reach reach,
                                           NbRng& rng, CameraSample& out, float* perLight,
-                                          const float* latticeStart = nullptr)
+                                          const float* latticeStart = nullptr, float seconds = 0.0f)
 {
     const Scene& scene = *ctx.scene;
     const VolumeSet& vs = ctx.volumes;
@@ -596,7 +596,8 @@ bool marchSingleFast(const RenderContext& ctx, float3 o, float3 d, float jitter,
     thread_local std::vector<Rgb> skyTailTau;
     skyTailTau.assign(size_t(nSky) * nVolumes, splat(0.0f));
 
-    vs.spans(o, d, 0.0f, reach.tMax, scene.render.step, spanList);
+    // Velocity blur: the spans of the volumes as they move, and each step read at the ray's time.
+    vs.spansAt(seconds, o, d, 0.0f, reach.tMax, scene.render.step, spanList);
     const int lightSamples = std::max(1, scene.render.lightSamples);
     // Stop where every channel's transmittance is below the tolerance: what lies behind can
     // change the pixel by at most that fraction of the light it would send unattenuated
@@ -611,7 +612,7 @@ bool marchSingleFast(const RenderContext& ctx, float3 o, float3 d, float jitter,
     thread_local std::vector<StiffLight> stiffLights;
     thread_local std::vector<Rgb> stiffL1;
     stiffLights.clear();
-    bool stiffSteps = nVolumes == 1 && ctx.stiff[0].any && !volumes[0]->hasEmission();
+    bool stiffSteps = nVolumes == 1 && ctx.stiff[0].any && !volumes[0]->hasEmission() && !vs.moving();
     for (size_t i = 0; i < nLights && stiffSteps; ++i) {
         const LightEntry& e = ctx.lights[i];
         if (!e.used)
@@ -643,8 +644,10 @@ bool marchSingleFast(const RenderContext& ctx, float3 o, float3 d, float jitter,
             if (latticeStart && !(t < span.t1))
                 break;
             kNext = k + 1;
+            // p: where the step lies; with moving volumes the light it sees is read at
+            // lightPoint, where its matter was at the frame's time (VolumeSet::sampleAt).
             float3 p = o + d * t;
-            MediumSample m = vs.sample(p, phaseWeights.data(), stencils.data());
+            MediumSample m = vs.sampleAt(seconds, p, phaseWeights.data(), stencils.data(), &p);
             if (stiffSteps) {
                 if (const int ns = ctx.stiff[0].subStepsOf(stencils[0].brick)) {
                     const VolumeData& vol = *volumes[0];
@@ -769,7 +772,7 @@ bool marchSingleFast(const RenderContext& ctx, float3 o, float3 d, float jitter,
 bool missesEveryVolume(const RenderContext& ctx, float3 o, float3 d, Reach reach, CameraSample& out)
 {
     float tIn, tOut;
-    if (ctx.volumes.worldBounds().intersect(o, safeInverse(d), 0.0f, reach.tMax, tIn, tOut))
+    if (ctx.volumes.movingBounds().intersect(o, safeInverse(d), 0.0f, reach.tMax, tIn, tOut))
         return false;
     out.L0 += backgroundSeen(ctx, d, splat(1.0f), reach);
     out.transmittance = splat(1.0f);
@@ -780,12 +783,16 @@ bool missesEveryVolume(const RenderContext& ctx, float3 o, float3 d, Reach reach
 }  // namespace
 
 void marchSingle(const RenderContext& ctx, float3 o, float3 d, NbRng& rng, CameraSample& out, float* perLight,
-                 float tFar)
+                 float tFar, float seconds)
 {
     const float jitter = nbRngNext(&rng);
     const Reach reach = reachOf(tFar);
     if (missesEveryVolume(ctx, o, d, reach, out))
         return;
+    if (ctx.volumes.moving()) {  // velocity blur: only the general loop reads moving volumes
+        marchSingleGeneral(ctx, o, d, jitter, reach, rng, out, perLight, nullptr, seconds);
+        return;
+    }
     if (!marchSingleFast(ctx, o, d, jitter, reach, out, perLight))
         marchSingleGeneral(ctx, o, d, jitter, reach, rng, out, perLight);
 }
@@ -859,9 +866,15 @@ void marchSingleGeneralReference(const RenderContext& ctx, float3 o, float3 d, N
 }
 
 void marchSingleRays(const RenderContext& ctx, int n, const float3* o, const float3* d, NbRng* rng, CameraSample* out,
-                     float* perLight, const float* tFar)
+                     float* perLight, const float* tFar, const float* seconds)
 {
     const size_t stride = 3 * ctx.lights.size();
+    if (ctx.volumes.moving() && seconds) {
+        for (int i = 0; i < n; ++i)
+            marchSingle(ctx, o[i], d[i], rng[i], out[i], perLight + stride * size_t(i), tFar ? tFar[i] : INFINITY,
+                        seconds[i]);
+        return;
+    }
 #if NIMBUS_EIGHT_RAY_MARCH
     // A grey medium lit only by distant lights: eight rays at once (MarchEightRays.h).
     const LightEntry* lights[kMaxEightRayLights];

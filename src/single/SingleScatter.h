@@ -11,15 +11,17 @@ namespace nimbus {
 // Marches one camera ray o + t d (d unit). `rng` supplies the stratified jitter (sec. 4.1.1)
 // and light samples. perLight (3 * lights floats, zeroed by the caller) receives each light's
 // L1 contribution. tFar: where a holdout stops the ray (docs/geometry.md; the march takes no
-// sample at or past it and the ray sees no background), INFINITY for none.
+// sample at or past it and the ray sees no background), INFINITY for none. seconds: the ray's
+// shutter time after the frame's, at which moving volumes are read (VolumeSet::sampleAt).
 void marchSingle(const RenderContext& ctx, float3 o, float3 d, NbRng& rng, CameraSample& out, float* perLight,
-                 float tFar = INFINITY);
+                 float tFar = INFINITY, float seconds = 0.0f);
 
 // marchSingle for n rays at once (a row of a tile): the same samples, eight rays per step in
 // the common case where this build can (MarchEightRays.h). perLight holds n runs of 3 * lights
 // floats, zeroed by the caller. tFar: n holdout distances as for marchSingle, or null for none.
+// seconds: n shutter times as for marchSingle, or null (the frame's time).
 void marchSingleRays(const RenderContext& ctx, int n, const float3* o, const float3* d, NbRng* rng, CameraSample* out,
-                     float* perLight, const float* tFar = nullptr);
+                     float* perLight, const float* tFar = nullptr, const float* seconds = nullptr);
 
 // Test hooks, for tests/single/test_marcher_reference.cpp, which checks every specialised loop
 // against the general one ray by ray.

@@ -120,7 +120,9 @@ Vec3SGrid::Ptr asVectorGrid(const GridBase::Ptr& grid)
 // Opens the file and reads the role grids. Density is required; a role the scene names
 // explicitly must exist; a default name that is absent is skipped. allRoles: also read Cd and
 // vel (for a custom shader; the default shader reads density, temperature and flame only).
-RoleGrids readVdb(const VolumeSource& source, const std::string& path, bool allRoles, const Where& where)
+// velocity: the medium asks for velocity blur, so the vel role is required whatever the shader.
+RoleGrids readVdb(const VolumeSource& source, const std::string& path, bool allRoles, bool velocity,
+                  const Where& where)
 {
     const std::string fileKey = where.key(".source.file");
     std::error_code ec;
@@ -156,6 +158,8 @@ RoleGrids readVdb(const VolumeSource& source, const std::string& path, bool allR
         roles["temperature"] = "temperature";
     if (!roles.count("flame") && (has("flame") || has("heat")))
         roles["flame"] = has("flame") ? "flame" : "heat";
+    if (velocity && !roles.count("vel"))
+        roles["vel"] = "vel";
 
     auto keyOf = [&](const std::string& role) {
         bool heat = role == "flame" && source.grids.count("heat") && !source.grids.count("flame");
@@ -170,7 +174,7 @@ RoleGrids readVdb(const VolumeSource& source, const std::string& path, bool allR
     for (const std::string role : {"density", "temperature", "flame", "Cd", "vel"}) {
         auto it = roles.find(role);
         bool vector = role == "Cd" || role == "vel";
-        if (it == roles.end() || (vector && !allRoles))
+        if (it == roles.end() || (vector && !allRoles && !(role == "vel" && velocity)))
             continue;
         const std::string& name = it->second;
         const std::string key = keyOf(role);
@@ -215,6 +219,48 @@ typename GridT::Ptr resampleTo(const typename GridT::Ptr& grid, const openvdb::m
     out->setName(grid->getName());
     openvdb::tools::resampleToMatch<openvdb::tools::BoxSampler>(*grid, *out);
     return out;
+}
+
+// ---- velocity ----------------------------------------------------------------------------------
+
+// NaN and infinite velocities become 0 (counted in the volume's one warning); negative ones are
+// kept, unlike the fog grids' values.
+ClampCount clampVelocity(Vec3SGrid& grid)
+{
+    ClampCount c;
+    for (auto it = grid.beginValueOn(); it; ++it) {
+        const openvdb::Vec3s v = *it;
+        bool nan = false, inf = false;
+        for (int i = 0; i < 3; ++i)
+            nan |= std::isnan(v[i]), inf |= std::isinf(v[i]);
+        if (nan || inf) {
+            (nan ? c.nan : c.infinite) += 1;
+            it.setValue(openvdb::Vec3s(0.0f));
+        }
+    }
+    return c;
+}
+
+// VolumeData::velocity from the vel grid (already on the density's voxels): the file's world
+// units per second are the grid's world space, which the volume's transform then places, so in
+// the density's index space a velocity is indexFromFile's linear part times v (the volume's
+// transform cancels: it moves the grid and its velocities alike).
+void buildVelocity(VolumeData& data, const Vec3SGrid& vel, const Transform& fileFromIndex, float scale,
+                   const std::string& key)
+{
+    const Transform indexFromFile = fileFromIndex.inverse();
+    Vec3SGrid::Ptr index = vel.deepCopy();
+    float maxSpeed = 0.0f;
+    for (auto it = index->beginValueOn(); it; ++it) {
+        const openvdb::Vec3s v = *it;
+        const float3 vi = indexFromFile.vector(make_float3(v[0], v[1], v[2])) * scale;
+        maxSpeed = std::max(maxSpeed, length(vi));
+        it.setValue(openvdb::Vec3s(vi.x, vi.y, vi.z));
+    }
+    if (!std::isfinite(maxSpeed))
+        throw InputError(key + ": velocities times velocity_scale overflow float");
+    data.velocity = toBricks(*index, 3, key);
+    data.maxSpeed = maxSpeed;
 }
 
 // ---- one volume --------------------------------------------------------------------------------
@@ -269,9 +315,14 @@ std::shared_ptr<VolumeData> buildVolume(const Scene& scene, size_t index, const 
     // Role grids: density first, then what the shader may read.
     std::vector<std::pair<std::string, GridBase::Ptr>> grids;
     bool hasEmissionInputs = false;
+    const bool velocity = volume.medium.velocityScale != 0.0f;
+    if (velocity && volume.source.type != SourceType::Vdb)
+        throw InputError(where.key(".medium.velocity_scale") + ": velocity motion blur reads a `vel` grid, and a " +
+                         (volume.source.type == SourceType::Procedural ? "procedural" : "plugin") +
+                         " source has none; use a vdb source with a vel grid, or leave velocity_scale at 0");
     if (volume.source.type == SourceType::Vdb) {
         const std::string path = resolveVdbPath(volume.source.file, sceneDir);
-        RoleGrids read = readVdb(volume.source, path, !shaderFile.isDefault, where);
+        RoleGrids read = readVdb(volume.source, path, !shaderFile.isDefault, velocity, where);
         for (auto& [role, grid] : read.grids)
             hasEmissionInputs |= role == "temperature" || role == "flame";
         grids = std::move(read.grids);
@@ -287,7 +338,9 @@ std::shared_ptr<VolumeData> buildVolume(const Scene& scene, size_t index, const 
     // NaN; then what the shader produced.
     ClampReport clamped;
     for (auto& [role, grid] : grids) {
-        if (auto f = openvdb::gridPtrCast<FloatGrid>(grid))
+        if (role == "vel")  // a velocity is signed: only NaN and inf are bad (clampVelocity)
+            clamped.add(role, clampVelocity(*openvdb::gridPtrCast<Vec3SGrid>(grid)));
+        else if (auto f = openvdb::gridPtrCast<FloatGrid>(grid))
             clamped.add(role, clampGrid(*f));
         else if (auto v = openvdb::gridPtrCast<Vec3SGrid>(grid))
             clamped.add(role, clampGrid(*v));
@@ -354,6 +407,10 @@ std::shared_ptr<VolumeData> buildVolume(const Scene& scene, size_t index, const 
     Bbox active = data->density.activeIndexBounds();
     active.expand(data->emission.activeIndexBounds());
     data->worldBounds = data->worldFromIndex.box(active);
+    for (auto& [role, grid] : grids)
+        if (role == "vel")
+            buildVelocity(*data, *openvdb::gridPtrCast<Vec3SGrid>(grid), fromVdb(density->transform()),
+                          volume.medium.velocityScale, where.key(".source.grids.vel"));
     return data;
 }
 

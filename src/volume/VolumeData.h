@@ -19,6 +19,11 @@ struct VolumeData {
     // Emitted radiance per metre, W/(m^3 sr) RGB (3 channels), times medium.emissionScale.
     // Empty when the volume has no emission grid: then emission code does not run.
     BrickGrid emission;
+    // Velocity motion blur (docs/motion-blur.md): the `vel` grid on the density's index lattice,
+    // in index voxels per second, medium.velocityScale folded in (3 channels). Empty unless the
+    // medium asks for velocity blur; zero where the file's vel grid has no active voxels.
+    BrickGrid velocity;
+    float maxSpeed = 0.0f;  // the largest |velocity| over its voxels, index voxels per second
     Transform worldFromIndex;  // the volume's "transform" after the grid's index-to-world
     Transform indexFromWorld;
     Bbox worldBounds;        // bound of the active bricks in world space
@@ -30,6 +35,7 @@ struct VolumeData {
     Rgb sigmaT() const { return (medium.sigma_s + medium.sigma_a) * medium.densityScale; }
     Rgb sigmaS() const { return medium.sigma_s * medium.densityScale; }
     bool hasEmission() const { return !emission.empty(); }
+    bool hasVelocity() const { return !velocity.empty(); }
 };
 
 class VolumeShader;

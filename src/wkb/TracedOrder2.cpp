@@ -18,20 +18,21 @@ TracedOrder2::TracedOrder2(const RenderContext& ctx)
     }
 }
 
-void TracedOrder2::add(float3 o, float3 d, NbRng& rng, CameraSample& out, float* perLight, float tFar) const
+void TracedOrder2::add(float3 o, float3 d, NbRng& rng, CameraSample& out, float* perLight, float tFar,
+                       float seconds) const
 {
     const RenderContext& ctx = *mCtx;
     thread_local ScatterPointSampler points;
-    if (!points.march(ctx, o, d, tFar, rng))
+    if (!points.march(ctx, o, d, tFar, rng, seconds))
         return;
     thread_local PhaseMix phase;
     phase.use(mPhases);
     for (int k = 0; k < mSamples && !ctx.stop.raised(); ++k)
-        sample(points.draw(o, d, k, mSamples, rng), d, phase, rng, out, perLight);
+        sample(points.draw(o, d, k, mSamples, rng), d, phase, rng, out, perLight, seconds);
 }
 
 void TracedOrder2::sample(const ScatterPoint& p, float3 d, PhaseMix& phase, NbRng& rng, CameraSample& out,
-                          float* perLight) const
+                          float* perLight, float seconds) const
 {
     const RenderContext& ctx = *mCtx;
     thread_local std::vector<float> secondaryPerLight;
@@ -40,7 +41,7 @@ void TracedOrder2::sample(const ScatterPoint& p, float3 d, PhaseMix& phase, NbRn
 
     // The direction w': one-sample MIS over the phase lobe about d and a lobe about the direction
     // toward each light, all shaped by the phase function at x.
-    phase.at(ctx.volumes, x);
+    phase.at(ctx.volumes, x, seconds);
     axes.clear();
     axes.push_back(d);
     for (int li : mLobeLights) {
@@ -69,7 +70,7 @@ void TracedOrder2::sample(const ScatterPoint& p, float3 d, PhaseMix& phase, NbRn
     const size_t stride = 3 * ctx.lights.size();
     secondaryPerLight.assign(stride, 0.0f);
     CameraSample secondary;
-    marchSingle(ctx, x, w, rng, secondary, secondaryPerLight.data(), tSecondary);
+    marchSingle(ctx, x, w, rng, secondary, secondaryPerLight.data(), tSecondary, seconds);
     const Rgb L1 = secondary.L1;
     if (!std::isfinite(L1.x + L1.y + L1.z))
         return;

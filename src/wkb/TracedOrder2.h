@@ -33,12 +33,14 @@ public:
 
     // Adds the mean of render.wkb_order2_samples samples of order 2 along o + s d, s in [0, tFar),
     // to out.L2plus and each light's part to perLight[3 i + c]. Draws its numbers from rng.
-    void add(float3 o, float3 d, NbRng& rng, CameraSample& out, float* perLight, float tFar = INFINITY) const;
+    // seconds: the ray's shutter time, at which moving volumes are read (VolumeSet::sampleAt).
+    void add(float3 o, float3 d, NbRng& rng, CameraSample& out, float* perLight, float tFar = INFINITY,
+             float seconds = 0.0f) const;
 
 private:
     // One of mSamples draws at the traced point p (d the camera ray's direction).
-    void sample(const ScatterPoint& p, float3 d, PhaseMix& phase, NbRng& rng, CameraSample& out,
-                float* perLight) const;
+    void sample(const ScatterPoint& p, float3 d, PhaseMix& phase, NbRng& rng, CameraSample& out, float* perLight,
+                float seconds) const;
 
     const RenderContext* mCtx;
     int mSamples = 1;              // per camera ray, sharing one march

@@ -82,6 +82,7 @@ struct WkbIntegrator::Scratch {
     bool hasPending = false;
     double muLast = kMuMax;
     double sEntry = -1.0;
+    float seconds = 0.0f;  // the ray's shutter time (velocity blur)
 };
 
 WkbIntegrator::WkbIntegrator(const RenderContext& ctx, const RenderPlan& plan, RenderStats& stats) : mCtx(&ctx)
@@ -110,16 +111,18 @@ WkbIntegrator::WkbIntegrator(const RenderContext& ctx, const RenderPlan& plan, R
             mMaxShOrder = std::max(mMaxShOrder, sp.order);
 }
 
-void WkbIntegrator::marchRays(int n, const float3* o, const float3* d, const float* tFar, NbRng* rng,
-                              CameraSample* out, float* perLight) const
+void WkbIntegrator::marchRays(int n, const float3* o, const float3* d, const float* tFar, const float* time,
+                              NbRng* rng, CameraSample* out, float* perLight) const
 {
     const size_t stride = 3 * mCtx->lights.size();
+    const VolumeSet& vs = mCtx->volumes;
     for (int i = 0; i < n; ++i) {
         float* pl = perLight + stride * size_t(i);
         const float t = tFar ? tFar[i] : INFINITY;
-        marchSingle(*mCtx, o[i], d[i], rng[i], out[i], pl, t);
-        mEmission->add(o[i], d[i], rng[i], out[i], t);  // single's L1 of emission, the same draws
-        march(o[i], d[i], rng[i], out[i], pl, t);
+        const float seconds = vs.moving() && time ? vs.shutterSeconds(time[i]) : 0.0f;  // velocity blur
+        marchSingle(*mCtx, o[i], d[i], rng[i], out[i], pl, t, seconds);
+        mEmission->add(o[i], d[i], rng[i], out[i], t, seconds);  // single's L1 of emission, the same draws
+        march(o[i], d[i], rng[i], out[i], pl, t, seconds);
     }
 }
 
@@ -159,7 +162,7 @@ bool WkbIntegrator::nextPiece(Cursor& cur, Scratch& sc, float3 o, float3 d, doub
             }
             if (end <= s + eps)
                 continue;
-            MediumSample m = vs.sample(o + d * float(a + cur.jitter * cur.fineDt), sc.phaseWeights.data());
+            MediumSample m = vs.sampleAt(sc.seconds, o + d * float(a + cur.jitter * cur.fineDt), sc.phaseWeights.data());
             p.len = end - s;
             const Rgb sa = fmax(m.sigma_t - m.sigma_s, splat(0.0f));
             p.b[0] = m.sigma_s.x, p.b[1] = m.sigma_s.y, p.b[2] = m.sigma_s.z;
@@ -173,7 +176,8 @@ bool WkbIntegrator::nextPiece(Cursor& cur, Scratch& sc, float3 o, float3 d, doub
         // integral of b along the stretch. (Reading it at the source's blur instead would average
         // the density over a ball as wide as the blur, and in a ball-shaped cloud lose half its l.)
         p.len = std::min(maxLen, t1 - s);
-        const float3 x = o + d * float(s + 0.5 * p.len);
+        // Moving volumes: the pyramid is the frame's, read where the matter was then.
+        const float3 x = vs.lightPointAt(sc.seconds, o + d * float(s + 0.5 * p.len));
         const float sigmaStretch = float(p.len * 0.28867513459481287);
         for (size_t v = 0; v < mSetup.volumes.size(); ++v) {
             const VolumeSetup& vsu = mSetup.volumes[v];
@@ -330,7 +334,8 @@ void WkbIntegrator::evaluateNode(Scratch& sc, float3 o, float3 d, const TableEnt
     in.g = p1;
     in.blurK = mSetup.blurK;
     const SourceRead src = placeSource(mModel, in);
-    const float3 x = o + d * float(src.s);
+    // Moving volumes: the light volumes are the frame's, read where the matter was then.
+    const float3 x = mCtx->volumes.lightPointAt(sc.seconds, o + d * float(src.s));
     float* ch = sc.channels.data();
     const bool blurred = readSources(x, src.sigma, ch);
     // Below the light grid's own resolution, delta sources read L0 itself: E(x) from the deep
@@ -389,17 +394,19 @@ void WkbIntegrator::evaluateNode(Scratch& sc, float3 o, float3 d, const TableEnt
     }
 }
 
-void WkbIntegrator::march(float3 o, float3 d, NbRng& rng, CameraSample& out, float* perLight, float tFar) const
+void WkbIntegrator::march(float3 o, float3 d, NbRng& rng, CameraSample& out, float* perLight, float tFar,
+                          float seconds) const
 {
     if (!mSetup.active)
         return;
     if (mOrder2)
-        mOrder2->add(o, d, rng, out, perLight, tFar);
+        mOrder2->add(o, d, rng, out, perLight, tFar, seconds);
     thread_local Scratch sc;
+    sc.seconds = seconds;
     const VolumeSet& vs = mCtx->volumes;
     const size_t nv = vs.volumes().size();
     const float jitter = nbRngNext(&rng);
-    vs.spans(o, d, 0.0f, std::min(tFar, 1e30f), mCtx->scene->render.step, sc.spans);
+    vs.spansAt(seconds, o, d, 0.0f, std::min(tFar, 1e30f), mCtx->scene->render.step, sc.spans);
     if (sc.spans.empty())
         return;
     sc.phaseWeights.assign(nv, 0.0f);

@@ -37,7 +37,8 @@ public:
 
     Drive drive() const override { return Drive::CameraRays; }
     // L0 + L1 by marchSingle, then L2+ by march, ray by ray on one random stream each.
-    void marchRays(int n, const float3* o, const float3* d, const float* tFar, NbRng* rng, CameraSample* out,
+    void marchRays(int n, const float3* o, const float3* d, const float* tFar, const float* time, NbRng* rng,
+                   CameraSample* out,
                    float* perLight) const override;
     // Tiles that see no brick are marched too: L2+ keeps its own per-ray path there.
     bool skipsEmptyTiles() const override { return false; }
@@ -50,7 +51,9 @@ public:
     // to perLight[3 i + c] (emission's part goes to L2plus only): the l-march, and with
     // setup().tracedOrder2 the lights' order 2 by TracedOrder2. Draws its numbers from rng.
     // tFar: where a holdout stops the ray (the l-march ends there), INFINITY for none.
-    void march(float3 o, float3 d, NbRng& rng, CameraSample& out, float* perLight, float tFar = INFINITY) const;
+    // seconds: the ray's shutter time, at which moving volumes are read (VolumeSet::sampleAt).
+    void march(float3 o, float3 d, NbRng& rng, CameraSample& out, float* perLight, float tFar = INFINITY,
+               float seconds = 0.0f) const;
 
 private:
     // A stretch of the ray with constant coefficients (one medium sample).

@@ -155,6 +155,8 @@ def keys():
     m = "volumes[0].medium."
     for key in ("sigma_s", "sigma_a", "density_scale", "emission_scale"):
         k.append(Key(f"volumes.medium.{key}", m + key, "scalar", 0, None))
+    # Any finite value; non-zero on this procedural source is refused naming the key (no vel grid).
+    k.append(Key("volumes.medium.velocity_scale", m + "velocity_scale", "scalar", None, None))
     for key in ("g", "g2"):
         k.append(Key(f"volumes.medium.phase.{key}", m + "phase." + key, "scalar", -0.999, 0.999,
                      setup=lambda s: s["volumes"][0]["medium"].update(phase={"type": "hg2", "g": 0.3, "g2": -0.2,
@@ -205,7 +207,8 @@ def keys():
             ("wkb_order2_samples", 1, 1024, False, False, True), ("wkb_blur_k", 0, 1000, True, False, False),
             ("wkb_l_step", 0, 10, True, False, False), ("wkb_order_max", 0, 4096, False, False, True),
             ("wkb_sh_order_max", 0, 8, False, False, True), ("light_volume_resolution", 4, 4096, False, False, True),
-            ("wkb_memory_budget", 0, 100, True, False, False), ("frame", -2147483648, 2147483647, False, False, True)]
+            ("wkb_memory_budget", 0, 100, True, False, False), ("frame", -2147483648, 2147483647, False, False, True),
+            ("fps", 0, None, True, False, False)]
     for key, lo, hi, lo_open, hi_open, integer in rows:
         methods = ("wkb",) if key.startswith("wkb_") or key == "light_volume_resolution" else ("single", "wkb")
         if key == "spp":
