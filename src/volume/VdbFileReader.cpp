@@ -6,7 +6,9 @@
 
 #include <openvdb/io/File.h>
 #include <openvdb/io/io.h>
+#include <openvdb/util/logging.h>
 
+#include <mutex>
 #include <stdexcept>
 
 namespace nimbus {
@@ -20,6 +22,36 @@ std::string bytes(uint64_t n)
 {
     return std::to_string(n) + " bytes";
 }
+
+// OpenVDB logs warnings of its own while it reads a damaged tree ("multi-buffer trees are no
+// longer supported"), a second stderr line beside nimbus's one error line: while any reader
+// reads a grid, OpenVDB's log shows errors only. The level is process-wide, so readers on
+// several threads share one count and the last one out restores it.
+class QuietOpenVdbLog {
+public:
+    QuietOpenVdbLog()
+    {
+        std::lock_guard<std::mutex> lock(sMutex);
+        if (sCount++ == 0) {
+            sSaved = openvdb::logging::getLevel();
+            if (sSaved < openvdb::logging::Level::Error)
+                openvdb::logging::setLevel(openvdb::logging::Level::Error);
+        }
+    }
+    ~QuietOpenVdbLog()
+    {
+        std::lock_guard<std::mutex> lock(sMutex);
+        if (--sCount == 0)
+            openvdb::logging::setLevel(sSaved);
+    }
+    QuietOpenVdbLog(const QuietOpenVdbLog&) = delete;
+    QuietOpenVdbLog& operator=(const QuietOpenVdbLog&) = delete;
+
+private:
+    static inline std::mutex sMutex;
+    static inline int sCount = 0;
+    static inline openvdb::logging::Level sSaved = openvdb::logging::Level::Warn;
+};
 
 }  // namespace
 
@@ -167,6 +199,7 @@ openvdb::GridBase::Ptr VdbFileReader::readGrid(const openvdb::io::GridDescriptor
         throw std::runtime_error("grid '" + gd.gridName() + "' has the unknown type '" + gd.gridType() + "'");
     openvdb::GridBase::Ptr grid = openvdb::GridBase::createGrid(gd.gridType());
     grid->setSaveFloatAsHalf(gd.saveFloatAsHalf());
+    QuietOpenVdbLog quiet;
     try {
         checkLengths(uint64_t(gd.getGridPos()), uint64_t(gd.getBlockPos()), &gd);
         gd.seekToGrid(mStream);
