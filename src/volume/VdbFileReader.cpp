@@ -6,9 +6,7 @@
 
 #include <openvdb/io/File.h>
 #include <openvdb/io/io.h>
-#include <openvdb/util/logging.h>
 
-#include <mutex>
 #include <stdexcept>
 
 namespace nimbus {
@@ -23,35 +21,6 @@ std::string bytes(uint64_t n)
     return std::to_string(n) + " bytes";
 }
 
-// OpenVDB logs warnings of its own while it reads a damaged tree ("multi-buffer trees are no
-// longer supported"), a second stderr line beside nimbus's one error line: while any reader
-// reads a grid, OpenVDB's log shows errors only. The level is process-wide, so readers on
-// several threads share one count and the last one out restores it.
-class QuietOpenVdbLog {
-public:
-    QuietOpenVdbLog()
-    {
-        std::lock_guard<std::mutex> lock(sMutex);
-        if (sCount++ == 0) {
-            sSaved = openvdb::logging::getLevel();
-            if (sSaved < openvdb::logging::Level::Error)
-                openvdb::logging::setLevel(openvdb::logging::Level::Error);
-        }
-    }
-    ~QuietOpenVdbLog()
-    {
-        std::lock_guard<std::mutex> lock(sMutex);
-        if (--sCount == 0)
-            openvdb::logging::setLevel(sSaved);
-    }
-    QuietOpenVdbLog(const QuietOpenVdbLog&) = delete;
-    QuietOpenVdbLog& operator=(const QuietOpenVdbLog&) = delete;
-
-private:
-    static inline std::mutex sMutex;
-    static inline int sCount = 0;
-    static inline openvdb::logging::Level sSaved = openvdb::logging::Level::Warn;
-};
 
 }  // namespace
 
@@ -199,9 +168,23 @@ openvdb::GridBase::Ptr VdbFileReader::readGrid(const openvdb::io::GridDescriptor
         throw std::runtime_error("grid '" + gd.gridName() + "' has the unknown type '" + gd.gridType() + "'");
     openvdb::GridBase::Ptr grid = openvdb::GridBase::createGrid(gd.gridType());
     grid->setSaveFloatAsHalf(gd.saveFloatAsHalf());
-    QuietOpenVdbLog quiet;
     try {
         checkLengths(uint64_t(gd.getGridPos()), uint64_t(gd.getBlockPos()), &gd);
+        if (!gd.isInstance()) {
+            // The tree's first word is its buffer count, 1 since OpenVDB 3; for any other value
+            // OpenVDB prints a warning of its own to std::cerr (a second line beside nimbus's
+            // error) and reads on. Read the metadata and transform to find it, then start over.
+            gd.seekToGrid(mStream);
+            openvdb::GridBase::Ptr probe = openvdb::GridBase::createGrid(gd.gridType());
+            readGridCompression(mStream);
+            probe->readMeta(mStream);
+            probe->readTransform(mStream);
+            int32_t buffers = 0;
+            mStream.read(reinterpret_cast<char*>(&buffers), sizeof buffers);
+            if (buffers != 1)
+                throw std::runtime_error("grid '" + gd.gridName() + "' claims " + std::to_string(buffers) +
+                                         " buffers per node, not 1 (damaged)");
+        }
         gd.seekToGrid(mStream);
         Archive::readGrid(grid, gd, mStream);
     } catch (const std::ios_base::failure&) {
