@@ -2,7 +2,8 @@
 // structure stores per element (the structures' own memoryBytes() once built):
 // - film: pixels x the AOVs' channels x 4 bytes (FilmLayout.h decides the AOVs);
 // - deep film: per pixel a vector header and at most output.deep_samples samples (an upper bound);
-// - deep shadow maps: per face, resolution^2 texels x kShadowMapTexelBytes (compressed vertices
+// - deep shadow maps: per face, resolution^2 texels (an orthographic map's resolution capped as
+//   ShadowMapProjection.cpp caps it) x kShadowMapTexelBytes (compressed vertices
 //   and offsets, DeepShadowMap.h) plus the bake on the voxels, one float per density voxel
 //   (LightCache.h: the density grids' brick pool again);
 // - sky grids: per volume n^3 nodes x 3 (J+1)^2 floats, n = light_volume_resolution or 32 and J
@@ -20,6 +21,7 @@
 
 #include "../render/DeepFilm.h"
 #include "../render/FilmLayout.h"
+#include "../render/RenderContext.h"
 #include "../scene/SceneValidate.h"
 
 #include "../core/FormatBytes.h"
@@ -119,7 +121,7 @@ size_t defaultMemoryLimit()
     return size_t(0.8 * double(physical));
 }
 
-MemoryPlan estimateMemory(const Scene& scene, const RenderPlan& plan)
+MemoryPlan estimateMemory(const Scene& scene, const RenderContext& ctx, const RenderPlan& plan)
 {
     const RenderSettings& r = scene.render;
     const IntegratorEntry& entry = integratorEntry(r.method);
@@ -149,7 +151,18 @@ MemoryPlan estimateMemory(const Scene& scene, const RenderPlan& plan)
                 continue;
             if (l.shadowMap) {
                 const size_t faces = l.projection == "cube" ? 6 : 1;
-                maps += faces * size_t(l.resolution) * size_t(l.resolution) * kShadowMapTexelBytes;
+                size_t res = size_t(l.resolution);
+                if (l.projection == "orthographic") {
+                    // ShadowMapProjection.cpp caps an orthographic map at 0.75 of the finest voxel
+                    // across its footprint, at most the bounds' diagonal.
+                    const Bbox& b = ctx.volumes.worldBounds();
+                    const float3 e = b.hi - b.lo;
+                    const double diagonal = std::sqrt(double(e.x) * e.x + double(e.y) * e.y + double(e.z) * e.z);
+                    const double cap = std::ceil(diagonal / (0.75 * double(ctx.volumes.minVoxelSize())));
+                    if (cap < double(res))
+                        res = std::max<size_t>(8, size_t(cap));
+                }
+                maps += faces * res * res * kShadowMapTexelBytes;
                 bakes += densityBytes;
             }
             if (l.skyGrid)

@@ -17,6 +17,8 @@
 
 namespace nimbus {
 
+struct RenderContext;
+
 // Bytes resident now, and the most resident so far (Linux).
 size_t residentBytes();
 size_t peakResidentBytesSoFar();
@@ -24,7 +26,7 @@ size_t peakResidentBytesSoFar();
 size_t defaultMemoryLimit();
 
 // The estimate for the render the planning pass prepared (plan complete but for `memory`).
-MemoryPlan estimateMemory(const Scene& scene, const RenderPlan& plan);
+MemoryPlan estimateMemory(const Scene& scene, const RenderContext& ctx, const RenderPlan& plan);
 
 // Throws the scene's InputError on render.memory_limit when the estimate exceeds the limit.
 void checkMemoryLimit(const Scene& scene, const MemoryPlan& memory);

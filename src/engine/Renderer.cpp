@@ -133,7 +133,7 @@ Planned planPass(const Scene& scene, const IntegratorEntry& entry, RenderStats& 
     if (entry.plan)
         entry.plan(*p.context, p.plan);
     // Everything above is resident now; what follows is estimated before it is allocated.
-    p.plan.memory = estimateMemory(scene, p.plan);
+    p.plan.memory = estimateMemory(scene, *p.context, p.plan);
     return p;
 }
 

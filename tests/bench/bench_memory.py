@@ -7,7 +7,7 @@ table for docs/benchmarks.md "Memory".
 
     /usr/bin/python3 tests/bench/bench_memory.py build/bin/nimbus [--quick]
 
---quick: the default scene's three methods only.
+--quick: the default scene's three methods only. --from N: the cases from the N-th (0-based) on.
 """
 import os
 import re
@@ -23,10 +23,12 @@ CASES = [
     ("default scene 640x360", "pathtrace", ["render.spp=16"]),
     ("default scene 1920x1080", "single", ["camera.resolution=[1920,1080]"]),
     ("default scene 1920x1080", "pathtrace", ["camera.resolution=[1920,1080]", "render.spp=2"]),
-    ("cloud at voxel 0.0125 m (15x the bricks)", "single", ["volumes[0].source.voxel_size=0.0125"]),
-    ("cloud at voxel 0.0125 m (15x the bricks)", "wkb", ["volumes[0].source.voxel_size=0.0125"]),
-    ("cloud at voxel 0.0125 m, shadow maps 2048^2", "single",
-     ["volumes[0].source.voxel_size=0.0125", "render.shadow_map_resolution=2048"]),
+    ("default scene 320x180, shadow maps up to 2048^2", "single",
+     ["camera.resolution=[320,180]", "render.shadow_map_resolution=2048"]),
+    ("cloud at voxel 0.02 m (3.8x the bricks) 320x180", "single",
+     ["camera.resolution=[320,180]", "volumes[0].source.voxel_size=0.02"]),
+    ("cloud at voxel 0.02 m (3.8x the bricks) 320x180", "wkb",
+     ["camera.resolution=[320,180]", "volumes[0].source.voxel_size=0.02"]),
 ]
 
 
@@ -37,6 +39,8 @@ def mib(b):
 def main():
     nimbus = os.path.abspath(sys.argv[1])
     cases = CASES[:3] if "--quick" in sys.argv else CASES
+    if "--from" in sys.argv:
+        cases = cases[int(sys.argv[sys.argv.index("--from") + 1]):]
     rows = []
     with tempfile.TemporaryDirectory() as d:
         for name, method, sets in cases:
