@@ -132,6 +132,35 @@ json.dump({'volumes': [{'source': {'type': 'vdb', 'file': p}}], 'output': {'file
           open(sys.argv[1] + '/t.json', 'w'))" "$WORK"
     report "$FUNCNAME" "exit 2, 1 line(s)" "$(outcome render "$WORK/t.json")"
 }
+# Random bytes after the first CUT bytes of a valid 66 KB VDB: exit 2 naming the file, and the
+# peak resident memory (ulimit -v 4 GiB as a net) under 512 MiB.
+check_vdb_garbage() {
+    $PY -c "
+import pyopenvdb as vdb, random, sys
+g = vdb.FloatGrid(); g.name = 'density'; g.transform = vdb.createLinearTransform(voxelSize=0.1)
+a = g.getAccessor(); r = random.Random(1)
+for i in range(24 ** 3):
+    a.setValueOn((i % 24, i // 24 % 24, i // 576), r.random())
+vdb.write(sys.argv[1] + '/good.vdb', grids=[g])
+data = open(sys.argv[1] + '/good.vdb', 'rb').read()
+for cut in (300, 400, 500, 600):
+    r = random.Random(cut)
+    open(sys.argv[1] + '/bad%d.vdb' % cut, 'wb').write(data[:cut] + bytes(r.randrange(256) for _ in range(len(data) - cut)))
+" "$WORK"
+    for cut in 300 400 500 600; do
+        local rss
+        rss=$( (ulimit -v 4194304; /usr/bin/time -f %M timeout 60 "$NIMBUS" info --default \
+            --set "volumes[0].source={\"type\":\"vdb\",\"file\":\"$WORK/bad$cut.vdb\"}" >/dev/null 2>"$WORK/err.$cut"; echo "code $?" >>"$WORK/err.$cut") 2>&1)
+        local code lines
+        code=$(sed -n 's/^code //p' "$WORK/err.$cut")
+        lines=$(grep -v '^code ' "$WORK/err.$cut" | grep -c "bad$cut.vdb")
+        report "${FUNCNAME}_$cut" "exit 2, 1 line(s), < 512 MiB" "exit $code, $lines line(s), $([ "${rss:-0}" -lt 524288 ] && echo '< 512 MiB' || echo "${rss} KiB")"
+    done
+}
+check_memory_limit() {
+    rm -f "$WORK/m.exr"
+    report "$FUNCNAME" "exit 2, 1 line(s), no file" "$(outcome render --default "${SMALL[@]}" --set render.memory_limit=1e6 -o "$WORK/m.exr"), $([ -e "$WORK/m.exr" ] && echo file || echo no file)"
+}
 check_half_overflow() {
     "$NIMBUS" render -q --default "${SMALL[@]}" --set 'lights[0].irradiance=[1e9,1e9,1e9]' -o "$WORK/h.exr" 2>"$WORK/err"
     local code=$?

@@ -3,6 +3,7 @@
 #include "../render/ShadowMapCache.h"
 
 #include "IntegratorRegistry.h"
+#include "MemoryEstimate.h"
 #include "TileDriver.h"
 
 #include "../render/FilmLayout.h"
@@ -132,6 +133,8 @@ Planned planPass(const Scene& scene, const IntegratorEntry& entry, RenderStats& 
     }
     if (entry.plan)
         entry.plan(*p.context, p.plan);
+    // Everything above is resident now; what follows is estimated before it is allocated.
+    p.plan.memory = estimateMemory(scene, *p.context, p.plan);
     return p;
 }
 
@@ -213,6 +216,10 @@ RenderResult render(const Scene& input, const RenderOptions& callerOptions)
                                                         size_t(scene.render.threads));
     const IntegratorEntry& entry = integratorEntry(scene.render.method);
     RenderResult result;
+    Planned planned =
+        planPass(scene, entry, result.stats, options.volumeCache, scene.render.method == Method::Pathtrace);
+    // Memory known before it is spent (issue 18, item 4): nothing large is allocated before this.
+    checkMemoryLimit(scene, planned.plan.memory);
     setupFilm(result.film, scene, entry.traits, options.outputAovsOnly);
     applyTile(result.film, options.tileIndex, options.tileCount);
     if (!scene.output.deep.empty()) {  // single and wkb (validateScene refuses pathtrace)
@@ -222,9 +229,6 @@ RenderResult render(const Scene& input, const RenderOptions& callerOptions)
         deep->pixels.resize(size_t(deep->width) * size_t(deep->height));
         result.film.deep = std::move(deep);
     }
-
-    Planned planned =
-        planPass(scene, entry, result.stats, options.volumeCache, scene.render.method == Method::Pathtrace);
     const RenderPlan& plan = planned.plan;
     RenderContext& ctx = *planned.context;
     // Cancel (RenderControl.h): between the stages here, inside the tiles through ctx.stop.
@@ -257,6 +261,7 @@ RenderResult render(const Scene& input, const RenderOptions& callerOptions)
 
     result.seconds = secondsSince(start);
     addFrameMetadata(result.film, scene, result.seconds, true);
+    result.film.set("memory_estimate_bytes", double(plan.memory.estimateBytes));  // beside memory_peak_bytes
     if (options.tileCount > 0)
         result.film.set("tile", std::to_string(options.tileIndex) + "/" + std::to_string(options.tileCount));
     return result;

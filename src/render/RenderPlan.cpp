@@ -111,6 +111,18 @@ std::string RenderPlan::describe() const
         s << "  depth-map holdout: " << holdoutDepth << "\n";
     for (auto& n : notes)
         s << "  " << n << "\n";
+    if (memory.estimateBytes) {
+        s << "  memory: estimated peak " << formatBytes(memory.estimateBytes) << " of the limit "
+          << formatBytes(memory.limitBytes)
+          << (memory.limitDefault ? " (80% of physical memory; render.memory_limit)" : " (render.memory_limit)")
+          << ": resident " << formatBytes(memory.residentBytes) << " (code, libraries, the volumes)";
+        for (const auto& item : memory.items)
+            if (item.bytes)
+                s << ", " << item.name << " " << formatBytes(item.bytes);
+        if (memory.peakSoFar > memory.residentBytes)
+            s << "; loading peaked at " << formatBytes(memory.peakSoFar);
+        s << "\n";
+    }
     return s.str();
 }
 

@@ -75,6 +75,20 @@ struct WkbPlan {
     float memoryBudget = 0;
 };
 
+// The render's memory, estimated before the large allocations (src/engine/MemoryEstimate.h).
+struct MemoryPlan {
+    struct Item {
+        std::string name;  // e.g. "film", "deep shadow maps"
+        size_t bytes = 0;
+    };
+    size_t residentBytes = 0;  // measured when estimated: code, libraries, the loaded volumes
+    size_t peakSoFar = 0;      // the most resident before the estimate (the volume load's peak)
+    std::vector<Item> items;   // what is still to be allocated
+    size_t estimateBytes = 0;  // max(peakSoFar, residentBytes + sum of items)
+    size_t limitBytes = 0;     // render.memory_limit, or its default
+    bool limitDefault = true;  // the limit is the default fraction of physical memory
+};
+
 // An integrator's own decisions in full (wkb: WkbSetup, every source and light grid), made in the
 // planning pass and read by the integrator; the printable summary is in the fields above.
 struct IntegratorPlan {
@@ -97,6 +111,7 @@ struct RenderPlan {
     int kernelBvhDepth = 0;
     double kernelBvhSeconds = 0;
     std::string holdoutDepth;            // the depth-map holdout, described; empty: none
+    MemoryPlan memory;
     std::vector<std::string> notes;                    // other omissions and decisions, one line each
     std::shared_ptr<const IntegratorPlan> integrator;  // null for integrators with no decisions of their own
 

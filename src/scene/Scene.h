@@ -214,6 +214,7 @@ struct RenderSettings {
     int wkbShOrderMax = 2;          // cap on the SH order of area, environment and emission light volumes
     int lightVolumeResolution = 0;  // light-grid voxels across a volume's largest extent; 0: the plan picks
     float wkbMemoryBudget = 1.0f;   // all light pyramids / all density grids, bytes (automatic resolution)
+    float memoryLimit = 0.0f;       // bytes the render may use (estimated before); 0: 80% of physical memory
 };
 
 struct OutputSettings {

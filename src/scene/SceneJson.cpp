@@ -303,6 +303,7 @@ void visitRender(V& v, R& r)
     v.field("wkb_sh_order_max", r.wkbShOrderMax);
     v.field("light_volume_resolution", r.lightVolumeResolution);
     v.field("wkb_memory_budget", r.wkbMemoryBudget);
+    v.field("memory_limit", r.memoryLimit);
 }
 
 template <class V, class O>

@@ -374,6 +374,7 @@ void checkRender(const Checker& c, const RenderSettings& r)
                 Range{4, 4096, false, false, "voxels (0: automatic)"});
     c.range("render.wkb_memory_budget", r.wkbMemoryBudget,
             Range{0, 100, true, false, "times the density grids' memory"});
+    c.range("render.memory_limit", r.memoryLimit, Range{0, kInf, false, true, "bytes (0: 80% of physical memory)"});
 }
 
 void checkOutput(const Checker& c, const OutputSettings& o)

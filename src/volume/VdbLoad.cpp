@@ -16,12 +16,12 @@
 #include "../scene/SceneValidate.h"
 #include "PluginSource.h"
 #include "Procedural.h"
+#include "VdbFileReader.h"
 #include "VdbToBricks.h"
 #include "VolumeShader.h"
 #include "VoxelClamp.h"
 
 #include <nlohmann/json.hpp>
-#include <openvdb/io/File.h>
 #include <openvdb/openvdb.h>
 #include <openvdb/tools/GridTransformer.h>
 
@@ -128,12 +128,13 @@ RoleGrids readVdb(const VolumeSource& source, const std::string& path, bool allR
     std::error_code ec;
     if (!fs::exists(path, ec))
         throw InputError(fileKey + ": cannot open '" + path + "': no such file");
-    openvdb::io::File file(path);
+    // Read whole (the conversion reads every leaf, from many threads), through a stream that
+    // bounds what a damaged file can make OpenVDB allocate (VdbFileReader.h).
+    std::unique_ptr<VdbFileReader> file;
     std::vector<std::string> available;
     try {
-        file.open(/*delayLoad=*/false);  // the conversion reads every leaf, from many threads
-        for (auto it = file.beginName(); it != file.endName(); ++it)
-            available.push_back(it.gridName());
+        file = std::make_unique<VdbFileReader>(path);
+        available = file->gridNames();
     } catch (const std::exception& e) {
         throw InputError(fileKey + ": cannot open '" + path + "': " + e.what());
     }
@@ -180,7 +181,7 @@ RoleGrids readVdb(const VolumeSource& source, const std::string& path, bool allR
         const std::string key = keyOf(role);
         GridBase::Ptr raw;
         try {
-            raw = file.readGrid(name);
+            raw = file->readGrid(name);
         } catch (const std::exception& e) {
             throw InputError(key + ": cannot read grid '" + name + "' from '" + path + "': " + e.what());
         }
@@ -203,7 +204,6 @@ RoleGrids readVdb(const VolumeSource& source, const std::string& path, bool allR
         out.grids.push_back({role, grid});
         out.names.push_back(name);
     }
-    file.close();
     return out;
 }
 

@@ -207,8 +207,8 @@ def keys():
             ("wkb_order2_samples", 1, 1024, False, False, True), ("wkb_blur_k", 0, 1000, True, False, False),
             ("wkb_l_step", 0, 10, True, False, False), ("wkb_order_max", 0, 4096, False, False, True),
             ("wkb_sh_order_max", 0, 8, False, False, True), ("light_volume_resolution", 4, 4096, False, False, True),
-            ("wkb_memory_budget", 0, 100, True, False, False), ("frame", -2147483648, 2147483647, False, False, True),
-            ("fps", 0, None, True, False, False)]
+            ("wkb_memory_budget", 0, 100, True, False, False), ("memory_limit", 0, None, False, False, False),
+            ("frame", -2147483648, 2147483647, False, False, True), ("fps", 0, None, True, False, False)]
     for key, lo, hi, lo_open, hi_open, integer in rows:
         methods = ("wkb",) if key.startswith("wkb_") or key == "light_volume_resolution" else ("single", "wkb")
         if key == "spp":

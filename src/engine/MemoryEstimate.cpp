@@ -1,0 +1,207 @@
+// MemoryEstimate.cpp: see MemoryEstimate.h. The per-item models, each a count times the bytes the
+// structure stores per element (the structures' own memoryBytes() once built):
+// - film: pixels x the AOVs' channels x 4 bytes (FilmLayout.h decides the AOVs);
+// - deep film: per pixel a vector header and at most output.deep_samples samples (an upper bound);
+// - deep shadow maps: per face, resolution^2 texels (an orthographic map's resolution capped as
+//   ShadowMapProjection.cpp caps it) x kShadowMapTexelBytes (compressed vertices
+//   and offsets, DeepShadowMap.h) plus the bake on the voxels, one float per density voxel
+//   (LightCache.h: the density grids' brick pool again);
+// - sky grids: per volume n^3 nodes x 3 (J+1)^2 floats, n = light_volume_resolution or 32 and J
+//   = wkb_sh_order_max (SkyLight.h);
+// - light pyramids: the WKB plan's own estimate (WkbPlanner.cpp);
+// - camera-ray batches: per worker at most kBatchRays rays (TileDriver.cpp) of kRayBytes plus
+//   three floats per light;
+// - path tracer: the kernel scene's host arrays and their device copies (on a CPU device both
+//   are host memory), two per brick pool, plus the accumulation buffer (two floats per film
+//   channel: mean and variance) and the kernel BVH twice, and the OpenCL runtime (a constant
+//   measured with pocl, below).
+#include "MemoryEstimate.h"
+
+#include "IntegratorRegistry.h"
+
+#include "../render/DeepFilm.h"
+#include "../render/FilmLayout.h"
+#include "../render/RenderContext.h"
+#include "../scene/SceneValidate.h"
+
+#include "../core/FormatBytes.h"
+
+#include <tbb/info.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <string>
+#include <sys/resource.h>
+#include <unistd.h>
+
+namespace nimbus {
+
+namespace {
+
+// Measured on the default scene's two 256^2 orthographic maps (3.7 MiB each, --explain): bytes
+// per texel of the compressed map. A denser medium keeps more vertices per texel; the bake on
+// the voxels, usually larger, is exact.
+constexpr size_t kShadowMapTexelBytes = 64;
+// TileDriver.cpp: camera rays per batch per worker, and the bytes each holds (origin, direction,
+// RNG state, CameraSample, sample position and time, tFar, with the vectors' slack).
+constexpr size_t kBatchRays = 4096;
+constexpr size_t kRayBytes = 160;
+// The OpenCL runtime's own host memory once the path tracer's context and program exist, with the
+// kernel binary from the kernel cache: measured with pocl's CPU device (a 16x16, spp 1 render:
+// 90 MiB between the modelled items and the peak). A cold kernel cache adds the compiler's
+// transient memory (about 200 MiB with pocl), not modelled (docs/robustness.md).
+constexpr size_t kOpenClRuntimeBytes = size_t(90) << 20;
+
+size_t fromFile(const char* path, const char* key)
+{
+    std::ifstream in(path);
+    std::string word;
+    while (in >> word)
+        if (word == key) {
+            double kib = 0;
+            in >> kib;
+            return size_t(kib * 1024.0);
+        }
+    return 0;
+}
+
+size_t cgroupLimit()
+{
+    for (const char* path : {"/sys/fs/cgroup/memory.max", "/sys/fs/cgroup/memory/memory.limit_in_bytes"}) {
+        std::ifstream in(path);
+        std::string text;
+        if (in >> text && !text.empty() && text != "max") {
+            const double v = std::strtod(text.c_str(), nullptr);
+            if (v > 0 && v < 1e18)  // cgroup v1 says "no limit" with a huge number
+                return size_t(v);
+        }
+    }
+    return 0;
+}
+
+size_t filmChannels(const Scene& scene, const IntegratorTraits& traits)
+{
+    Scene one = scene;
+    one.camera.width = one.camera.height = 1;
+    Film film;
+    setupFilm(film, one, traits, false);
+    size_t channels = 0;
+    for (const Aov& aov : film.aovs)
+        channels += size_t(aov.channels);
+    return channels;
+}
+
+}  // namespace
+
+size_t residentBytes()
+{
+    std::ifstream in("/proc/self/statm");
+    size_t pages = 0, resident = 0;
+    if (!(in >> pages >> resident))
+        return 0;
+    return resident * size_t(::sysconf(_SC_PAGESIZE));
+}
+
+size_t peakResidentBytesSoFar()
+{
+    struct rusage usage;
+    return ::getrusage(RUSAGE_SELF, &usage) == 0 ? size_t(usage.ru_maxrss) * 1024 : 0;
+}
+
+size_t defaultMemoryLimit()
+{
+    size_t physical = fromFile("/proc/meminfo", "MemTotal:");
+    if (physical == 0)
+        physical = size_t(::sysconf(_SC_PHYS_PAGES)) * size_t(::sysconf(_SC_PAGESIZE));
+    const size_t cgroup = cgroupLimit();
+    if (cgroup && cgroup < physical)
+        physical = cgroup;
+    return size_t(0.8 * double(physical));
+}
+
+MemoryPlan estimateMemory(const Scene& scene, const RenderContext& ctx, const RenderPlan& plan)
+{
+    const RenderSettings& r = scene.render;
+    const IntegratorEntry& entry = integratorEntry(r.method);
+    MemoryPlan m;
+    m.residentBytes = residentBytes();
+    m.peakSoFar = peakResidentBytesSoFar();
+    m.limitDefault = !(r.memoryLimit > 0);
+    m.limitBytes = m.limitDefault ? defaultMemoryLimit() : size_t(std::min(double(r.memoryLimit), 1.8e19));
+
+    size_t densityBytes = 0;
+    for (const VolumePlan& v : plan.volumes)
+        densityBytes += v.memoryBytes;
+    const size_t pixels = size_t(scene.camera.width) * size_t(scene.camera.height);
+    const size_t channels = filmChannels(scene, entry.traits);
+    m.items.push_back({"film", pixels * channels * sizeof(float)});
+    if (!scene.output.deep.empty())
+        m.items.push_back({"deep film (at most)",
+                           pixels * (3 * sizeof(void*) + size_t(scene.output.deepSamples) * sizeof(DeepSample))});
+
+    if (entry.traits.shadowMaps) {
+        size_t maps = 0, bakes = 0, sky = 0;
+        const int n = r.lightVolumeResolution > 0 ? r.lightVolumeResolution : 32;
+        const size_t shCoefficients = size_t(r.wkbShOrderMax + 1) * size_t(r.wkbShOrderMax + 1);
+        for (size_t i = 0; i < plan.lights.size(); ++i) {
+            const LightPlan& l = plan.lights[i];
+            if (!l.used)
+                continue;
+            if (l.shadowMap) {
+                const size_t faces = l.projection == "cube" ? 6 : 1;
+                size_t res = size_t(l.resolution);
+                if (l.projection == "orthographic") {
+                    // ShadowMapProjection.cpp caps an orthographic map at 0.75 of the finest voxel
+                    // across its footprint, at most the bounds' diagonal.
+                    const Bbox& b = ctx.volumes.worldBounds();
+                    const float3 e = b.hi - b.lo;
+                    const double diagonal = std::sqrt(double(e.x) * e.x + double(e.y) * e.y + double(e.z) * e.z);
+                    const double cap = std::ceil(diagonal / (0.75 * double(ctx.volumes.minVoxelSize())));
+                    if (cap < double(res))
+                        res = std::max<size_t>(8, size_t(cap));
+                }
+                maps += faces * res * res * kShadowMapTexelBytes;
+                bakes += densityBytes;
+            }
+            if (l.skyGrid)
+                sky += plan.volumes.size() * size_t(n) * size_t(n) * size_t(n) * 3 * shCoefficients * sizeof(float);
+        }
+        m.items.push_back({"deep shadow maps", maps});
+        m.items.push_back({"shadow bakes on the voxels", bakes});
+        m.items.push_back({"sky grids", sky});
+    }
+    if (plan.wkb.enabled)
+        m.items.push_back({"light pyramids", plan.wkb.pyramidBytes});
+    if (r.method != Method::Pathtrace) {  // single and wkb march camera rays in batches
+        const size_t workers = size_t(r.threads > 0 ? r.threads : tbb::info::default_concurrency());
+        m.items.push_back({"camera-ray batches",
+                           workers * kBatchRays * (kRayBytes + 3 * plan.lights.size() * sizeof(float))});
+    }
+    if (r.method == Method::Pathtrace) {
+        m.items.push_back({"kernel buffers",
+                           2 * densityBytes + 2 * plan.kernelBvhBytes + pixels * channels * 2 * sizeof(float)});
+        m.items.push_back({"OpenCL runtime", kOpenClRuntimeBytes});
+    }
+
+    size_t total = m.residentBytes;
+    for (const auto& item : m.items)
+        total += item.bytes;
+    m.estimateBytes = std::max(total, m.peakSoFar);
+    return m;
+}
+
+void checkMemoryLimit(const Scene& scene, const MemoryPlan& m)
+{
+    if (m.estimateBytes <= m.limitBytes)
+        return;
+    char limit[64];
+    std::snprintf(limit, sizeof limit, "%.4g", double(m.limitBytes));
+    throwSceneError(scene.sourcePath, "render.memory_limit",
+                    "this render needs an estimated " + formatBytes(m.estimateBytes) + " (`nimbus info` lists it), over the " +
+                        (m.limitDefault ? "default limit of " : "limit of ") + formatBytes(m.limitBytes) + " (" + limit +
+                        " bytes); raise render.memory_limit (bytes) or lower the resolution, spp or volume detail");
+}
+
+}  // namespace nimbus
