@@ -33,8 +33,29 @@ double secondsBetween(Clock::time_point a, Clock::time_point b)
 }
 
 constexpr long long kMinNoiseTargetSpp = 64;  // the path tracer's
-// Streams of the extra camera paths, keyed apart from the first (the path tracer's stream).
+
+// An iteration's shutter time in [0, 1) (velocity blur): the base-2 radical inverse of its index,
+// rotated by the seed (Cranley-Patterson), so that any run of 2^k iterations covers the shutter
+// in 2^k strata, and sample splits, keyed by the global index, stay disjoint parts of one sequence.
+float shutterTime(nb_uint seed, nb_uint iteration)
+{
+    nb_uint bits = iteration;
+    bits = (bits << 16) | (bits >> 16);
+    bits = ((bits & 0x00ff00ffu) << 8) | ((bits & 0xff00ff00u) >> 8);
+    bits = ((bits & 0x0f0f0f0fu) << 4) | ((bits & 0xf0f0f0f0u) >> 4);
+    bits = ((bits & 0x33333333u) << 2) | ((bits & 0xccccccccu) >> 2);
+    bits = ((bits & 0x55555555u) << 1) | ((bits & 0xaaaaaaaau) >> 1);
+    const double u = double(bits) / 4294967296.0 + double(nbPcgHash(seed ^ 0x7368757du)) / 4294967296.0;
+    return std::min(float(u - std::floor(u)), 0x1.fffffep-1f);
+}
+// Streams of the extra camera paths, keyed apart from the first (the path tracer's stream). The
+// key of path k is hashed before it meets the seed: seed ^ (key + k) would give seeds s and s'
+// the same stream wherever s ^ k = s' ^ k', so renders with nearby seeds were correlated.
 constexpr nb_uint kCameraStreamKey = 0x63616d00u;
+nb_uint cameraStreamSeed(nb_uint seed, int k)
+{
+    return k == 0 ? seed : nbPcgHash(seed ^ nbPcgHash(kCameraStreamKey + nb_uint(k)));
+}
 
 // Camera paths per pixel and iteration for L0 and L1. An iteration's cost is dominated by its
 // gathers (one per VRL, three ratio trackings each, about a camera path's cost each), so a single
@@ -89,7 +110,7 @@ void renderVrl(const RenderContext& ctx, Film& film, const RenderControl& option
         return;
 
     const PathtraceScene ps = buildPathtraceScene(ctx);
-    const vrl::VrlMedium medium(ps);
+    vrl::VrlMedium medium(ps);
     const int stride = NB_ACC_STRIDE(int(ps.lights.size()));
     std::vector<std::string> lightAovs;
     for (int entry : ps.lightEntry)
@@ -148,6 +169,12 @@ void renderVrl(const RenderContext& ctx, Film& film, const RenderControl& option
         if (first + done >= 0xffffffffLL)
             break;  // the RNG's sample index is 32 bits
         const nb_uint sampleIndex = nb_uint(first + done);
+        // Velocity blur: one shutter time per iteration, for its light paths and all its camera
+        // paths (VrlMedium.h); iterations average over the shutter.
+        const float iterationTime = shutterTime(scene.render.seed, sampleIndex);
+        if (ps.velocity)
+            medium.setShutterSeconds(ps.volumes[0].shutter[0] +
+                                     (ps.volumes[0].shutter[1] - ps.volumes[0].shutter[0]) * iterationTime);
         const std::vector<vrl::Vrl> vrls = lightPass.trace(scene.render.seed, sampleIndex, paths);
         vrlCount += (long long)vrls.size();
         const float inv = 1.0f / float(sampleIndex - nb_uint(first) + 1u);
@@ -167,12 +194,11 @@ void renderVrl(const RenderContext& ctx, Film& film, const RenderControl& option
                     cs.perLight.assign(ps.lights.size(), make_float3(0, 0, 0));
                     const float share = 1.0f / float(cameraPaths);
                     for (int k = 0; k < cameraPaths; ++k) {
-                        const nb_uint streamSeed =
-                            k == 0 ? scene.render.seed : nbPcgHash(scene.render.seed ^ (kCameraStreamKey + nb_uint(k)));
-                        NbRng rng = nbRngStart(streamSeed, pixelIndex, sampleIndex);
+                        NbRng rng = nbRngStart(cameraStreamSeed(scene.render.seed, k), pixelIndex, sampleIndex);
                         const float jx = nbFilterSample(filterType, filterWidth, nbRngNext(&rng));
                         const float jy = nbFilterSample(filterType, filterWidth, nbRngNext(&rng));
-                        const float time = nbRngNext(&rng);
+                        const float cameraTime = nbRngNext(&rng);
+                        const float time = ps.velocity ? iterationTime : cameraTime;
                         const float sx = float(px) + 0.5f + jx, sy = float(py) + 0.5f + jy;
                         float3 o, d;
                         nbCameraRay(cam, sx, sy, film.width, film.height, time, &o, &d);

@@ -48,7 +48,7 @@ float area(const NbLight& l)
 LightPass::LightPass(const RenderContext& ctx, const PathtraceScene& ps, const VrlMedium& medium, int maxDepth)
     : mPs(&ps), mMedium(&medium), mMaxDepth(maxDepth)
 {
-    const Bbox& b = ctx.volumes.worldBounds();
+    const Bbox& b = ctx.volumes.movingBounds();  // with velocity blur, all the shutter sweeps
     mCentre = b.empty() ? make_float3(0, 0, 0) : b.center();
     mRadius = b.empty() ? 0.0f : 0.5f * length(b.extent()) * 1.001f + 1e-4f;
     mDefaultPhase = medium.dominantPhase();

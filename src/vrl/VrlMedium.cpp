@@ -25,7 +25,7 @@ FlightResult VrlMedium::freeFlight(float3 o, float3 d, float tEnd, float3& w, Nb
     const NbVolumeDesc* vols = ps.volumes.data();
     FlightResult r;
     NbMajorantIter it;
-    nbMajorantInit(&it, vols, mCount, o, d, 0.0f, tEnd);
+    nbMajorantInit(&it, vols, mCount, o, d, 0.0f, tEnd, mSeconds);
     float tau = -std::log(rngOpen(rng));
     float segEnd, mu;
     float rho[NB_NUM_VOLUMES];
@@ -87,7 +87,7 @@ float3 VrlMedium::transmittance(float3 o, float3 d, float tMax, NbRng& rng) cons
     const NbVolumeDesc* vols = ps.volumes.data();
     float3 T = make_float3(1, 1, 1);
     NbMajorantIter it;
-    nbMajorantInit(&it, vols, mCount, o, d, 0.0f, tMax);
+    nbMajorantInit(&it, vols, mCount, o, d, 0.0f, tMax, mSeconds);
     float tau = -std::log(rngOpen(rng));
     float segEnd, mu;
     float rho[NB_NUM_VOLUMES];
@@ -121,13 +121,16 @@ float3 VrlMedium::scattering(float3 p, float cosTheta) const
     for (int v = 0; v < mCount; ++v) {
         const NbVolumeDesc& vd = mPs->volumes[size_t(v)];
         const float* m = vd.indexFromWorld;
-        const float3 q =
+        float3 q =
             make_float3(m[0] * p.x + m[1] * p.y + m[2] * p.z + m[3], m[4] * p.x + m[5] * p.y + m[6] * p.z + m[7],
                         m[8] * p.x + m[9] * p.y + m[10] * p.z + m[11]);
         // The majorant walk reads densities only inside the active box (state 1): the same here.
         if (!(q.x >= vd.boundsLo[0] && q.x <= vd.boundsHi[0] && q.y >= vd.boundsLo[1] && q.y <= vd.boundsHi[1] &&
               q.z >= vd.boundsLo[2] && q.z <= vd.boundsHi[2]))
             continue;
+        // Velocity blur: the density read back along the velocity, as nbMajorantLookup.
+        if (vd.velocity.dims[3] > 0)
+            q = q - nbGridSample3(vd.velocity, mPs->tables.data(), mPs->pools.data(), q) * mSeconds;
         const float rho = std::fmax(0.0f, nbGridSample(vd.density, mPs->tables.data(), mPs->pools.data(), q));
         if (rho > 0.0f)
             out += nbLoad3(vd.sigma_s) * (rho * nbPhaseEval(vd.phase, cosTheta));
@@ -138,7 +141,7 @@ float3 VrlMedium::scattering(float3 p, float cosTheta) const
 bool VrlMedium::span(float3 o, float3 d, float tMin, float tMax, float& t0, float& t1) const
 {
     NbMajorantIter it;
-    nbMajorantInit(&it, mPs->volumes.data(), mCount, o, d, tMin, tMax);
+    nbMajorantInit(&it, mPs->volumes.data(), mCount, o, d, tMin, tMax, mSeconds);
     t0 = INFINITY;
     t1 = -INFINITY;
     for (int v = 0; v < mCount; ++v)

@@ -10,6 +10,9 @@
 //    vertices);
 //  - span: where a ray is inside some volume's active box (the extent of a VRL or of the
 //    camera segment the gather samples).
+// Velocity blur (ptscene.h): every read is at one shutter time, `seconds`, set by the integrator
+// between iterations (one time per iteration, shared by its light and camera paths, so that the
+// VRLs and the rays gathering from them see the same medium).
 // The OpenCL functions are not shared with this file because kernels/pathtrace.cl keeps them
 // private to the kernel (their address-space qualifiers); the loops here mirror them line for line.
 #pragma once
@@ -48,6 +51,11 @@ public:
     // The phase function of the volume with the largest scattering majorant (the advanced joint
     // distribution's fit where the medium at a point is not known yet).
     NbPhase dominantPhase() const;
+    // The shutter time of every read that follows, seconds after the frame's (0 without velocity
+    // blur). Not to be called while another thread reads the medium.
+    void setShutterSeconds(float seconds) { mSeconds = seconds; }
+    float shutterSeconds() const { return mSeconds; }
+
     NbPhase phase(int volume) const { return mPs->volumes[size_t(volume)].phase; }
     bool hasEmission() const { return mPs->emission; }
     int volumeCount() const { return mCount; }
@@ -55,6 +63,7 @@ public:
 private:
     const PathtraceScene* mPs;
     int mCount;
+    float mSeconds = 0;
 };
 
 // Uniform in (0, 1]: safe for -log (pathtrace.cl's nbRngOpen).

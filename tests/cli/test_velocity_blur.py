@@ -1,6 +1,6 @@
 #!/usr/bin/python3
 """Velocity motion blur (issue 16, item 3; docs/motion-blur.md): the `vel` grid moves the density
-over the shutter, rho(x - v (t - t0)), in single, wkb and pathtrace.
+over the shutter, rho(x - v (t - t0)), in single, wkb, pathtrace and vrl.
 
 The check of the blur itself is a Galilean one. A smoke ball in a uniform velocity field v, lit by
 a distant light against a uniform background, seen by a still camera, is the same picture as the
@@ -211,11 +211,46 @@ class VelocityBlur(unittest.TestCase):
         zStill = strip_z(vel - still, varStill)
         self.assertGreater(np.abs(zStill).max(), 2 * Z_MAX, f"pathtrace: the blur is not visible, z = {zStill}")
 
+    def test_vrl_equals_camera_blur(self):
+        """VRLs read the medium at one shutter time per iteration (light and camera paths alike),
+        stratified over iterations; the camera-blurred render draws a time per camera sample.
+        An iteration's VRLs light every pixel, so its errors are correlated across a strip and
+        the variance AOV (per pixel) does not give a strip mean's noise: that comes from the
+        spread of the strip means over independent renders (seeds), with Welch's t per strip,
+        for each of L0, L1 and L2plus."""
+        renders, spp, terms = 8, 48, ("L0", "L1", "L2plus")
+
+        def strips(name, seed, **kw):
+            s = scene("vrl", self.path(f"{name}_{seed}.exr"), seed=seed, spp=spp, **kw)
+            s["render"]["vrl_paths"] = 16
+            names, pixels = self.render(f"{name}_{seed}", s)
+            out = []
+            for term in terms:
+                b = channel(names, pixels, term + ".R", term + ".G", term + ".B").mean(axis=-1)
+                out += [b[:, cols].mean() for cols in np.array_split(np.arange(b.shape[1]), STRIPS)]
+            return out
+
+        vel = np.array([strips("vrl_vel", k + 1) for k in range(renders)])
+        cam = np.array([strips("vrl_cam", k + 101, velocity_blur=False, camera_motion=True)
+                        for k in range(renders)])
+        still = np.array([strips("vrl_still", k + 201, shutter=(0.0, 0.0)) for k in range(renders)])
+
+        def welch_t(a, b):
+            se = np.sqrt(a.var(axis=0, ddof=1) / len(a) + b.var(axis=0, ddof=1) / len(b))
+            return (a.mean(axis=0) - b.mean(axis=0)) / np.maximum(se, 1e-12)
+
+        # t with about 14 degrees of freedom: |t| > 6 has odds of about 3e-5 per strip and term.
+        t = welch_t(vel, cam).reshape(len(terms), STRIPS)
+        self.assertTrue(np.all(np.abs(t) < 6.0), f"vrl: velocity blur vs camera blur, strip t per term =\n{t}")
+        # Power: the transmitted background (L0) shows the blur far beyond that noise.
+        tStill = welch_t(vel, still).reshape(len(terms), STRIPS)
+        self.assertGreater(np.abs(tStill[0]).max(), 12.0, f"vrl: the blur is not visible in L0, t = {tStill[0]}")
+
     # ---- zero velocity, info, errors ---------------------------------------------------------
 
     def test_zero_velocity_is_no_blur_exactly(self):
         write_smoke(self.path("still.vdb"), velocity=(0.0, 0.0, 0.0))
-        for method, spp in (("single", 2), ("wkb", 1), ("pathtrace", 4)):
+        for method, spp in (("single", 2), ("wkb", 1), ("pathtrace", 4), ("vrl", 2)):
             a = scene(method, self.path(method + "_zero.exr"), spp=spp)
             a["volumes"][0]["source"]["file"] = "still.vdb"
             b = scene(method, self.path(method + "_none.exr"), velocity_blur=False, spp=spp)
