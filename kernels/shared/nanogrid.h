@@ -69,11 +69,21 @@ NB_FN float nbNanoSample(NbGridDesc g, NB_GLOBAL const float* pools, float3 p)
     if (level != 0)
         return 0.0f;
     float v[8];
-    v[0] = pnanovdb_read_float(buf, a000);
-    for (int n = 1; n < 8; ++n) {
-        pnanovdb_coord_t c;
-        c.x = i + (n & 1), c.y = j + ((n >> 1) & 1), c.z = k + ((n >> 2) & 1);
-        v[n] = pnanovdb_read_float(buf, pnanovdb_readaccessor_get_value_address(PNANOVDB_GRID_TYPE_FLOAT, buf, &acc, &c));
+    if ((i & 7) < 7 && (j & 7) < 7 && (k & 7) < 7) {
+        /* All eight in the leaf of a000 (about 2/3 of the lookups): a leaf's values are x-major,
+         * offset (x << 6) | (y << 3) | z, so the others are fixed byte steps away. */
+        for (int n = 0; n < 8; ++n)
+            v[n] = pnanovdb_read_float(buf, pnanovdb_address_offset(a000, (pnanovdb_uint32_t)(
+                                                                       4 * (((n & 1) << 6) | (((n >> 1) & 1) << 3) |
+                                                                            ((n >> 2) & 1)))));
+    } else {
+        v[0] = pnanovdb_read_float(buf, a000);
+        for (int n = 1; n < 8; ++n) {
+            pnanovdb_coord_t c;
+            c.x = i + (n & 1), c.y = j + ((n >> 1) & 1), c.z = k + ((n >> 2) & 1);
+            v[n] = pnanovdb_read_float(
+                buf, pnanovdb_readaccessor_get_value_address(PNANOVDB_GRID_TYPE_FLOAT, buf, &acc, &c));
+        }
     }
     float tx = p.x - fx, ty = p.y - fy, tz = p.z - fz;
     float c00 = v[0] + tx * (v[1] - v[0]);
