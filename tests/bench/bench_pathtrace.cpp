@@ -11,7 +11,8 @@
 // (src/pathtracer/LaunchSize.h): path samples per second and the process's CPU time over wall
 // time (getrusage, so every driver thread counts), interleaved rounds and their medians; then the
 // mean beauty at max_depth 64 against unbounded.
-// "pnanovdb" (issue 17, item 10) compares, on the dense and the wispy cloud, the kernel's density
+// "pnanovdb" (issue 17, item 10) compares, on the dense and the wispy cloud and then on the
+// default scene (its procedural cloud centred at the origin, its camera and lights), the kernel's density
 // lookups through the brick pool (brickgrid.h, the default) and through PNanoVDB
 // (NB_GRID_PNANOVDB, nanogrid.h): path samples per second in interleaved rounds and their
 // medians, the volume buffers' bytes on the device, and whether the images agree bit for bit
