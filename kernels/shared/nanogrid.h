@@ -15,7 +15,10 @@
  * the same formula in the same order, and zero when the voxel at floor(p) is not in a leaf (the
  * pool's "zero outside the allocated bricks"). A brick's apron holds its neighbours' voxels,
  * which here come from the neighbouring leaf, so both give the same number for every p
- * (tests/pathtracer/test_nanogrid.cpp checks it bit for bit on the host).
+ * (tests/pathtracer/test_nanogrid.cpp checks it bit for bit on the host). That holds for every
+ * pool the loaders build (VdbToBricks fills aprons from the neighbouring voxels; a pruned brick's
+ * apron is zero); a pool written by hand with other apron values than its neighbours' would differ
+ * in the last cell before an unallocated brick, where NanoVDB has no voxel to hold the apron.
  *
  * PNanoVDB 32.4 (Debian's libnanovdb-dev 10.0.1) has C, HLSL and GLSL modes but no OpenCL one.
  * The host compiles it as C (PNANOVDB_C). For OpenCL the host prepends a copy of the header to
