@@ -50,6 +50,8 @@
  *    weights sum to 1 at every t and the pair is unbiased for any such function; p_d equals
  *    the true density in a homogeneous medium. Near the light pdf_e dominates and the vertex's
  *    NEE, whose second moment diverges like int r^-4 r^2 dr at a point light, is weighted out.
+ *    A flight takes it only where pdf_e's peak reaches half the flight's largest majorant
+ *    (nbEquiWorthwhile; m = 0 elsewhere, decided per flight the same way for both techniques).
  *  - Directions from the phase function (nbPhaseSample, pdf = phase, weight 1).
  *  - Russian roulette from rrDepth scattering events on, survival probability min(1, max_c w_c),
  *    weight w / q for survivors: E[w'] = q (w / q) = w, unbiased. It is what ends paths in an
@@ -242,17 +244,21 @@ NB_FN int nbEquiLight(NbLight l)
 }
 
 /* The ray-parameter hull [*a, *b] of the volumes' boxes that a freshly initialised walk will
- * visit; 0 when it visits none. */
-NB_FN int nbMajorantHull(__private const NbMajorantIter* it, float* a, float* b)
+ * visit, and *muMax, the sum of those volumes' largest majorants (a bound on the majorant along
+ * the segment); 0 when it visits none. */
+NB_FN int nbMajorantHull(__private const NbMajorantIter* it, __global const NbVolumeDesc* vols, float* a, float* b,
+                         float* muMax)
 {
-    float lo = NB_INF, hi = -NB_INF;
+    float lo = NB_INF, hi = -NB_INF, m = 0.0f;
     for (int v = 0; v < NB_NUM_VOLUMES; ++v)
         if (it->state[v] == 0) {
             lo = fmin(lo, it->tEvent[v]);
             hi = fmax(hi, it->tEnd[v]);
+            m += nbVolumeMajorant(vols + v);
         }
     *a = lo;
     *b = hi;
+    *muMax = m;
     return lo < hi;
 }
 
@@ -354,8 +360,8 @@ NB_FN void nbTracePath(float3 o, float3 d, float tCamera, float seconds, __globa
          * weighted by the power heuristic against the proxy pdf mu(t) exp(-int_0^t mu) of the
          * free flight below; the NEE at the flight's scattering vertex takes the complementary
          * weight. Only where a vertex on this flight may still scatter (order < maxDepth). */
-        float segA = 0.0f, segB = 0.0f;
-        const int equi = order < P->maxDepth && nbMajorantHull(&it, &segA, &segB);
+        float segA = 0.0f, segB = 0.0f, segMu = 0.0f;
+        const int equi = order < P->maxDepth && nbMajorantHull(&it, vols, &segA, &segB, &segMu);
         if (equi) {
             const int next = order + 1 < 2 ? order + 1 : 2;
             for (int i = 0; i < P->lightCount && i < NB_NUM_LIGHTS; ++i) {
@@ -363,6 +369,8 @@ NB_FN void nbTracePath(float3 o, float3 d, float tCamera, float seconds, __globa
                 if (!nbEquiLight(l))
                     continue;
                 const NbEquiAngular e = nbEquiInit(o, d, nbLoad3(l.position), segA, segB);
+                if (!nbEquiWorthwhile(e, segMu))
+                    continue;
                 const float te = nbEquiSample(e, nbRngNext(rng));
                 const float pe = nbEquiPdf(e, te);
                 if (!(pe > 0.0f))
@@ -562,7 +570,8 @@ NB_FN void nbTracePath(float3 o, float3 d, float tCamera, float seconds, __globa
             if (equi && nbEquiLight(l)) {
                 /* The complement of the equi-angular estimator's weight at this vertex. */
                 const NbEquiAngular e = nbEquiInit(o, d, nbLoad3(l.position), segA, segB);
-                f *= 1.0f - nbEquiMisWeight(nbEquiPdf(e, it.t), muHit * exp(-tauMaj));
+                if (nbEquiWorthwhile(e, segMu))
+                    f *= 1.0f - nbEquiMisWeight(nbEquiPdf(e, it.t), muHit * exp(-tauMaj));
                 if (!(f > 0.0f))
                     continue;
             }

@@ -69,6 +69,20 @@ NB_FN float nbEquiSample(NbEquiAngular e, float u)
     return fmin(fmax(t, e.a), e.b);
 }
 
+/* Whether equi-angular sampling is worth its two ratio-tracking walks on this segment: its pdf's
+ * peak (at the point of the segment nearest the foot) reaches NB_EQUI_MIN_PEAK times muMax, the
+ * largest majorant along the segment, which bounds the distance sampling's pdf. Below that the
+ * distance sampling's NEE is not firefly-bound (its relative variance per sample along a ray at
+ * distance h from the light grows like 1 / (sigma_t h) only for sigma_t h < 1) and equi-angular
+ * would take a small weight anyway. The decision is a deterministic function of the segment,
+ * made identically for both techniques, so the weights still sum to 1 (docs/pathtracer.md). */
+#define NB_EQUI_MIN_PEAK 0.5f
+
+NB_FN int nbEquiWorthwhile(NbEquiAngular e, float muMax)
+{
+    return nbEquiPdf(e, fmin(fmax(e.delta, e.a), e.b)) >= NB_EQUI_MIN_PEAK * muMax;
+}
+
 /* The power-heuristic weight (Veach 1997 sec. 9.2, beta = 2) of the equi-angular technique at a
  * point where it has pdf pEqui and the distance sampling has (proxy) pdf pTrack. The distance
  * sampling's weight at the same point is exactly 1 minus this, so the two sum to 1 everywhere:

@@ -173,6 +173,49 @@ std::string fmt(const char* f, double v)
 
 }  // namespace
 
+// Per-AOV noise at equal samples: two renders of each variant with different seeds, their relMSE
+// against each other (twice one render's), and where the beauty's error lies (8 x 8 blocks).
+int diagnose(int spp)
+{
+    for (const Named& n : scenes()) {
+        for (bool equi : {false, true}) {
+            Scene s = n.scene;
+            s.render.equiangular = equi;
+            s.render.spp = spp;
+            s.render.seed = 1;
+            const RenderResult a = render(s);
+            s.render.seed = 2;
+            const RenderResult b = render(s);
+            std::printf("%s %s: %d spp in %.2f s; relMSE between seeds: beauty %.3g L1 %.3g L2plus %.3g\n",
+                        n.name.c_str(), equi ? "on " : "off", spp, b.seconds, measureError(a.film, b.film, "beauty").relMse,
+                        measureError(a.film, b.film, "L1").relMse, measureError(a.film, b.film, "L2plus").relMse);
+            const Aov* x = a.film.find("beauty");
+            const Aov* y = b.film.find("beauty");
+            const int W = a.film.width, H = a.film.height;
+            double mean = 0;
+            for (int i = 0; i < W * H; ++i)
+                mean += (y->pixels[size_t(4 * i)] + y->pixels[size_t(4 * i + 1)] + y->pixels[size_t(4 * i + 2)]) / 3 / (W * H);
+            const double eps = 0.01 * mean * mean;
+            for (int by = 0; by < 8; ++by) {
+                std::printf("   ");
+                for (int bx = 0; bx < 8; ++bx) {
+                    double e = 0;
+                    for (int yy = by * H / 8; yy < (by + 1) * H / 8; ++yy)
+                        for (int xx = bx * W / 8; xx < (bx + 1) * W / 8; ++xx) {
+                            const size_t i = size_t(yy * W + xx) * 4;
+                            const double u = (x->pixels[i] + x->pixels[i + 1] + x->pixels[i + 2]) / 3;
+                            const double v = (y->pixels[i] + y->pixels[i + 1] + y->pixels[i + 2]) / 3;
+                            e += (u - v) * (u - v) / (v * v + eps) / (W * H);
+                        }
+                    std::printf(" %8.2e", e);
+                }
+                std::printf("\n");
+            }
+        }
+    }
+    return 0;
+}
+
 int main(int argc, char** argv)
 {
     std::string out;
@@ -180,6 +223,8 @@ int main(int argc, char** argv)
         const std::string a = argv[i];
         if (a == "--quick")
             gQuick = true;
+        else if (a == "--diagnose")
+            return diagnose(i + 1 < argc ? std::atoi(argv[i + 1]) : 64);
         else
             out = a;
     }
@@ -203,6 +248,13 @@ int main(int argc, char** argv)
         rs.render.timeLimit = refSeconds;
         rs.render.seed = 0x5eedu;
         const Film ref = render(rs).film;
+        // Warm-up: build (or load) both kernels before anything is timed.
+        for (bool equi : {false, true}) {
+            Scene w = n.scene;
+            w.render.equiangular = equi;
+            w.render.spp = 1;
+            render(w);
+        }
         Run off, on;
         for (int k = 0; k < rounds; ++k) {
             for (int j = 0; j < 2; ++j) {

@@ -114,4 +114,20 @@ TEST(EquiAngularMis, WeightLimits)
     EXPECT_NEAR(nbEquiPdf(e, 1.0f), 2.0 / M_PI, 1e-6);
 }
 
+// Equi-angular sampling is taken where its pdf's peak reaches NB_EQUI_MIN_PEAK times the largest
+// majorant: the peak is at the foot when it lies on the segment, else at the nearer end.
+TEST(EquiAngularMis, WorthwhileComparesThePeakWithTheMajorant)
+{
+    const float3 o = make_float3(0, 0, 0), d = make_float3(0, 0, 1);
+    const NbEquiAngular inside = nbEquiInit(o, d, make_float3(0, 1, 1), 0.0f, 2.0f);  // peak 2 / pi
+    EXPECT_TRUE(nbEquiWorthwhile(inside, 0.99f * (2.0f / float(M_PI)) / NB_EQUI_MIN_PEAK));
+    EXPECT_FALSE(nbEquiWorthwhile(inside, 1.01f * (2.0f / float(M_PI)) / NB_EQUI_MIN_PEAK));
+    const NbEquiAngular beyond = nbEquiInit(o, d, make_float3(0, 1, 5), 0.0f, 2.0f);  // peak at t = 2
+    const float peak = nbEquiPdf(beyond, 2.0f);
+    EXPECT_GT(peak, nbEquiPdf(beyond, 1.9f));
+    EXPECT_TRUE(nbEquiWorthwhile(beyond, 0.99f * peak / NB_EQUI_MIN_PEAK));
+    EXPECT_FALSE(nbEquiWorthwhile(beyond, 1.01f * peak / NB_EQUI_MIN_PEAK));
+    EXPECT_TRUE(nbEquiWorthwhile(inside, 0.0f));  // no medium bound: always
+}
+
 }  // namespace
