@@ -51,7 +51,8 @@
  *    the true density in a homogeneous medium. Near the light pdf_e dominates and the vertex's
  *    NEE, whose second moment diverges like int r^-4 r^2 dr at a point light, is weighted out.
  *    A flight takes it only where pdf_e's peak reaches half the flight's largest majorant
- *    (nbEquiWorthwhile; m = 0 elsewhere, decided per flight the same way for both techniques).
+ *    (nbEquiWorthwhile; m = 0 elsewhere): decided once per flight and light (equiMask) and
+ *    read by both techniques. Lights past the 32nd never take it.
  *  - Directions from the phase function (nbPhaseSample, pdf = phase, weight 1).
  *  - Russian roulette from rrDepth scattering events on, survival probability min(1, max_c w_c),
  *    weight w / q for survivors: E[w'] = q (w / q) = w, unbiased. It is what ends paths in an
@@ -362,15 +363,19 @@ NB_FN void nbTracePath(float3 o, float3 d, float tCamera, float seconds, __globa
          * weight. Only where a vertex on this flight may still scatter (order < maxDepth). */
         float segA = 0.0f, segB = 0.0f, segMu = 0.0f;
         const int equi = order < P->maxDepth && nbMajorantHull(&it, vols, &segA, &segB, &segMu);
+        int equiMask = 0; /* bit i: light i takes equi-angular sampling on this flight (i < 32) */
         if (equi) {
             const int next = order + 1 < 2 ? order + 1 : 2;
-            for (int i = 0; i < P->lightCount && i < NB_NUM_LIGHTS; ++i) {
+            for (int i = 0; i < P->lightCount && i < NB_NUM_LIGHTS && i < 32; ++i) {
                 const NbLight l = lights[i];
                 if (!nbEquiLight(l))
                     continue;
+                if (nbEquiPeakBound(o, d, nbLoad3(l.position), segA, segB) < NB_EQUI_MIN_PEAK * segMu)
+                    continue; /* cheap: nbEquiWorthwhile would say no */
                 const NbEquiAngular e = nbEquiInit(o, d, nbLoad3(l.position), segA, segB);
                 if (!nbEquiWorthwhile(e, segMu))
                     continue;
+                equiMask |= 1 << i;
                 const float te = nbEquiSample(e, nbRngNext(rng));
                 const float pe = nbEquiPdf(e, te);
                 if (!(pe > 0.0f))
@@ -567,11 +572,10 @@ NB_FN void nbTracePath(float3 o, float3 d, float tCamera, float seconds, __globa
             if (!(nbMaxComponent(s.weight) > 0.0f) || !(f > 0.0f))
                 continue;
 #if NB_EQUIANGULAR
-            if (equi && nbEquiLight(l)) {
+            if (i < 32 && ((equiMask >> i) & 1)) {
                 /* The complement of the equi-angular estimator's weight at this vertex. */
                 const NbEquiAngular e = nbEquiInit(o, d, nbLoad3(l.position), segA, segB);
-                if (nbEquiWorthwhile(e, segMu))
-                    f *= 1.0f - nbEquiMisWeight(nbEquiPdf(e, it.t), muHit * exp(-tauMaj));
+                f *= 1.0f - nbEquiMisWeight(nbEquiPdf(e, it.t), muHit * exp(-tauMaj));
                 if (!(f > 0.0f))
                     continue;
             }

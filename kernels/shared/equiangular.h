@@ -83,6 +83,23 @@ NB_FN int nbEquiWorthwhile(NbEquiAngular e, float muMax)
     return nbEquiPdf(e, fmin(fmax(e.delta, e.a), e.b)) >= NB_EQUI_MIN_PEAK * muMax;
 }
 
+/* An upper bound on that peak without the two atans, so that flights far from every light pay
+ * almost nothing: dtheta/dt = h / (h^2 + x^2) >= h / Dmax^2 on the segment, so
+ * theta_b - theta_a >= (b - a) h / Dmax^2 and the peak h / ((theta_b - theta_a) Dmin^2) <=
+ * Dmax^2 / ((b - a) Dmin^2), Dmin and Dmax the nearest and farthest distances from the point c
+ * to the segment (h floored as in nbEquiInit). */
+NB_FN float nbEquiPeakBound(float3 o, float3 d, float3 c, float a, float b)
+{
+    const float3 oc = c - o;
+    const float delta = dot(oc, d);
+    const float3 perp = oc - d * delta;
+    const float h = fmax(sqrt(dot(perp, perp)), NB_EQUI_MIN_H * fmax(b - a, 1e-6f));
+    const float xa = a - delta, xb = b - delta;
+    const float xn = xa > 0.0f ? xa : (xb < 0.0f ? xb : 0.0f);
+    const float dmin2 = h * h + xn * xn, dmax2 = h * h + fmax(xa * xa, xb * xb);
+    return dmax2 / (fmax(b - a, 1e-30f) * dmin2);
+}
+
 /* The power-heuristic weight (Veach 1997 sec. 9.2, beta = 2) of the equi-angular technique at a
  * point where it has pdf pEqui and the distance sampling has (proxy) pdf pTrack. The distance
  * sampling's weight at the same point is exactly 1 minus this, so the two sum to 1 everywhere:
