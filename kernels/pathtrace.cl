@@ -363,7 +363,7 @@ NB_FN void nbTracePath(float3 o, float3 d, float tCamera, float seconds, __globa
          * weight. Only where a vertex on this flight may still scatter (order < maxDepth). */
         float segA = 0.0f, segB = 0.0f, segMu = 0.0f;
         const int equi = order < P->maxDepth && nbMajorantHull(&it, vols, &segA, &segB, &segMu);
-        int equiMask = 0; /* bit i: light i takes equi-angular sampling on this flight (i < 32) */
+        nb_uint equiMask = 0u; /* bit i: light i takes equi-angular sampling on this flight (i < 32) */
         if (equi) {
             const int next = order + 1 < 2 ? order + 1 : 2;
             for (int i = 0; i < P->lightCount && i < NB_NUM_LIGHTS && i < 32; ++i) {
@@ -375,7 +375,7 @@ NB_FN void nbTracePath(float3 o, float3 d, float tCamera, float seconds, __globa
                 const NbEquiAngular e = nbEquiInit(o, d, nbLoad3(l.position), segA, segB);
                 if (!nbEquiWorthwhile(e, segMu))
                     continue;
-                equiMask |= 1 << i;
+                equiMask |= 1u << i;
                 const float te = nbEquiSample(e, nbRngNext(rng));
                 const float pe = nbEquiPdf(e, te);
                 if (!(pe > 0.0f))
@@ -572,7 +572,7 @@ NB_FN void nbTracePath(float3 o, float3 d, float tCamera, float seconds, __globa
             if (!(nbMaxComponent(s.weight) > 0.0f) || !(f > 0.0f))
                 continue;
 #if NB_EQUIANGULAR
-            if (i < 32 && ((equiMask >> i) & 1)) {
+            if (i < 32 && ((equiMask >> i) & 1u)) {
                 /* The complement of the equi-angular estimator's weight at this vertex. */
                 const NbEquiAngular e = nbEquiInit(o, d, nbLoad3(l.position), segA, segB);
                 f *= 1.0f - nbEquiMisWeight(nbEquiPdf(e, it.t), muHit * exp(-tauMaj));
