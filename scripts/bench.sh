@@ -61,3 +61,5 @@ echo "== sequences: --frames in one process against a process per frame"
 /usr/bin/python3 tests/bench/bench_sequence.py build/bin/nimbus 12 2 | section sequence
 echo "== path tracer against Cycles: noise at equal time (skipped without blender; ~30 min with fresh references)"
 "$bench/bench_pathtrace_vs_cycles" build/bin/nimbus "$report"
+echo "== path tracer: equi-angular sampling towards point lights, without and with, at equal time (~6 min)"
+"$bench/bench_equiangular" "$report"

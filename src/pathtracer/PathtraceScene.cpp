@@ -201,6 +201,9 @@ PathtraceScene buildPathtraceScene(const RenderContext& ctx, bool pnanovdbDensit
         s.lightEntry.push_back(int(i));
         s.lightTypes |= 1u << e.light.type;
     }
+    // Equi-angular sampling aims at point and spot lights only (pathtrace.cl).
+    s.equiangular = ctx.scene && ctx.scene->render.equiangular &&
+                    (s.lightTypes & ((1u << NB_LIGHT_POINT) | (1u << NB_LIGHT_SPOT))) != 0;
     if (ctx.geometry) {
         // The planning pass built it for a render (Renderer.cpp); contexts made otherwise build it here.
         s.geometry = ctx.kernelBvh ? *ctx.kernelBvh : buildKernelBvh(ctx.geometry->geometry());
@@ -229,7 +232,7 @@ std::string PathtraceScene::defines(bool globalMajorant) const
       << " -D NB_CHROMATIC=" << (chromatic ? 1 : 0) << " -D NB_GLOBAL_MAJORANT=" << (globalMajorant ? 1 : 0)
       << " -D NB_GEOM_HOLDOUTS=" << (holdouts ? 1 : 0) << " -D NB_GEOM_SHADOW_CASTERS=" << (shadowCasters ? 1 : 0)
       << " -D NB_HOLDOUT_DEPTH=" << (holdoutDepth.empty() ? 0 : 1) << " -D NB_HAS_VELOCITY=" << (velocity ? 1 : 0)
-      << " -D NB_GRID_PNANOVDB=" << (pnanovdb ? 1 : 0);
+      << " -D NB_EQUIANGULAR=" << (equiangular ? 1 : 0) << " -D NB_GRID_PNANOVDB=" << (pnanovdb ? 1 : 0);
     return o.str();
 }
 

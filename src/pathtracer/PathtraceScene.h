@@ -33,6 +33,7 @@ struct PathtraceScene {
     bool chromatic = false;       // some medium's coefficients differ between channels
     bool pnanovdb = false;        // densities as NanoVDB grids (NB_GRID_PNANOVDB, nanogrid.h)
     uint32_t lightTypes = 0;      // bit NB_LIGHT_<TYPE> set for each type present
+    bool equiangular = false;     // render.equiangular and a point or spot light: NB_EQUIANGULAR
     // Scene geometry (docs/geometry.md): the BVH the kernel traverses; empty without geometry.
     KernelBvh geometry;
     bool holdouts = false;       // some object is a holdout (camera rays trace the BVH)
