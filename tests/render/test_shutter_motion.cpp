@@ -5,7 +5,6 @@
 // swept bounds hold the volume at every time; a moving volume is read through its transform at
 // the sample's time.
 #include "HandMadeVolume.h"
-#include "render/RenderContext.h"
 #include "render/VolumeSet.h"
 #include "scene/Animation.h"
 #include "scene/FrameTokens.h"
@@ -179,9 +178,10 @@ TEST(ShutterMotion, AMovingVolumeIsReadThroughItsTransformAtTheSamplesTime)
         const Transform worldFromIndex = evaluateKeys(templ.volumes[0].transformKeys, 2.0 + frames) * fileFromIndex;
         // The swept box holds the volume's box at every time.
         const Bbox at = worldFromIndex.box(ib);
+        auto axis = [](float3 v, int a) { return a == 0 ? v.x : (a == 1 ? v.y : v.z); };
         for (int a = 0; a < 3; ++a) {
-            EXPECT_LE((&swept.lo.x)[a], (&at.lo.x)[a]) << "frame " << 2 + frames;
-            EXPECT_GE((&swept.hi.x)[a], (&at.hi.x)[a]) << "frame " << 2 + frames;
+            EXPECT_LE(axis(swept.lo, a), axis(at.lo, a)) << "frame " << 2 + frames;
+            EXPECT_GE(axis(swept.hi, a), axis(at.hi, a)) << "frame " << 2 + frames;
         }
         // Inside the block at that time (its index centre): density 1, and the light point is
         // where that matter sits at the shutter centre (the maps' placement).
