@@ -75,8 +75,9 @@
  *
  * Specialisation (the host's defines): NB_NUM_VOLUMES, NB_NUM_LIGHTS, NB_HAS_LIGHT_<TYPE>,
  * NB_HAS_EMISSION, NB_TWO_LOBE, NB_CHROMATIC, NB_GLOBAL_MAJORANT, NB_GEOM_HOLDOUTS,
- * NB_GEOM_SHADOW_CASTERS, NB_HOLDOUT_DEPTH, NB_EQUIANGULAR. Code for what a scene lacks is not
- * compiled.
+ * NB_GEOM_SHADOW_CASTERS, NB_HOLDOUT_DEPTH, NB_HAS_VELOCITY, NB_HAS_MOTION (volume transforms
+ * moving within the shutter), NB_HAS_LIGHT_MOTION (lights moving within it), NB_EQUIANGULAR.
+ * Code for what a scene lacks is not compiled.
  */
 #include "shared/brickgrid.h"
 #include "shared/camera.h"
@@ -114,6 +115,9 @@
 #endif
 #ifndef NB_EQUIANGULAR
 #define NB_EQUIANGULAR 0
+#endif
+#ifndef NB_HAS_LIGHT_MOTION
+#define NB_HAS_LIGHT_MOTION 0
 #endif
 
 /* Uniform in (0, 1]: safe for -log. */
@@ -208,7 +212,7 @@ NB_FN float3 nbRatioTransmittance(float3 o, float3 d, float tMax, float seconds,
 {
     float3 T = make_float3(1.0f, 1.0f, 1.0f);
     NbMajorantIter it;
-    nbMajorantInit(&it, vols, volumeCount, o, d, 0.0f, tMax, seconds);
+    nbMajorantInit(&it, vols, volumeCount, o, d, 0.0f, tMax, seconds, majorants);
     float tau = -log(nbRngOpen(rng));
     float segEnd, mu;
     float rho[NB_NUM_VOLUMES];
@@ -277,7 +281,7 @@ NB_FN int nbTrackToPoint(float3 o, float3 d, float t, float tEnd, float seconds,
     float3 Tr = make_float3(1.0f, 1.0f, 1.0f);
     float tm = 0.0f;
     NbMajorantIter it;
-    nbMajorantInit(&it, vols, volumeCount, o, d, 0.0f, tEnd, seconds);
+    nbMajorantInit(&it, vols, volumeCount, o, d, 0.0f, tEnd, seconds, majorants);
     float tau = -log(nbRngOpen(rng));
     float segEnd, mu;
     while (nbMajorantNext(&it, vols, majorants, &segEnd, &mu)) {
@@ -353,7 +357,7 @@ NB_FN void nbTracePath(float3 o, float3 d, float tCamera, float seconds, __globa
             tEnd = nbGeomTrace(bvhNodes, geomPrims, P->geom, o, d, 0.0f, NB_INF, NB_GEOM_SHADOWS, 0);
 #endif
         NbMajorantIter it;
-        nbMajorantInit(&it, vols, volumeCount, o, d, 0.0f, tEnd, seconds);
+        nbMajorantInit(&it, vols, volumeCount, o, d, 0.0f, tEnd, seconds, majorants);
 #if NB_EQUIANGULAR
         /* Equi-angular next-event estimation along this flight, one point per point or spot
          * light (docs/pathtracer.md, "Equi-angular sampling"): the single scattering of that
@@ -367,7 +371,11 @@ NB_FN void nbTracePath(float3 o, float3 d, float tCamera, float seconds, __globa
         if (equi) {
             const int next = order + 1 < 2 ? order + 1 : 2;
             for (int i = 0; i < P->lightCount && i < NB_NUM_LIGHTS && i < 32; ++i) {
-                const NbLight l = lights[i];
+                NbLight l = lights[i];
+#if NB_HAS_LIGHT_MOTION
+                if (l.motion[1] > 0) /* placed at the path's time (motion.h) */
+                    l = nbLightAt(l, majorants + l.motion[0], l.motion[1], seconds);
+#endif
                 if (!nbEquiLight(l))
                     continue;
                 if (nbEquiPeakBound(o, d, nbLoad3(l.position), segA, segB) < NB_EQUI_MIN_PEAK * segMu)
@@ -518,6 +526,11 @@ NB_FN void nbTracePath(float3 o, float3 d, float tCamera, float seconds, __globa
          * along -d (toward the previous vertex): cos = dot(-wi, -d) (phase.h's convention). */
         for (int i = 0; i < P->lightCount && i < NB_NUM_LIGHTS; ++i) {
             NbLight l = lights[i];
+#if NB_HAS_LIGHT_MOTION
+            /* A light moving within the shutter, placed at the path's time (motion.h). */
+            if (l.motion[1] > 0)
+                l = nbLightAt(l, majorants + l.motion[0], l.motion[1], seconds);
+#endif
             float u0 = nbRngNext(rng), u1 = nbRngNext(rng);
             NbLightSample s;
             float f;
@@ -661,9 +674,10 @@ __kernel void nbPathtrace(__global const NbPtParams* P, __global const NbLight* 
         for (int i = 0; i < NB_NUM_LIGHTS; ++i)
             r.perLight[i] = make_float3(0.0f, 0.0f, 0.0f);
 #endif
-        /* Velocity blur: the camera's time sample as seconds after the frame's (ptscene.h). */
+        /* Velocity, transform and light motion blur: the camera's time sample as seconds after
+         * the frame's (ptscene.h, motion.h). */
         float seconds = 0.0f;
-#if NB_HAS_VELOCITY
+#if NB_HAS_VELOCITY || NB_HAS_MOTION || NB_HAS_LIGHT_MOTION
         if (P->volumeCount > 0)
             seconds = vols[0].shutter[0] + (vols[0].shutter[1] - vols[0].shutter[0]) * time;
 #endif

@@ -21,7 +21,7 @@
 #define NB_LIGHT_SPHERE 4
 #define NB_LIGHT_ENVIRONMENT 5
 
-/* Plain data, 20 floats + 4 ints = 96 bytes on host and device. */
+/* Plain data, 20 floats + 8 ints = 112 bytes on host and device. */
 typedef struct {
     float position[4];  /* point, spot, sphere: position; rect: centre */
     float direction[4]; /* distant, spot: unit direction of travel; rect: unit normal (emitting side) */
@@ -32,6 +32,8 @@ typedef struct {
     int index; /* position in the scene's light list (per-light AOVs) */
     float p0;  /* distant: cos of half the apparent angle; spot: cos outer; sphere: radius */
     float p1;  /* spot: cos inner (full intensity inside) */
+    int motion[4]; /* a light moving within the shutter (motion.h): x the offset of its knots in
+                    * the path tracer's majorant buffer, y their count; 0 0: still. zw unused */
 } NbLight;
 
 typedef struct {

@@ -19,6 +19,7 @@
 #define NIMBUS_KERNELS_SHARED_MAJORANT_H
 
 #include "brickdda.h"
+#include "motion.h"
 #include "ptscene.h"
 
 #ifndef NB_NUM_VOLUMES
@@ -38,6 +39,9 @@
 #endif
 #if NB_GRID_PNANOVDB
 #include "nanogrid.h"
+#endif
+#ifndef NB_HAS_MOTION
+#define NB_HAS_MOTION 1 /* some volume's transform moves within the shutter (motion.h) */
 #endif
 
 #define NB_INF INFINITY
@@ -90,10 +94,26 @@ NB_FN float nbVolumeMajorant(NB_GLOBAL const NbVolumeDesc* vd)
     return m;
 }
 
+/* Volume vd's world-to-index transform (3x4 row-major) at shutter time `seconds`: its
+ * indexFromWorld, or where its transform moves within the shutter, the knots' (motion.h). */
+NB_FN void nbVolumeIndexFromWorld(NB_GLOBAL const NbVolumeDesc* vd, NB_GLOBAL const float* majorants, float seconds,
+                                  NB_PRIVATE float* m)
+{
+#if NB_HAS_MOTION
+    if (vd->motion[1] > 0) {
+        nbMotionIndexFromWorld(majorants + vd->motion[0], vd->motion[1], seconds, m);
+        return;
+    }
+#endif
+    for (int i = 0; i < 12; ++i)
+        m[i] = vd->indexFromWorld[i];
+}
+
 /* Starts the walk along o + t d (world space, d unit), t in [tMin, tMax], of a path at shutter
- * time `seconds` (0 without velocity blur). */
+ * time `seconds` (0 without motion blur). The index-space ray of a volume whose transform moves
+ * is its ray at that time; the box and slot majorants live in index space and hold at any time. */
 NB_FN void nbMajorantInit(NB_PRIVATE NbMajorantIter* it, NB_GLOBAL const NbVolumeDesc* vols, int count, float3 o,
-                          float3 d, float tMin, float tMax, float seconds)
+                          float3 d, float tMin, float tMax, float seconds, NB_GLOBAL const float* majorants)
 {
     it->t = tMin;
     it->seconds = seconds;
@@ -104,7 +124,8 @@ NB_FN void nbMajorantInit(NB_PRIVATE NbMajorantIter* it, NB_GLOBAL const NbVolum
         it->maj[v] = 0.0f;
         if (v >= count)
             continue;
-        NB_GLOBAL const float* m = vols[v].indexFromWorld;
+        float m[12];
+        nbVolumeIndexFromWorld(vols + v, majorants, seconds, m);
         float3 oi =
             make_float3(m[0] * o.x + m[1] * o.y + m[2] * o.z + m[3], m[4] * o.x + m[5] * o.y + m[6] * o.z + m[7],
                         m[8] * o.x + m[9] * o.y + m[10] * o.z + m[11]);

@@ -16,14 +16,18 @@
 #include "geometry.h"
 #include "phase.h"
 
-/* 336 bytes. Coefficients in 1/m with the density scale folded in: sigma at a point is
+/* 352 bytes. Coefficients in 1/m with the density scale folded in: sigma at a point is
  * sigma_* times the trilinear density there.
  *
  * Velocity motion blur (docs/motion-blur.md): a path at shutter time s (seconds after the
  * frame's) reads the volume at index point q - v(q) s, v the velocity grid. Then boundsLo/Hi
  * are grown by the largest displacement over the shutter, and motionMajorant holds, over the
  * grown box's brick slots, the slot extinction majorants max-filtered over that displacement:
- * a bound on sigma_t at any point and any time of the shutter, so tracking stays unbiased. */
+ * a bound on sigma_t at any point and any time of the shutter, so tracking stays unbiased.
+ *
+ * Transform motion blur (motion.h): a path at shutter time s sees a moving volume through its
+ * indexFromWorld at s, interpolated from the transform's knots. The box and the slot majorants
+ * are in index space, so they hold at every time unchanged. */
 typedef struct {
     float indexFromWorld[12]; /* 3x4 row-major: p_index = M p_world + t (rows: M | t) */
     float sigma_s[4];         /* xyz RGB scattering; w: 0 */
@@ -40,6 +44,10 @@ typedef struct {
                                 * table or pool; or absent */
     float shutter[4];          /* velocity blur: xy the shutter's open and close, seconds after
                                 * the frame's time (the same in every volume); zw unused */
+    int motion[4];             /* a transform moving within the shutter (motion.h): x the offset
+                                * of its block (indexFromUser, then knots) in the majorant
+                                * buffer, y the knot count; 0 0: still (indexFromWorld holds).
+                                * zw unused */
 } NbVolumeDesc;
 
 /* Per-launch parameters, 260 bytes. */

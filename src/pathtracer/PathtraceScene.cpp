@@ -11,9 +11,9 @@
 namespace nimbus {
 
 static_assert(sizeof(NbGridDesc) == 48, "NbGridDesc layout is shared with OpenCL");
-static_assert(sizeof(NbVolumeDesc) == 336, "NbVolumeDesc layout is shared with OpenCL");
+static_assert(sizeof(NbVolumeDesc) == 352, "NbVolumeDesc layout is shared with OpenCL");
 static_assert(sizeof(NbPtParams) == 260, "NbPtParams layout is shared with OpenCL");
-static_assert(sizeof(NbLight) == 96, "NbLight layout is shared with OpenCL");
+static_assert(sizeof(NbLight) == 112, "NbLight layout is shared with OpenCL");
 
 namespace {
 
@@ -186,6 +186,13 @@ PathtraceScene buildPathtraceScene(const RenderContext& ctx, bool pnanovdbDensit
         }
         d.shutter[0] = ctx.volumes.shutterSeconds(0.0f);
         d.shutter[1] = ctx.volumes.shutterSeconds(1.0f);
+        // A transform moving within the shutter: its block (motion.h) after the slot majorants.
+        if (const std::vector<float>& block = ctx.volumes.transformMotion(vi); !block.empty()) {
+            d.motion[0] = int(s.majorants.size());
+            d.motion[1] = ctx.volumes.transformKnots(vi);
+            s.majorants.insert(s.majorants.end(), block.begin(), block.end());
+            s.motion = true;
+        }
         s.volumes.push_back(d);
     }
     for (size_t i = 0; i < ctx.lights.size(); ++i) {
@@ -197,7 +204,14 @@ PathtraceScene buildPathtraceScene(const RenderContext& ctx, bool pnanovdbDensit
             s.envMap = e.map->header();
             s.envData = e.map->data();
         }
-        s.lights.push_back(e.light);
+        NbLight l = e.light;
+        if (!e.motion.empty()) {  // a light moving within the shutter: its knots (motion.h)
+            l.motion[0] = int(s.majorants.size());
+            l.motion[1] = int(e.motion.size() / NB_MOTION_KNOT);
+            s.majorants.insert(s.majorants.end(), e.motion.begin(), e.motion.end());
+            s.lightMotion = true;
+        }
+        s.lights.push_back(l);
         s.lightEntry.push_back(int(i));
         s.lightTypes |= 1u << e.light.type;
     }
@@ -232,7 +246,8 @@ std::string PathtraceScene::defines(bool globalMajorant) const
       << " -D NB_CHROMATIC=" << (chromatic ? 1 : 0) << " -D NB_GLOBAL_MAJORANT=" << (globalMajorant ? 1 : 0)
       << " -D NB_GEOM_HOLDOUTS=" << (holdouts ? 1 : 0) << " -D NB_GEOM_SHADOW_CASTERS=" << (shadowCasters ? 1 : 0)
       << " -D NB_HOLDOUT_DEPTH=" << (holdoutDepth.empty() ? 0 : 1) << " -D NB_HAS_VELOCITY=" << (velocity ? 1 : 0)
-      << " -D NB_EQUIANGULAR=" << (equiangular ? 1 : 0) << " -D NB_GRID_PNANOVDB=" << (pnanovdb ? 1 : 0);
+      << " -D NB_EQUIANGULAR=" << (equiangular ? 1 : 0) << " -D NB_GRID_PNANOVDB=" << (pnanovdb ? 1 : 0)
+      << " -D NB_HAS_MOTION=" << (motion ? 1 : 0) << " -D NB_HAS_LIGHT_MOTION=" << (lightMotion ? 1 : 0);
     return o.str();
 }
 

@@ -7,6 +7,7 @@
 #pragma once
 
 #include "../../kernels/shared/light.h"
+#include "../../kernels/shared/motion.h"
 #include "../../kernels/shared/ptscene.h"
 #include "../geometry/KernelBvh.h"
 #include "../render/RenderContext.h"
@@ -29,6 +30,8 @@ struct PathtraceScene {
     std::vector<int> lightEntry;  // for each, its index in RenderContext::lights (AOV)
     bool emission = false;        // some volume has an emission grid
     bool velocity = false;        // some volume moves over the shutter (velocity blur)
+    bool motion = false;          // some volume's transform moves within the shutter (motion.h)
+    bool lightMotion = false;     // some light moves within the shutter (motion.h)
     bool twoLobe = false;         // some phase function has a second lobe
     bool chromatic = false;       // some medium's coefficients differ between channels
     bool pnanovdb = false;        // densities as NanoVDB grids (NB_GRID_PNANOVDB, nanogrid.h)

@@ -39,6 +39,7 @@ std::unique_ptr<RenderContext> RenderContext::create(const Scene& scene, VolumeS
         const Light& l = scene.lights[i];
         LightEntry e;
         e.light = makeNbLight(l, int(i));
+        e.motion = lightMotionKnots(l, scene.render.fps);
         e.aov = lightAovName(l, i);
         if (l.type == LightType::Environment) {
             if (!hasEnvironment)
@@ -125,36 +126,39 @@ void RenderContext::buildShadowMaps(const RenderPlan& plan, RenderStats& stats, 
         stats.addStage("sky grid", secondsSince(t2));
 }
 
-Rgb RenderContext::deltaWeight(size_t i, float3 p, float3& wi) const
+Rgb RenderContext::deltaWeight(size_t i, float3 p, float3& wi, float seconds) const
 {
-    const LightEntry& e = lights[i];
-    if (e.light.type == NB_LIGHT_DISTANT) {  // also a soft sun shadow-mapped as its centre
-        wi = -nbLoad3(e.light.direction);
-        return nbLoad3(e.light.color);
+    const NbLight light = lights[i].lightAt(seconds);
+    if (light.type == NB_LIGHT_DISTANT) {  // also a soft sun shadow-mapped as its centre
+        wi = -nbLoad3(light.direction);
+        return nbLoad3(light.color);
     }
-    NbLightSample s = nbLightSample(e.light, p, 0.5f, 0.5f);
+    NbLightSample s = nbLightSample(light, p, 0.5f, 0.5f);
     wi = s.wi;
     return s.weight;
 }
 
-Rgb RenderContext::incident(size_t i, float3 p, float u0, float u1, float3& wi, DeepShadowMap::Cursor* cursor) const
+Rgb RenderContext::incident(size_t i, float3 p, float u0, float u1, float3& wi, DeepShadowMap::Cursor* cursor,
+                            float seconds, const float3* shadowPoint) const
 {
     const LightEntry& e = lights[i];
-    NbLightSample s = nbLightSample(e.light, p, u0, u1);
-    if (e.delta && e.light.type == NB_LIGHT_DISTANT) {
-        s.wi = -nbLoad3(e.light.direction);
-        s.weight = nbLoad3(e.light.color);
+    const NbLight light = e.lightAt(seconds);
+    NbLightSample s = nbLightSample(light, p, u0, u1);
+    if (e.delta && light.type == NB_LIGHT_DISTANT) {
+        s.wi = -nbLoad3(light.direction);
+        s.weight = nbLoad3(light.color);
     }
     wi = s.wi;
     if (nbMaxComponent(s.weight) <= 0.0f)
         return splat(0.0f);
+    const float3 q = shadowPoint ? *shadowPoint : p;
     if (e.shadowMap)
-        return s.weight * e.shadowMap->transmittance(p, cursor);
+        return s.weight * e.shadowMap->transmittance(q, cursor);
     float tMax = std::min(s.distance, 1e30f);
     if (const EmbreeScene* casters = shadowCasters())
-        if (casters->occluded(p, s.wi, 0.0f, tMax))
+        if (casters->occluded(q, s.wi, 0.0f, tMax))
             return splat(0.0f);
-    Rgb tau = volumes.opticalDepth(p, s.wi, 0.0f, tMax, scene->render.shadowStep);
+    Rgb tau = volumes.opticalDepth(q, s.wi, 0.0f, tMax, scene->render.shadowStep);
     return s.weight * exp(-tau);
 }
 

@@ -5,6 +5,7 @@
 #include "../geometry/EmbreeScene.h"
 #include "../geometry/HoldoutDepth.h"
 #include "../geometry/KernelBvh.h"
+#include "../scene/KernelScene.h"
 #include "../scene/Scene.h"
 #include "DeepShadowMap.h"
 #include "LightCache.h"
@@ -25,7 +26,15 @@ namespace nimbus {
 class ShadowMapCache;
 
 struct LightEntry {
-    NbLight light;
+    NbLight light;  // at the shutter's centre (Light's static values)
+    // Motion within the shutter (kernels/shared/motion.h knots, seconds after the frame's);
+    // empty: still. lightAt places the light at a shutter time.
+    std::vector<float> motion;
+    NbLight lightAt(float seconds) const
+    {
+        return motion.empty() ? light
+                              : nbLightAt(light, motion.data(), int(motion.size() / NB_MOTION_KNOT), seconds);
+    }
     std::string aov;  // "light_<name>"
     bool used = true;
     // One fixed sample per step suffices: a delta light, or a distant light whose penumbra
@@ -101,10 +110,25 @@ struct RenderContext {
     // the direction toward the light. Uses the shadow map where there is one, else a shadow ray.
     // L_i / pdf for a light treated as a delta (one fixed sample), before transmittance, and
     // the direction toward it.
-    Rgb deltaWeight(size_t i, float3 p, float3& wi) const;
+    // seconds: the ray's shutter time, at which a moving light is placed (LightEntry::lightAt).
+    Rgb deltaWeight(size_t i, float3 p, float3& wi, float seconds = 0.0f) const;
 
-    // `cursor`, if given, speeds up shadow-map lookups along one ray.
-    Rgb incident(size_t i, float3 p, float u0, float u1, float3& wi, DeepShadowMap::Cursor* cursor = nullptr) const;
+    // `cursor`, if given, speeds up shadow-map lookups along one ray. seconds: as deltaWeight's;
+    // shadowPoint: where the shadow map (or shadow ray) is read, p where null (moving volumes:
+    // VolumeSet::sampleAt's lightPoint). A moving light's map is the shutter centre's.
+    Rgb incident(size_t i, float3 p, float u0, float u1, float3& wi, DeepShadowMap::Cursor* cursor = nullptr,
+                 float seconds = 0.0f, const float3* shadowPoint = nullptr) const;
+    // Whether some light moves within the shutter.
+    bool lightsMove() const
+    {
+        for (const LightEntry& e : lights)
+            if (!e.motion.empty())
+                return true;
+        return false;
+    }
+    // Whether anything the marches read moves within the shutter (volumes or lights): then each
+    // camera sample's time is passed down and the general march runs.
+    bool moving() const { return volumes.moving() || lightsMove(); }
 };
 
 }  // namespace nimbus

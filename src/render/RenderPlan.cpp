@@ -30,6 +30,9 @@ std::string RenderPlan::describe() const
         if (v.clampedVoxels)
             s << "; " << v.clampedVoxels << " bad voxel values clamped";
         s << "\n";
+        if (v.motionKnots > 0)
+            s << "      transform motion blur: the transform moves within the shutter (" << v.motionKnots
+              << " knots); bounds at the shutter's centre\n";
         if (v.velocity) {
             char buf[200];
             std::snprintf(buf, sizeof buf,
@@ -60,6 +63,8 @@ std::string RenderPlan::describe() const
         else if (l.skyGrid)
             s << "transmittance-weighted SH radiance on a grid, built once (" << l.reason << ")";
         s << "\n";
+        if (l.motionKnots > 0)
+            s << "      moves within the shutter (" << l.motionKnots << " knots); shadow map at the shutter's centre\n";
         if (wkb.enabled && !l.l2plus.empty())
             s << "      L2+: " << l.l2plus << "\n";
     }

@@ -23,6 +23,7 @@ struct LightPlan {
     std::string projection;  // orthographic / perspective / cube
     int resolution = 0;      // the most texels per side; the build may use fewer (RenderStats)
     std::string reason;
+    int motionKnots = 0;  // > 0: it moves within the shutter, by this many knots (motion.h)
     // wkb: how this light feeds L2+ (empty for other methods), e.g. "E = weight * T from the
     // deep shadow map" or "SH order 2 (27 channels)" or "skipped: <why>".
     std::string l2plus;
@@ -41,6 +42,7 @@ struct VolumePlan {
     std::string bounds;
     // Velocity motion blur (docs/motion-blur.md): the vel grid read, its largest speed (index
     // voxels per second) and the largest displacement over the shutter (index voxels).
+    int motionKnots = 0;  // > 0: its transform moves within the shutter, by this many knots (motion.h)
     bool velocity = false;
     float maxSpeed = 0;
     float maxDisplacement = 0;

@@ -22,6 +22,8 @@ std::string unreachableReason(const Light& l, const NbLight& k, const Bbox& boun
         return "zero power";
     if (bounds.empty())
         return "no volume to light";
+    if (!l.shutterMotion.frames.empty())
+        return {};  // it moves within the shutter: its placement at the centre does not decide
     float3 centre = bounds.center();
     float radius = 0.5f * length(bounds.extent());
     if (l.type == LightType::Spot) {
@@ -73,6 +75,7 @@ RenderPlan planScene(const Scene& scene, const VolumeSet& volumes)
         vp.maxOpticalDepthPerVoxel = maxSigma * v->voxelSize;
         vp.opticalDepthAcross = maxSigma * length(v->worldBounds.extent());
         vp.clampedVoxels = v->clampedVoxels;
+        vp.motionKnots = volumes.transformKnots(plan.volumes.size());
         vp.velocity = v->hasVelocity();
         vp.maxSpeed = v->maxSpeed;
         vp.maxDisplacement = volumes.maxDisplacement(plan.volumes.size());
@@ -94,7 +97,8 @@ RenderPlan planScene(const Scene& scene, const VolumeSet& volumes)
         LightPlan lp;
         lp.name = l.name.empty() ? std::to_string(i) : l.name;
         lp.type = lightTypeName(l.type);
-        std::string why = unreachableReason(l, k, volumes.worldBounds());
+        lp.motionKnots = int(l.shutterMotion.frames.size());
+        std::string why = unreachableReason(l, k, volumes.movingBounds());
         if (!why.empty()) {
             lp.used = false;
             lp.reason = why;

@@ -132,6 +132,16 @@ void evaluateAnimation(Scene& s)
     const double centre = 0.5 * (open + close);
     const bool shutterOpen = c.shutterClose > c.shutterOpen;
     std::vector<std::string> moving;  // animated during the shutter but not blurred
+    // The frames, relative to the frame, at which a value moving within the shutter is sampled:
+    // open, every key strictly inside, close (motion.h: between them the keys' interpolation is
+    // linear in time, so these knots reproduce it exactly).
+    auto knotFrames = [&](const std::vector<double>& keyFrames, std::vector<double>& out) {
+        out.push_back(open);
+        for (double f : keyFrames)
+            if (f > open && f < close)
+                out.push_back(f);
+        out.push_back(close);
+    };
     auto at = [&](auto& value, auto& keys, double time, const std::string& what) {
         if (!keys.animated())
             return;
@@ -158,17 +168,69 @@ void evaluateAnimation(Scene& s)
             c.fromClose = c.from, c.toClose = c.to, c.upClose = c.up;
     }
     at(c.fov, c.fovKeys, centre, "camera.fov");
+    // Lights and volume transforms move within the shutter (kernels/shared/motion.h): their
+    // knots are kept, and the static value is the shutter centre's (shadow maps, light volumes
+    // and bounds are built there).
     for (size_t i = 0; i < s.lights.size(); ++i) {
         Light& l = s.lights[i];
-        const std::string where = "lights[" + std::to_string(i) + "]";
-        at(l.direction, l.directionKeys, centre, where + ".direction");
-        at(l.position, l.positionKeys, centre, where + ".position");
-        at(l.center, l.centerKeys, centre, where + ".center");
-        at(l.normal, l.normalKeys, centre, where + ".normal");
-        at(l.up, l.upKeys, centre, where + ".up");
+        Keys<float3>* keys[] = {&l.directionKeys, &l.positionKeys, &l.centerKeys, &l.normalKeys, &l.upKeys};
+        // A frame's scene (no keys left) keeps the motion it was given: evaluating it again is
+        // a fixed point.
+        if (l.directionKeys.animated() || l.positionKeys.animated() || l.centerKeys.animated() ||
+            l.normalKeys.animated() || l.upKeys.animated())
+            l.shutterMotion = {};
+        std::vector<double> all;
+        bool animated = false;
+        for (Keys<float3>* k : keys)
+            if (k->animated()) {
+                animated = true;
+                all.insert(all.end(), k->frames.begin(), k->frames.end());
+            }
+        if (animated && shutterOpen) {
+            std::sort(all.begin(), all.end());
+            std::vector<double> frames;
+            knotFrames(all, frames);
+            frames.erase(std::unique(frames.begin(), frames.end()), frames.end());
+            for (double f : frames) {
+                auto value = [&](const Keys<float3>& k, float3 still) { return k.animated() ? evaluateKeys(k, f) : still; };
+                l.shutterMotion.frames.push_back(f - frame);
+                l.shutterMotion.values.push_back({value(l.directionKeys, l.direction), value(l.positionKeys, l.position),
+                                                  value(l.centerKeys, l.center), value(l.normalKeys, l.normal),
+                                                  value(l.upKeys, l.up)});
+            }
+            bool moves = false;  // a light whose knots all agree holds still
+            for (const Light::Pose& p : l.shutterMotion.values) {
+                const Light::Pose& q = l.shutterMotion.values.front();
+                moves |= !sameValue(p.direction, q.direction) || !sameValue(p.position, q.position) ||
+                         !sameValue(p.center, q.center) || !sameValue(p.normal, q.normal) || !sameValue(p.up, q.up);
+            }
+            if (!moves)
+                l.shutterMotion = {};
+        }
+        at(l.direction, l.directionKeys, centre, "");
+        at(l.position, l.positionKeys, centre, "");
+        at(l.center, l.centerKeys, centre, "");
+        at(l.normal, l.normalKeys, centre, "");
+        at(l.up, l.upKeys, centre, "");
     }
-    for (size_t i = 0; i < s.volumes.size(); ++i)
-        at(s.volumes[i].transform, s.volumes[i].transformKeys, centre, "volumes[" + std::to_string(i) + "].transform");
+    for (size_t i = 0; i < s.volumes.size(); ++i) {
+        Volume& v = s.volumes[i];
+        if (v.transformKeys.animated())
+            v.shutterMotion = {};
+        if (v.transformKeys.animated() && shutterOpen) {
+            std::vector<double> frames;
+            knotFrames(v.transformKeys.frames, frames);
+            bool moves = false;  // a transform whose knots all agree holds still
+            for (double f : frames) {
+                v.shutterMotion.frames.push_back(f - frame);
+                v.shutterMotion.values.push_back(evaluateKeys(v.transformKeys, f));
+                moves |= !sameValue(v.shutterMotion.values.back(), v.shutterMotion.values.front());
+            }
+            if (!moves)
+                v.shutterMotion = {};
+        }
+        at(v.transform, v.transformKeys, centre, "");
+    }
     for (size_t i = 0; i < s.geometry.size(); ++i)
         at(s.geometry[i].transform, s.geometry[i].transformKeys, centre,
            "geometry[" + std::to_string(i) + "].transform");
@@ -177,8 +239,8 @@ void evaluateAnimation(Scene& s)
         for (const std::string& m : moving)
             list += (list.empty() ? "" : ", ") + m;
         logWarning("frame " + std::to_string(s.render.frame) + ": " + list +
-                   " move during the shutter but only the camera is motion-blurred; they are placed at the "
-                   "shutter's centre");
+                   " move during the shutter but are not motion-blurred (only the camera, lights and volume "
+                   "transforms are); they are placed at the shutter's centre");
     }
 }
 

@@ -28,7 +28,7 @@ void frame(float3 from, float3 to, float3 up, float* origin, float* forward, flo
 }  // namespace
 
 static_assert(sizeof(NbCamera) == 112, "NbCamera layout is shared with OpenCL");
-static_assert(sizeof(NbLight) == 96, "NbLight layout is shared with OpenCL");
+static_assert(sizeof(NbLight) == 112, "NbLight layout is shared with OpenCL");
 
 int nbFilterType(PixelFilter filter)
 {
@@ -106,6 +106,24 @@ NbLight makeNbLight(const Light& l, int index)
         break;
     }
     return k;
+}
+
+std::vector<float> lightMotionKnots(const Light& l, float fps)
+{
+    const auto& k = l.shutterMotion;
+    if (k.frames.size() < 2)
+        return {};
+    std::vector<float> out(NB_MOTION_KNOT * k.frames.size(), 0.0f);
+    const bool rect = l.type == LightType::Rect;
+    for (size_t j = 0; j < k.frames.size(); ++j) {
+        float* knot = out.data() + NB_MOTION_KNOT * j;
+        const Light::Pose& p = k.values[j];
+        const float3 v[3] = {rect ? p.center : p.position, rect ? p.normal : p.direction, p.up};
+        knot[0] = float(k.frames[j] / double(fps));
+        for (int a = 0; a < 3; ++a)
+            knot[1 + 3 * a] = v[a].x, knot[2 + 3 * a] = v[a].y, knot[3 + 3 * a] = v[a].z;
+    }
+    return out;
 }
 
 std::vector<NbLight> makeNbLights(const Scene& scene)

@@ -5,6 +5,7 @@
 #include "../../kernels/shared/camera.h"
 #include "../../kernels/shared/filter.h"
 #include "../../kernels/shared/light.h"
+#include "../../kernels/shared/motion.h"
 #include "Scene.h"
 
 #include <vector>
@@ -16,5 +17,8 @@ NbCamera makeNbCamera(const Camera& camera);
 int nbFilterType(PixelFilter filter);
 NbLight makeNbLight(const Light& light, int index);
 std::vector<NbLight> makeNbLights(const Scene& scene);
+// The light's motion within the shutter (Light::shutterMotion) as motion.h's knots, times in
+// seconds after the frame's (frames / fps); empty where the light holds still.
+std::vector<float> lightMotionKnots(const Light& light, float fps);
 
 }  // namespace nimbus

@@ -72,6 +72,13 @@ struct Light {
     float radius = 0.5f;         // sphere
     // Animation (Animation.h) of the placement keys: direction, position, center, normal, up.
     Keys<float3> directionKeys, positionKeys, centerKeys, normalKeys, upKeys;
+    // Motion within the shutter (evaluateAnimation, FrameTokens.h; kernels/shared/motion.h): the
+    // placement at the shutter's open and close and at every key between, frames after
+    // render.frame. Empty: the light holds still over the shutter.
+    struct Pose {
+        float3 direction, position, center, normal, up;
+    };
+    Keys<Pose> shutterMotion;
     // environment: an HDR latitude-longitude map (kernels/shared/envmap.h has the orientation),
     // resolved against the scene file's directory as VDB files are; empty: uniform. The radiance
     // from world direction w is intensity * radiance * map(w).
@@ -112,6 +119,10 @@ struct Volume {
     VolumeSource source;
     Transform transform;  // worldFromVolume, applied after the grid's own index-to-world
     Keys<Transform> transformKeys;  // animated transform (Animation.h); empty: static
+    // Motion within the shutter (evaluateAnimation, FrameTokens.h): the transform at the shutter's
+    // open and close and at every key between, frames after render.frame; `transform` is then
+    // the shutter centre's. Empty: the volume holds still over the shutter.
+    Keys<Transform> shutterMotion;
     Medium medium;
     std::string shader;  // file in shaders/ or a path; empty: the default shader
 };

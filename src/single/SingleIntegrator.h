@@ -32,7 +32,7 @@ public:
     {
         // Velocity blur: each ray's shutter fraction as seconds after the frame's time.
         thread_local std::vector<float> seconds;
-        const bool moving = mCtx->volumes.moving() && time;
+        const bool moving = mCtx->moving() && time;
         if (moving) {
             seconds.resize(size_t(n));
             for (int i = 0; i < n; ++i)

@@ -567,8 +567,9 @@ bool marchSingleFast(const RenderContext& ctx, float3 o, float3 d, float jitter,
         const LightEntry& e = ctx.lights[i];
         if (!e.used || !e.delta || e.light.type != NB_LIGHT_DISTANT)
             continue;
-        // Light travels along its direction, then toward the camera, along -d (phase.h).
-        float cosTheta = -dot(nbLoad3(e.light.direction), d);
+        // Light travels along its direction, then toward the camera, along -d (phase.h); a
+        // light moving within the shutter, at the ray's time.
+        float cosTheta = -dot(nbLoad3(e.lightAt(seconds).direction), d);
         for (size_t v = 0; v < nVolumes; ++v)
             rayPhase[i * nVolumes + v] = nbPhaseEval(volumes[v]->medium.phase, cosTheta);
         rayPhaseValid[i] = 1;
@@ -612,7 +613,7 @@ bool marchSingleFast(const RenderContext& ctx, float3 o, float3 d, float jitter,
     thread_local std::vector<StiffLight> stiffLights;
     thread_local std::vector<Rgb> stiffL1;
     stiffLights.clear();
-    bool stiffSteps = nVolumes == 1 && ctx.stiff[0].any && !volumes[0]->hasEmission() && !vs.moving();
+    bool stiffSteps = nVolumes == 1 && ctx.stiff[0].any && !volumes[0]->hasEmission() && !ctx.moving();
     for (size_t i = 0; i < nLights && stiffSteps; ++i) {
         const LightEntry& e = ctx.lights[i];
         if (!e.used)
@@ -644,10 +645,13 @@ bool marchSingleFast(const RenderContext& ctx, float3 o, float3 d, float jitter,
             if (latticeStart && !(t < span.t1))
                 break;
             kNext = k + 1;
-            // p: where the step lies; with moving volumes the light it sees is read at
-            // lightPoint, where its matter was at the frame's time (VolumeSet::sampleAt).
-            float3 p = o + d * t;
-            MediumSample m = vs.sampleAt(seconds, p, phaseWeights.data(), stencils.data(), &p);
+            // p: where the step lies, where the light's direction and distance are taken (a
+            // moving light placed at the ray's time); with moving volumes the shadow maps, baked
+            // transmittance and sky grids are read at lp, where its matter was when they were
+            // made (VolumeSet::sampleAt).
+            const float3 p = o + d * t;
+            float3 lp;
+            MediumSample m = vs.sampleAt(seconds, p, phaseWeights.data(), stencils.data(), &lp);
             if (stiffSteps) {
                 if (const int ns = ctx.stiff[0].subStepsOf(stencils[0].brick)) {
                     const VolumeData& vol = *volumes[0];
@@ -698,7 +702,7 @@ bool marchSingleFast(const RenderContext& ctx, float3 o, float3 d, float jitter,
                             if (!(phaseWeights[v] > 0.0f))
                                 continue;
                             const size_t sv = size_t(slot) * nVolumes + v;
-                            sum += ctx.lights[i].sky->radiance(v, volumes[v]->indexFromWorld.point(p),
+                            sum += ctx.lights[i].sky->radiance(v, volumes[v]->indexFromWorld.point(lp),
                                                                skyA.data() + sv * SkyLight::kCountMax, skyCursors[sv]) *
                                    phaseWeights[v];
                             skyTailTau[sv] += m.sigma_s * (dt * phaseWeights[v] * invWeightSum);
@@ -718,10 +722,10 @@ bool marchSingleFast(const RenderContext& ctx, float3 o, float3 d, float jitter,
                         float3 wi;
                         Rgb Li;
                         if (light.cache) {
-                            Li = ctx.deltaWeight(i, p, wi) * light.cache->transmittance(stencils.data());
+                            Li = ctx.deltaWeight(i, p, wi, seconds) * light.cache->transmittance(stencils.data());
                         } else {
                             float u0 = delta ? 0.5f : nbRngNext(&rng), u1 = delta ? 0.5f : nbRngNext(&rng);
-                            Li = ctx.incident(i, p, u0, u1, wi, &cursors[i]);
+                            Li = ctx.incident(i, p, u0, u1, wi, &cursors[i], seconds, &lp);
                         }
                         if (nbMaxComponent(Li) <= 0.0f)
                             continue;
@@ -789,7 +793,7 @@ void marchSingle(const RenderContext& ctx, float3 o, float3 d, NbRng& rng, Camer
     const Reach reach = reachOf(tFar);
     if (missesEveryVolume(ctx, o, d, reach, out))
         return;
-    if (ctx.volumes.moving()) {  // velocity blur: only the general loop reads moving volumes
+    if (ctx.moving()) {  // motion blur: only the general loop reads moving volumes and lights
         marchSingleGeneral(ctx, o, d, jitter, reach, rng, out, perLight, nullptr, seconds);
         return;
     }
@@ -869,7 +873,7 @@ void marchSingleRays(const RenderContext& ctx, int n, const float3* o, const flo
                      float* perLight, const float* tFar, const float* seconds)
 {
     const size_t stride = 3 * ctx.lights.size();
-    if (ctx.volumes.moving() && seconds) {
+    if (ctx.moving() && seconds) {
         for (int i = 0; i < n; ++i)
             marchSingle(ctx, o[i], d[i], rng[i], out[i], perLight + stride * size_t(i), tFar ? tFar[i] : INFINITY,
                         seconds[i]);

@@ -109,7 +109,10 @@ void renderVrl(const RenderContext& ctx, Film& film, const RenderControl& option
     if (pixelCount == 0)
         return;
 
-    const PathtraceScene ps = buildPathtraceScene(ctx);
+    // Not const: lights moving within the shutter are placed at each iteration's time below.
+    PathtraceScene ps = buildPathtraceScene(ctx);
+    const std::vector<NbLight> lightsAtFrame = ps.lights;
+    const bool moves = ps.velocity || ps.motion || ps.lightMotion;
     vrl::VrlMedium medium(ps);
     const int stride = NB_ACC_STRIDE(int(ps.lights.size()));
     std::vector<std::string> lightAovs;
@@ -169,12 +172,19 @@ void renderVrl(const RenderContext& ctx, Film& film, const RenderControl& option
         if (first + done >= 0xffffffffLL)
             break;  // the RNG's sample index is 32 bits
         const nb_uint sampleIndex = nb_uint(first + done);
-        // Velocity blur: one shutter time per iteration, for its light paths and all its camera
-        // paths (VrlMedium.h); iterations average over the shutter.
+        // Motion blur (velocity, volume transforms, lights): one shutter time per iteration, for
+        // its light paths and all its camera paths (VrlMedium.h); iterations average over the
+        // shutter. Moving lights are placed at that time here, between iterations, so the light
+        // pass and the camera paths' next-event estimation both see them there.
         const float iterationTime = shutterTime(scene.render.seed, sampleIndex);
-        if (ps.velocity)
-            medium.setShutterSeconds(ps.volumes[0].shutter[0] +
-                                     (ps.volumes[0].shutter[1] - ps.volumes[0].shutter[0]) * iterationTime);
+        if (moves) {
+            const float seconds = ctx.volumes.shutterSeconds(iterationTime);
+            medium.setShutterSeconds(seconds);
+            for (size_t i = 0; i < ps.lights.size(); ++i)
+                if (lightsAtFrame[i].motion[1] > 0)
+                    ps.lights[i] = nbLightAt(lightsAtFrame[i], ps.majorants.data() + lightsAtFrame[i].motion[0],
+                                             lightsAtFrame[i].motion[1], seconds);
+        }
         const std::vector<vrl::Vrl> vrls = lightPass.trace(scene.render.seed, sampleIndex, paths);
         vrlCount += (long long)vrls.size();
         const float inv = 1.0f / float(sampleIndex - nb_uint(first) + 1u);
@@ -198,7 +208,7 @@ void renderVrl(const RenderContext& ctx, Film& film, const RenderControl& option
                         const float jx = nbFilterSample(filterType, filterWidth, nbRngNext(&rng));
                         const float jy = nbFilterSample(filterType, filterWidth, nbRngNext(&rng));
                         const float cameraTime = nbRngNext(&rng);
-                        const float time = ps.velocity ? iterationTime : cameraTime;
+                        const float time = moves ? iterationTime : cameraTime;
                         const float sx = float(px) + 0.5f + jx, sy = float(py) + 0.5f + jy;
                         float3 o, d;
                         nbCameraRay(cam, sx, sy, film.width, film.height, time, &o, &d);

@@ -68,7 +68,9 @@ LightPass::LightPass(const RenderContext& ctx, const PathtraceScene& ps, const V
         case NB_LIGHT_SPHERE: {
             const float r = l.p0;
             const float3 q = fmin(fmax(nbLoad3(l.position), b.lo), b.hi);  // the box's nearest point
-            inward = !b.empty() && length(q - nbLoad3(l.position)) < r;
+            // A sphere moving within the shutter (motion.h) may reach into the box at some time:
+            // it emits inward too (unbiased either way; only the overlap needs it).
+            inward = !b.empty() && (length(q - nbLoad3(l.position)) < r || l.motion[1] > 0);
             p = NB_PI * 4 * NB_PI * r * r * c * (inward ? 2 : 1);
             break;
         }

@@ -25,7 +25,7 @@ FlightResult VrlMedium::freeFlight(float3 o, float3 d, float tEnd, float3& w, Nb
     const NbVolumeDesc* vols = ps.volumes.data();
     FlightResult r;
     NbMajorantIter it;
-    nbMajorantInit(&it, vols, mCount, o, d, 0.0f, tEnd, mSeconds);
+    nbMajorantInit(&it, vols, mCount, o, d, 0.0f, tEnd, mSeconds, ps.majorants.data());
     float tau = -std::log(rngOpen(rng));
     float segEnd, mu;
     float rho[NB_NUM_VOLUMES];
@@ -87,7 +87,7 @@ float3 VrlMedium::transmittance(float3 o, float3 d, float tMax, NbRng& rng) cons
     const NbVolumeDesc* vols = ps.volumes.data();
     float3 T = make_float3(1, 1, 1);
     NbMajorantIter it;
-    nbMajorantInit(&it, vols, mCount, o, d, 0.0f, tMax, mSeconds);
+    nbMajorantInit(&it, vols, mCount, o, d, 0.0f, tMax, mSeconds, ps.majorants.data());
     float tau = -std::log(rngOpen(rng));
     float segEnd, mu;
     float rho[NB_NUM_VOLUMES];
@@ -120,7 +120,8 @@ float3 VrlMedium::scattering(float3 p, float cosTheta) const
     float3 out = make_float3(0, 0, 0);
     for (int v = 0; v < mCount; ++v) {
         const NbVolumeDesc& vd = mPs->volumes[size_t(v)];
-        const float* m = vd.indexFromWorld;
+        float m[12];  // at the iteration's shutter time where the transform moves (motion.h)
+        nbVolumeIndexFromWorld(&vd, mPs->majorants.data(), mSeconds, m);
         float3 q =
             make_float3(m[0] * p.x + m[1] * p.y + m[2] * p.z + m[3], m[4] * p.x + m[5] * p.y + m[6] * p.z + m[7],
                         m[8] * p.x + m[9] * p.y + m[10] * p.z + m[11]);
@@ -141,7 +142,7 @@ float3 VrlMedium::scattering(float3 p, float cosTheta) const
 bool VrlMedium::span(float3 o, float3 d, float tMin, float tMax, float& t0, float& t1) const
 {
     NbMajorantIter it;
-    nbMajorantInit(&it, mPs->volumes.data(), mCount, o, d, tMin, tMax, mSeconds);
+    nbMajorantInit(&it, mPs->volumes.data(), mCount, o, d, tMin, tMax, mSeconds, mPs->majorants.data());
     t0 = INFINITY;
     t1 = -INFINITY;
     for (int v = 0; v < mCount; ++v)

@@ -119,7 +119,7 @@ void WkbIntegrator::marchRays(int n, const float3* o, const float3* d, const flo
     for (int i = 0; i < n; ++i) {
         float* pl = perLight + stride * size_t(i);
         const float t = tFar ? tFar[i] : INFINITY;
-        const float seconds = vs.moving() && time ? vs.shutterSeconds(time[i]) : 0.0f;  // velocity blur
+        const float seconds = mCtx->moving() && time ? vs.shutterSeconds(time[i]) : 0.0f;  // motion blur
         marchSingle(*mCtx, o[i], d[i], rng[i], out[i], pl, t, seconds);
         mEmission->add(o[i], d[i], rng[i], out[i], t, seconds);  // single's L1 of emission, the same draws
         march(o[i], d[i], rng[i], out[i], pl, t, seconds);

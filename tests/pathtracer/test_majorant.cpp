@@ -58,7 +58,7 @@ TEST(MajorantWalk, StretchesBoundExtinctionAlongRandomRays)
         if (r % 10 == 0)
             d = make_float3(0, 0, r % 20 == 0 ? 1.0f : -1.0f);  // axis-aligned: zero components
         NbMajorantIter it;
-        nbMajorantInit(&it, ps.volumes.data(), int(ps.volumes.size()), o, d, 0.0f, NB_INF, 0.0f);
+        nbMajorantInit(&it, ps.volumes.data(), int(ps.volumes.size()), o, d, 0.0f, NB_INF, 0.0f, ps.majorants.data());
         std::vector<Stretch> stretches;
         float segEnd = 0, maj = 0;
         while (nbMajorantNext(&it, ps.volumes.data(), ps.majorants.data(), &segEnd, &maj)) {

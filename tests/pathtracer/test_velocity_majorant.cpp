@@ -76,7 +76,7 @@ TEST(VelocityMajorant, MovedExtinctionIsBoundedAndLookupsAgree)
         const float3 d = normalize(make_float3(0.6f * u(rng), 0.6f * u(rng), 0.6f * u(rng)) - o);
         const float seconds = ctx.volumes.shutterSeconds(time(rng));
         NbMajorantIter it;
-        nbMajorantInit(&it, ps.volumes.data(), int(ps.volumes.size()), o, d, 0.0f, NB_INF, seconds);
+        nbMajorantInit(&it, ps.volumes.data(), int(ps.volumes.size()), o, d, 0.0f, NB_INF, seconds, ps.majorants.data());
         std::vector<Stretch> stretches;
         float segEnd = 0, maj = 0;
         while (nbMajorantNext(&it, ps.volumes.data(), ps.majorants.data(), &segEnd, &maj)) {
@@ -102,7 +102,7 @@ TEST(VelocityMajorant, MovedExtinctionIsBoundedAndLookupsAgree)
             ASSERT_LE(sigma, s->maj * (1 + 1e-6f)) << "ray " << r << " t " << t << ", " << seconds << " s";
             // The kernel's moved lookup (nbMajorantDensities) reads the same densities.
             NbMajorantIter at;
-            nbMajorantInit(&at, ps.volumes.data(), int(ps.volumes.size()), o, d, 0.0f, NB_INF, seconds);
+            nbMajorantInit(&at, ps.volumes.data(), int(ps.volumes.size()), o, d, 0.0f, NB_INF, seconds, ps.majorants.data());
             float tEnd, mu;
             at.t = t;
             nbMajorantNext(&at, ps.volumes.data(), ps.majorants.data(), &tEnd, &mu);
