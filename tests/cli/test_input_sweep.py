@@ -10,7 +10,9 @@ no number for (as text they must be refused). Each case must either
   - exit 0 with an EXR whose every pixel value is finite, or
   - exit 2 with exactly one stderr line, naming the key,
 
-within a time limit per case (a hang is a failure). Exit 1, a signal, a timeout, a NaN pixel or
+within a limit per case (a hang is a failure): 20 s of CPU time (RLIMIT_CPU, so that a loaded
+machine does not fail a case that is merely slow; a render spinning without progress is stopped
+by it) and 120 s of wall-clock time (a render blocked without using the CPU). Exit 1, a signal, a timeout, a NaN pixel or
 an error that does not name its key fails, naming the key, the value and the method.
 
 Cases run with `single` and, when single accepts the value, with `wkb` too (a value single
@@ -34,6 +36,8 @@ import json
 import math
 import os
 import re
+import resource
+import signal
 import subprocess
 import sys
 import tempfile
@@ -45,7 +49,12 @@ import OpenImageIO as oiio
 NIMBUS = None
 HERE = os.path.dirname(os.path.abspath(__file__))
 DOCS = os.path.join(HERE, "..", "..", "docs")
-CASE_TIMEOUT_S = 20
+CASE_CPU_S = 20  # CPU seconds (all threads) per case
+CASE_WALL_S = 120  # wall seconds per case
+
+
+def limit_cpu():
+    resource.setrlimit(resource.RLIMIT_CPU, (CASE_CPU_S, CASE_CPU_S + 1))
 FLOAT_MAX = 3.4028234663852886e38
 
 BASE_SCENE = {
@@ -295,9 +304,11 @@ def run_case(case):
     args = [NIMBUS, "render", path, "-q", "--set", f"{key.path}={text}"]
     where = f"{key.path}={text} ({method})"
     try:
-        p = subprocess.run(args, capture_output=True, text=True, timeout=CASE_TIMEOUT_S)
+        p = subprocess.run(args, capture_output=True, text=True, timeout=CASE_WALL_S, preexec_fn=limit_cpu)
     except subprocess.TimeoutExpired:
-        return f"{where}: no answer within {CASE_TIMEOUT_S} s"
+        return f"{where}: no answer within {CASE_WALL_S} s of wall time"
+    if p.returncode in (-signal.SIGXCPU, -signal.SIGKILL):
+        return f"{where}: no answer within {CASE_CPU_S} s of CPU time"
     err_lines = [l for l in p.stderr.splitlines() if l.strip()]
     if p.returncode == 2:
         if len(err_lines) != 1:

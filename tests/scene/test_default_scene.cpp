@@ -16,18 +16,24 @@ TEST(DefaultScene, IsValidAndAsDocumented)
     EXPECT_NO_THROW(validateScene(s));
     EXPECT_EQ(s.camera.width, 640);
     EXPECT_EQ(s.camera.height, 360);
-    EXPECT_EQ(s.render.method, Method::Single);
+    EXPECT_EQ(s.render.method, Method::Wkb) << "multiple scattering, the picture a newcomer should see";
     EXPECT_EQ(s.output.file, "out/default.exr");
     EXPECT_EQ(s.output.preview, "out/default.png");
     ASSERT_EQ(s.volumes.size(), 1u);
     EXPECT_EQ(s.volumes[0].source.type, SourceType::Procedural);
     EXPECT_EQ(s.volumes[0].source.generator, "cloud");
     ASSERT_EQ(s.lights.size(), 2u);
-    const Light &key = s.lights[0], &fill = s.lights[1];
+    const Light &key = s.lights[0], &sky = s.lights[1];
+    EXPECT_EQ(key.type, LightType::Distant) << "a sun";
     EXPECT_NEAR(nbAverage(key.irradiance), 3.0f, 0.2f);
     EXPECT_GT(key.irradiance.x, key.irradiance.z) << "warm";
-    EXPECT_LT(fill.irradiance.x, fill.irradiance.z) << "cool";
-    EXPECT_LT(nbAverage(fill.irradiance), 0.25f);
+    EXPECT_EQ(sky.type, LightType::Environment) << "and a sky";
+    EXPECT_TRUE(sky.map.empty());
+    EXPECT_LT(sky.radiance.x, sky.radiance.z) << "blue";
+    // A clear sky gives a level surface a fifth to a tenth of the sun's irradiance.
+    const float skyIrradiance = NB_PI * nbAverage(sky.radiance);
+    EXPECT_GT(skyIrradiance, 0.1f * nbAverage(key.irradiance));
+    EXPECT_LT(skyIrradiance, 0.2f * nbAverage(key.irradiance));
     EXPECT_GT(key.direction.x, 0.0f) << "travels away from the left";
     EXPECT_LT(key.direction.y, 0.0f) << "comes from above";
     EXPECT_LT(key.direction.z, 0.0f) << "comes from the front (the camera's side)";
