@@ -45,6 +45,9 @@ done
 bash scripts/install-deps.sh >/dev/null
 export CCACHE_BASEDIR=$root
 export CCACHE_MAXSIZE=${CCACHE_MAXSIZE:-5G}
+# -g objects: ccache would hash the build folder into the key (its hash_dir default), so a fresh
+# clone (CI's) would miss every object; the debug info's paths are all that differ.
+export CCACHE_NOHASHDIR=1
 cmake -S . -B build-san -G Ninja -DCMAKE_C_COMPILER=clang -DCMAKE_CXX_COMPILER=clang++ -DNIMBUS_SANITIZE=ON >/dev/null
 cmake --build build-san -j "${NIMBUS_JOBS:-$(nproc)}" --target "${harnesses[@]/#/fuzz_}"
 

@@ -19,6 +19,9 @@ bash scripts/install-deps.sh >/dev/null
 # The same ccache as build.sh: the sanitized objects are cached beside the normal ones.
 export CCACHE_BASEDIR=$root
 export CCACHE_MAXSIZE=${CCACHE_MAXSIZE:-5G}
+# -g objects: ccache would hash the build folder into the key (its hash_dir default), so a fresh
+# clone (CI's) would miss every object; the debug info's paths are all that differ.
+export CCACHE_NOHASHDIR=1
 
 jobs=${NIMBUS_JOBS:-$(nproc)}
 cmake -S . -B build-san -G Ninja -DCMAKE_C_COMPILER=clang -DCMAKE_CXX_COMPILER=clang++ -DNIMBUS_SANITIZE=ON \
