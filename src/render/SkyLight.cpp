@@ -520,8 +520,9 @@ Rgb SkyLight::radiance(size_t volume, float3 q, const float* a, Cursor& cursor) 
     const float tx = split(f.x, g.nx, i), ty = split(f.y, g.ny, j), tz = split(f.z, g.nz, k);
     const long cell = (long(k) * g.ny + j) * g.nx + i;
     if (cell != cursor.cell) {
-        corners(volume, i, j, k, a, cursor.corner);
+        corners(volume, i, j, k, a, cursor.corner, cursor.cell >= 0 ? cursor.ijk : nullptr);
         cursor.cell = cell;
+        cursor.ijk[0] = i, cursor.ijk[1] = j, cursor.ijk[2] = k;
     }
     const Rgb* c = cursor.corner;
     const Rgb x00 = c[0] + (c[1] - c[0]) * tx, x10 = c[2] + (c[3] - c[2]) * tx;
@@ -530,11 +531,29 @@ Rgb SkyLight::radiance(size_t volume, float3 q, const float* a, Cursor& cursor) 
     return fmax(y0 + (y1 - y0) * tz, splat(0.0f));
 }
 
-void SkyLight::corners(size_t volume, int i, int j, int k, const float* a, Rgb* out) const
+void SkyLight::corners(size_t volume, int i, int j, int k, const float* a, Rgb* out, const int* previous) const
 {
     const Grid& g = mGrids[volume];
     const int count = this->count();
+    // A neighbour across one face (axis `axis`, side `step`): corner c of the new cell with bit
+    // `axis` at the near side is the old cell's corner across that bit.
+    int keep = -1, keepBit = 0;
+    if (previous) {
+        const int d[3] = {i - previous[0], j - previous[1], k - previous[2]};
+        const int moved = (d[0] != 0) + (d[1] != 0) + (d[2] != 0);
+        for (int axis = 0; axis < 3 && moved == 1; ++axis)
+            if (d[axis] == 1 || d[axis] == -1) {
+                keepBit = 1 << axis;
+                keep = d[axis] == 1 ? 0 : keepBit;  // the bit value of the corners kept
+            }
+    }
+    if (keep >= 0)
+        for (int c = 0; c < 8; ++c)
+            if ((c & keepBit) == keep)
+                out[c] = out[c ^ keepBit];
     for (int c = 0; c < 8; ++c) {
+        if (keep >= 0 && (c & keepBit) == keep)
+            continue;
         const int ci = std::min(i + (c & 1), g.nx - 1), cj = std::min(j + (c >> 1 & 1), g.ny - 1),
                   ck = std::min(k + (c >> 2 & 1), g.nz - 1);
         const float* L = g.L.data() + ((size_t(ck) * g.ny + cj) * g.nx + ci) * size_t(3 * count);

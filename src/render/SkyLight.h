@@ -75,6 +75,7 @@ public:
     // reads the same cell for about spacing / step samples in a row.
     struct Cursor {
         long cell = -1;
+        int ijk[3] = {0, 0, 0};  // the cell's node indices
         Rgb corner[8];
     };
     // sum_jm a_jm L^jm at index-space point q of volume v, trilinear between nodes (clamped to
@@ -94,7 +95,10 @@ public:
         const Grid& g = mGrids[volume];
         return Geometry{g.origin, g.invSpacing, g.nx, g.ny, g.nz};
     }
-    void corners(size_t volume, int i, int j, int k, const float* a, Rgb* out) const;
+    // `previous`: where non-null, the cell (i', j', k') whose corners `out` holds; a march
+    // mostly steps into a cell sharing a face with it, and the face's four corners are kept
+    // rather than contracted again.
+    void corners(size_t volume, int i, int j, int k, const float* a, Rgb* out, const int* previous = nullptr) const;
 
     // The part of the phase function the grid leaves to the camera march (single/SkyTail.h).
     // A forward-peaked lobe (HG of large g) has moments g^j that an order-J grid cuts off. The

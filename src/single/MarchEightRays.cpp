@@ -116,13 +116,15 @@ bool marchGreyDistantEight(const RenderContext& ctx, const VolumeData& vol, cons
     // Skies: per lane the ray's contraction a_jm = p_j y_jm(-d) and the grid cell it last read,
     // with that cell's eight corners contracted (SkyLight::radiance's cursor, one per lane, laid
     // out by corner and channel so that the trilinear blend is lane-parallel loads). The cell
-    // changes every spacing / step samples or so; then the lane's corners are contracted anew.
+    // changes every spacing / step samples or so; then the lane's corners are contracted anew
+    // (four of them where the new cell shares a face with the last).
     struct SkyLanes {
         const SkyLight* sky;
         size_t index;  // in ctx.lights
         float a[8][SkyLight::kCountMax];
         alignas(32) float corner[8][3][8];
         alignas(32) int32_t cell[8];
+        int32_t ijk[8][3];  // each lane's cell's node indices
         __m256 origin[3], inv, hi[3], hiCell[3];
         __m256i nx, nxy;
         __m256 L1[3];
@@ -210,7 +212,12 @@ bool marchGreyDistantEight(const RenderContext& ctx, const VolumeData& vol, cons
                         if (!(changed >> i & 1))
                             continue;
                         Rgb corner[8];
-                        sl.sky->corners(0, is[i], js[i], ks[i], sl.a[i], corner);
+                        const bool held = sl.cell[i] >= 0;
+                        if (held)
+                            for (int cc = 0; cc < 8; ++cc)
+                                corner[cc] = make_float3(sl.corner[cc][0][i], sl.corner[cc][1][i], sl.corner[cc][2][i]);
+                        sl.sky->corners(0, is[i], js[i], ks[i], sl.a[i], corner, held ? sl.ijk[i] : nullptr);
+                        sl.ijk[i][0] = is[i], sl.ijk[i][1] = js[i], sl.ijk[i][2] = ks[i];
                         for (int cc = 0; cc < 8; ++cc) {
                             sl.corner[cc][0][i] = corner[cc].x;
                             sl.corner[cc][1][i] = corner[cc].y;
