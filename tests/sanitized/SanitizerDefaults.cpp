@@ -17,7 +17,13 @@ extern "C" const char* __ubsan_default_options()
 
 // Leaks in third-party libraries (uninstrumented GCC builds from Debian), each with the reason
 // it is not nimbus's. Nothing of nimbus's own is suppressed.
+//
+// OpenVDB 10's RootNode::readTopology (a header template) allocates a child node and reads its
+// topology before it stores it: when that read throws, the node (up to ~270 KB) leaks. nimbus
+// makes the stream throw at the end of a damaged file on purpose (VdbFileReader.h: so a tree
+// cannot allocate more than its bytes describe); the leak is bounded by the file's size and
+// happens once per damaged file (fuzz_vdb's smoke run: 270,352 bytes in one allocation).
 extern "C" const char* __lsan_default_suppressions()
 {
-    return "";
+    return "leak:openvdb::v10_0::tree::RootNode*::readTopology\n";
 }
