@@ -37,6 +37,22 @@
  *    against a broad sky, a small bright sun texel against a broad lobe). Camera
  *    rays that escape see the background (L0); scattered rays that escape add nothing, since
  *    NEE already accounts for every light: nothing is counted twice.
+ *  - Equi-angular sampling towards point and spot lights (NB_EQUIANGULAR; Kulla and Fajardo
+ *    2012, equiangular.h): each flight segment [0, tEnd) of a path that may still scatter adds,
+ *    per point or spot light, one extra next-event estimate of that light's single scattering
+ *    anywhere on the segment, at a point t drawn with pdf_e(t) ~ 1 / r(t)^2:
+ *        w sigma_s(t) T(0, t) phase I / r^2 T(t, light) m_e(t) / pdf_e(t),
+ *    both transmittances by ratio tracking. The NEE of the same light at the free flight's
+ *    scattering vertex (which estimates the same integral) is multiplied by 1 - m_e(t_c).
+ *    m_e = pdf_e^2 / (pdf_e^2 + p_d^2), p_d(t) = mu(t) exp(-int_0^t mu) the pdf of the first
+ *    tentative collision: a deterministic function of t on the segment, computable at both
+ *    techniques' points (the true density of the vertex, sigma_t(t) T(0, t), is not), so the
+ *    weights sum to 1 at every t and the pair is unbiased for any such function; p_d equals
+ *    the true density in a homogeneous medium. Near the light pdf_e dominates and the vertex's
+ *    NEE, whose second moment diverges like int r^-4 r^2 dr at a point light, is weighted out.
+ *    A flight takes it only where pdf_e's peak reaches half the flight's largest majorant
+ *    (nbEquiWorthwhile; m = 0 elsewhere): decided once per flight and light (equiMask) and
+ *    read by both techniques. Lights past the 32nd never take it.
  *  - Directions from the phase function (nbPhaseSample, pdf = phase, weight 1).
  *  - Russian roulette from rrDepth scattering events on, survival probability min(1, max_c w_c),
  *    weight w / q for survivors: E[w'] = q (w / q) = w, unbiased. It is what ends paths in an
@@ -59,7 +75,8 @@
  *
  * Specialisation (the host's defines): NB_NUM_VOLUMES, NB_NUM_LIGHTS, NB_HAS_LIGHT_<TYPE>,
  * NB_HAS_EMISSION, NB_TWO_LOBE, NB_CHROMATIC, NB_GLOBAL_MAJORANT, NB_GEOM_HOLDOUTS,
- * NB_GEOM_SHADOW_CASTERS, NB_HOLDOUT_DEPTH. Code for what a scene lacks is not compiled.
+ * NB_GEOM_SHADOW_CASTERS, NB_HOLDOUT_DEPTH, NB_EQUIANGULAR. Code for what a scene lacks is not
+ * compiled.
  */
 #include "shared/brickgrid.h"
 #include "shared/camera.h"
@@ -67,6 +84,7 @@
 #include "shared/geometry.h"
 #include "shared/holdoutdepth.h"
 #include "shared/envmap.h"
+#include "shared/equiangular.h"
 #include "shared/light.h"
 #include "shared/majorant.h"
 #include "shared/phase.h"
@@ -93,6 +111,9 @@
 #endif
 #ifndef NB_HAS_ENV_MAP
 #define NB_HAS_ENV_MAP 0
+#endif
+#ifndef NB_EQUIANGULAR
+#define NB_EQUIANGULAR 0
 #endif
 
 /* Uniform in (0, 1]: safe for -log. */
@@ -216,6 +237,88 @@ NB_FN float3 nbRatioTransmittance(float3 o, float3 d, float tMax, float seconds,
     return T;
 }
 
+#if NB_EQUIANGULAR
+/* A point or spot light: the lights equi-angular sampling aims at. */
+NB_FN int nbEquiLight(NbLight l)
+{
+    return l.type == NB_LIGHT_POINT || l.type == NB_LIGHT_SPOT;
+}
+
+/* The ray-parameter hull [*a, *b] of the volumes' boxes that a freshly initialised walk will
+ * visit, and *muMax, the sum of those volumes' largest majorants (a bound on the majorant along
+ * the segment); 0 when it visits none. */
+NB_FN int nbMajorantHull(__private const NbMajorantIter* it, __global const NbVolumeDesc* vols, float* a, float* b,
+                         float* muMax)
+{
+    float lo = NB_INF, hi = -NB_INF, m = 0.0f;
+    for (int v = 0; v < NB_NUM_VOLUMES; ++v)
+        if (it->state[v] == 0) {
+            lo = fmin(lo, it->tEvent[v]);
+            hi = fmax(hi, it->tEnd[v]);
+            m += nbVolumeMajorant(vols + v);
+        }
+    *a = lo;
+    *b = hi;
+    *muMax = m;
+    return lo < hi;
+}
+
+/* What the equi-angular estimator needs at the point o + t d of a flight segment [0, tEnd): the
+ * ratio-tracking transmittance from 0 to t (*T, RGB), the majorant's optical depth over [0, t]
+ * (*tauMaj) and the majorant at t (*muAt), which give the distance sampling's proxy pdf, and the
+ * densities at t (rho). The walk is the flight's own (same o, d, tEnd, shutter time), so the
+ * majorant is the function the free flight sampled. Returns 0 where nothing can scatter at t (a
+ * stretch of zero majorant, or past the volumes) or where the roulette ended the estimate. */
+NB_FN int nbTrackToPoint(float3 o, float3 d, float t, float tEnd, float seconds, __global const NbVolumeDesc* vols,
+                         int volumeCount, __global const int* tables, __global const float* pools,
+                         __global const float* majorants, __private NbRng* rng, __private float3* T,
+                         __private float* tauMaj, __private float* muAt, __private float* rho)
+{
+    float3 Tr = make_float3(1.0f, 1.0f, 1.0f);
+    float tm = 0.0f;
+    NbMajorantIter it;
+    nbMajorantInit(&it, vols, volumeCount, o, d, 0.0f, tEnd, seconds);
+    float tau = -log(nbRngOpen(rng));
+    float segEnd, mu;
+    while (nbMajorantNext(&it, vols, majorants, &segEnd, &mu)) {
+        if (it.t > t)
+            return 0; /* t lies where the majorant is 0 */
+        const float stop = fmin(segEnd, t);
+        const float span = mu * (stop - it.t);
+        if (tau >= span) {
+            tm += span;
+            if (stop >= t) {
+                it.t = t;
+                nbMajorantDensities(&it, vols, tables, pools, rho);
+                *T = Tr;
+                *tauMaj = tm;
+                *muAt = mu;
+                return 1;
+            }
+            tau -= span;
+            it.t = stop;
+            continue;
+        }
+        tm += tau;
+        it.t = nbAdvance(it.t, tau / mu);
+        float r[NB_NUM_VOLUMES];
+        nbMajorantDensities(&it, vols, tables, pools, r);
+        float3 sigma_t = make_float3(0.0f, 0.0f, 0.0f);
+        for (int v = 0; v < NB_NUM_VOLUMES; ++v)
+            sigma_t = sigma_t + nbSigmaT(vols + v) * r[v];
+        Tr = Tr * fmax(make_float3(0.0f, 0.0f, 0.0f), make_float3(1.0f, 1.0f, 1.0f) - sigma_t / mu);
+        float m = nbMaxComponent(Tr);
+        if (m < 0.1f) {
+            if (nbRngNext(rng) >= m * 10.0f)
+                return 0;
+            Tr = Tr / (m * 10.0f);
+        }
+        tau = -log(nbRngOpen(rng));
+    }
+    return 0;
+}
+#endif
+
 /* The contributions of one camera path, by scattering order. */
 typedef struct {
     float3 L[3];         /* L0, L1, L2plus */
@@ -251,6 +354,70 @@ NB_FN void nbTracePath(float3 o, float3 d, float tCamera, float seconds, __globa
 #endif
         NbMajorantIter it;
         nbMajorantInit(&it, vols, volumeCount, o, d, 0.0f, tEnd, seconds);
+#if NB_EQUIANGULAR
+        /* Equi-angular next-event estimation along this flight, one point per point or spot
+         * light (docs/pathtracer.md, "Equi-angular sampling"): the single scattering of that
+         * light anywhere on [0, tEnd), sigma_s(t) T(0, t) phase I / r^2 T(t, light) / pdf_equi(t),
+         * weighted by the power heuristic against the proxy pdf mu(t) exp(-int_0^t mu) of the
+         * free flight below; the NEE at the flight's scattering vertex takes the complementary
+         * weight. Only where a vertex on this flight may still scatter (order < maxDepth). */
+        float segA = 0.0f, segB = 0.0f, segMu = 0.0f;
+        const int equi = order < P->maxDepth && nbMajorantHull(&it, vols, &segA, &segB, &segMu);
+        nb_uint equiMask = 0u; /* bit i: light i takes equi-angular sampling on this flight (i < 32) */
+        if (equi) {
+            const int next = order + 1 < 2 ? order + 1 : 2;
+            for (int i = 0; i < P->lightCount && i < NB_NUM_LIGHTS && i < 32; ++i) {
+                const NbLight l = lights[i];
+                if (!nbEquiLight(l))
+                    continue;
+                if (nbEquiPeakBound(o, d, nbLoad3(l.position), segA, segB) < NB_EQUI_MIN_PEAK * segMu)
+                    continue; /* cheap: nbEquiWorthwhile would say no */
+                const NbEquiAngular e = nbEquiInit(o, d, nbLoad3(l.position), segA, segB);
+                if (!nbEquiWorthwhile(e, segMu))
+                    continue;
+                equiMask |= 1u << i;
+                const float te = nbEquiSample(e, nbRngNext(rng));
+                const float pe = nbEquiPdf(e, te);
+                if (!(pe > 0.0f))
+                    continue;
+                const float3 pe3 = o + d * te;
+                const NbLightSample s = nbSampleLight(l, pe3, 0.0f, 0.0f);
+                if (!(nbMaxComponent(s.weight) > 0.0f))
+                    continue; /* outside a spot's cone */
+#if NB_GEOM_SHADOW_CASTERS
+                if (nbGeomTrace(bvhNodes, geomPrims, P->geom, pe3, s.wi, 0.0f, s.distance, NB_GEOM_SHADOWS, 1) < NB_INF)
+                    continue;
+#endif
+                float3 Tc;
+                float tm, muT;
+                if (!nbTrackToPoint(o, d, te, tEnd, seconds, vols, volumeCount, tables, pools, majorants, rng, &Tc, &tm,
+                                    &muT, rho))
+                    continue;
+                /* In-scattering towards -d, summed over the volumes there (each its phase). */
+                const float cosTheta = dot(s.wi, d);
+                float3 f = make_float3(0.0f, 0.0f, 0.0f);
+                for (int v = 0; v < NB_NUM_VOLUMES; ++v) {
+                    NbPhase ph = vols[v].phase;
+#if !NB_TWO_LOBE
+                    ph.blend = 0.0f;
+#endif
+                    if (rho[v] > 0.0f)
+                        f = f + nbSigmaS(vols + v) * (rho[v] * nbPhaseEval(ph, cosTheta));
+                }
+                if (!(nbMaxComponent(f) > 0.0f))
+                    continue;
+                const float wEq = nbEquiMisWeight(pe, muT * exp(-tm));
+                if (!(wEq > 0.0f))
+                    continue;
+                const float3 Tl =
+                    nbRatioTransmittance(pe3, s.wi, s.distance, seconds, vols, volumeCount, tables, pools, majorants, rng);
+                const float3 c = w * Tc * f * s.weight * Tl * (wEq / pe);
+                out->L[next] += c;
+                out->perLight[i] += c;
+            }
+        }
+        float tauMaj = 0.0f, muHit = 0.0f; /* the flight's majorant optical depth so far; mu at its vertex */
+#endif
         float tau = -log(nbRngOpen(rng));
         float segEnd, mu;
         int scatterVolume = -1;
@@ -260,8 +427,15 @@ NB_FN void nbTracePath(float3 o, float3 d, float tCamera, float seconds, __globa
             if (tau >= span) {
                 tau -= span;
                 it.t = segEnd;
+#if NB_EQUIANGULAR
+                tauMaj += span;
+#endif
                 continue;
             }
+#if NB_EQUIANGULAR
+            tauMaj += tau;
+            muHit = mu;
+#endif
             it.t = nbAdvance(it.t, tau / mu);
             nbMajorantDensities(&it, vols, tables, pools, rho);
 #if NB_HAS_EMISSION
@@ -397,6 +571,15 @@ NB_FN void nbTracePath(float3 o, float3 d, float tCamera, float seconds, __globa
             }
             if (!(nbMaxComponent(s.weight) > 0.0f) || !(f > 0.0f))
                 continue;
+#if NB_EQUIANGULAR
+            if (i < 32 && ((equiMask >> i) & 1u)) {
+                /* The complement of the equi-angular estimator's weight at this vertex. */
+                const NbEquiAngular e = nbEquiInit(o, d, nbLoad3(l.position), segA, segB);
+                f *= 1.0f - nbEquiMisWeight(nbEquiPdf(e, it.t), muHit * exp(-tauMaj));
+                if (!(f > 0.0f))
+                    continue;
+            }
+#endif
 #if NB_GEOM_SHADOW_CASTERS
             /* Geometry first: one any-hit ray is cheaper than ratio tracking, and a blocked
              * sample needs neither. */

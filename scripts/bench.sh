@@ -50,7 +50,16 @@ echo "== path tracer: the launch configuration (runtime's work-group size agains
   build/tests/pathtracer/bench_pathtrace 64 128 "" launch 5
   echo '```'
 } | section pathtrace-launch
+echo "== path tracer: density lookups through the brick pool against PNanoVDB (issue 17, item 10)"
+{
+  echo "PoCL on this machine's CPU cores unless a GPU is present; 128x128 pixels, 16 spp, max_depth 64; rounds interleaved after one warm-up render of each."
+  echo '```'
+  build/tests/pathtracer/bench_pathtrace 16 128 "" pnanovdb 9
+  echo '```'
+} | section pathtrace-pnanovdb
 echo "== sequences: --frames in one process against a process per frame"
 /usr/bin/python3 tests/bench/bench_sequence.py build/bin/nimbus 12 2 | section sequence
 echo "== path tracer against Cycles: noise at equal time (skipped without blender; ~30 min with fresh references)"
 "$bench/bench_pathtrace_vs_cycles" build/bin/nimbus "$report"
+echo "== path tracer: equi-angular sampling towards point lights, without and with, at equal time (~6 min)"
+"$bench/bench_equiangular" "$report"

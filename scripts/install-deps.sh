@@ -6,6 +6,8 @@ set -euo pipefail
 packages=(
   build-essential cmake ninja-build ccache pkg-config
   libopenvdb-dev libopenvdb-ax-dev libopenvdb-tools python3-openvdb
+  # .nvdb volume sources and the PNanoVDB kernel variant (NanoVDB.h, PNanoVDB.h; header-only).
+  libnanovdb-dev
   libopenimageio-dev openimageio-tools python3-openimageio
   libopencolorio-dev
   libembree-dev libtbb-dev

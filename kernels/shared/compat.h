@@ -38,6 +38,7 @@ typedef uint32_t nb_uint;
 typedef uint64_t nb_ulong;
 
 using std::acos;
+using std::atan;
 using std::atan2;
 using std::cos;
 using std::erf;
@@ -52,6 +53,7 @@ using std::log1p;
 using std::pow;
 using std::sin;
 using std::sqrt;
+using std::tan;
 
 /* Three floats, the same operators OpenCL's float3 has. Host-side storage only: OpenCL's
  * float3 occupies 16 bytes in buffers, so structs shared with kernels use float[4] or float4. */

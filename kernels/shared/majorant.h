@@ -33,6 +33,12 @@
 #ifndef NB_HAS_VELOCITY
 #define NB_HAS_VELOCITY 1
 #endif
+#ifndef NB_GRID_PNANOVDB
+#define NB_GRID_PNANOVDB 0 /* 1: densities through PNanoVDB (nanogrid.h), a measured alternative */
+#endif
+#if NB_GRID_PNANOVDB
+#include "nanogrid.h"
+#endif
 
 #define NB_INF INFINITY
 
@@ -215,7 +221,11 @@ NB_FN void nbMajorantDensities(NB_PRIVATE const NbMajorantIter* it, NB_GLOBAL co
     for (int v = 0; v < NB_NUM_VOLUMES; ++v) {
         rho[v] = 0.0f;
         if (it->state[v] == 1)
+#if NB_GRID_PNANOVDB
+            rho[v] = fmax(0.0f, nbNanoSample(vols[v].density, pools, nbMajorantLookup(it, vols, v, tables, pools)));
+#else
             rho[v] = fmax(0.0f, nbGridSample(vols[v].density, tables, pools, nbMajorantLookup(it, vols, v, tables, pools)));
+#endif
     }
 }
 

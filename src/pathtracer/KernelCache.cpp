@@ -137,7 +137,8 @@ std::string kernelCacheDirectory()
     return {};
 }
 
-ProgramBuild buildProgram(const ocl::Context& ctx, const std::string& file, const std::string& options)
+ProgramBuild buildProgram(const ocl::Context& ctx, const std::string& file, const std::string& options,
+                          const std::string& prelude)
 {
     auto start = std::chrono::steady_clock::now();
     const fs::path dir = kernelDirectory();
@@ -153,6 +154,7 @@ ProgramBuild buildProgram(const ocl::Context& ctx, const std::string& file, cons
 
     Hasher h;
     h.add(NIMBUS_VERSION);
+    h.add(prelude);
     h.add(source);
     std::vector<fs::path> headers;
     std::error_code ec;
@@ -199,10 +201,11 @@ ProgramBuild buildProgram(const ocl::Context& ctx, const std::string& file, cons
     }
 
     if (!out.program) {
-        const char* src = source.c_str();
-        size_t len = source.size();
+        // The prelude (if any) and the file, compiled as one source.
+        const char* src[2] = {prelude.c_str(), source.c_str()};
+        size_t len[2] = {prelude.size(), source.size()};
         cl_int err = CL_SUCCESS;
-        cl_program p = clCreateProgramWithSource(ctx.context(), 1, &src, &len, &err);
+        cl_program p = clCreateProgramWithSource(ctx.context(), 2, src, len, &err);
         ocl::check(err, "clCreateProgramWithSource");
         ocl::Program prog(p);
         err = clBuildProgram(p, 1, &device, fullOptions.c_str(), nullptr, nullptr);

@@ -29,6 +29,7 @@ std::string kernelCacheDirectory();
 
 // Builds `file` (relative to kernelDirectory(), or absolute) with `-I kernelDirectory()` and
 // `options`. Throws Error with the build log's first error line when compilation fails.
-ProgramBuild buildProgram(const ocl::Context& ctx, const std::string& file, const std::string& options);
+ProgramBuild buildProgram(const ocl::Context& ctx, const std::string& file, const std::string& options,
+                          const std::string& prelude = "");
 
 }  // namespace nimbus

@@ -1,9 +1,11 @@
 #include "PathtraceScene.h"
 
 #include "../core/Error.h"
+#include "NanoDensity.h"
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <sstream>
 
 namespace nimbus {
@@ -39,6 +41,29 @@ NbGridDesc appendGrid(const BrickGrid& g, PathtraceScene& s)
     d.maxValue = g.maxValue();
     s.tables.insert(s.tables.end(), g.table().begin(), g.table().end());
     s.pools.insert(s.pools.end(), g.pool().begin(), g.pool().end());
+    s.majorants.insert(s.majorants.end(), g.majorants().begin(), g.majorants().end());
+    if (s.pools.size() > size_t(0xffffffffu))
+        throw Error("path tracer: the volumes hold more than 2^32 values (16 GiB); not supported");
+    return d;
+}
+
+// A density grid as a NanoVDB grid in the pool buffer, 32-byte aligned (kernels/shared/nanogrid.h):
+// poolOffset is its first word; no table; the slot majorants as appendGrid's.
+NbGridDesc appendNanoDensity(const BrickGrid& g, PathtraceScene& s)
+{
+    NbGridDesc d{};
+    if (g.empty())
+        return d;
+    d.brickLo[0] = g.brickLo().x, d.brickLo[1] = g.brickLo().y, d.brickLo[2] = g.brickLo().z;
+    d.dims[0] = g.dims().x, d.dims[1] = g.dims().y, d.dims[2] = g.dims().z;
+    d.dims[3] = g.channels();
+    d.majorantOffset = nb_uint(s.majorants.size());
+    d.maxValue = g.maxValue();
+    const std::vector<uint32_t> words = buildNanoDensity(g);
+    s.pools.resize((s.pools.size() + 7) / 8 * 8, 0.0f);
+    d.poolOffset = nb_uint(s.pools.size());
+    s.pools.resize(s.pools.size() + words.size());
+    std::memcpy(s.pools.data() + d.poolOffset, words.data(), words.size() * sizeof(uint32_t));
     s.majorants.insert(s.majorants.end(), g.majorants().begin(), g.majorants().end());
     if (s.pools.size() > size_t(0xffffffffu))
         throw Error("path tracer: the volumes hold more than 2^32 values (16 GiB); not supported");
@@ -118,9 +143,10 @@ bool isGrey(Rgb c)
 
 }  // namespace
 
-PathtraceScene buildPathtraceScene(const RenderContext& ctx)
+PathtraceScene buildPathtraceScene(const RenderContext& ctx, bool pnanovdbDensity)
 {
     PathtraceScene s;
+    s.pnanovdb = pnanovdbDensity;
     const auto& vols = ctx.volumes.volumes();
     if (int(vols.size()) > kMaxPathtraceVolumes)
         throw Error("path tracer: " + std::to_string(vols.size()) + " volumes; at most " +
@@ -148,7 +174,7 @@ PathtraceScene buildPathtraceScene(const RenderContext& ctx)
         d.boundsHi[0] = b.hi.x, d.boundsHi[1] = b.hi.y, d.boundsHi[2] = b.hi.z;
         d.boundsLo[3] = kEmissionCollisionsPerVoxel / std::max(v.voxelSize, 1e-12f);
         d.boundsHi[3] = v.medium.emissionScale;
-        d.density = appendGrid(v.density, s);
+        d.density = pnanovdbDensity ? appendNanoDensity(v.density, s) : appendGrid(v.density, s);
         if (v.hasEmission()) {
             d.emission = appendGrid(v.emission, s);
             s.emission = true;
@@ -175,6 +201,9 @@ PathtraceScene buildPathtraceScene(const RenderContext& ctx)
         s.lightEntry.push_back(int(i));
         s.lightTypes |= 1u << e.light.type;
     }
+    // Equi-angular sampling aims at point and spot lights only (pathtrace.cl).
+    s.equiangular = ctx.scene && ctx.scene->render.equiangular &&
+                    (s.lightTypes & ((1u << NB_LIGHT_POINT) | (1u << NB_LIGHT_SPOT))) != 0;
     if (ctx.geometry) {
         // The planning pass built it for a render (Renderer.cpp); contexts made otherwise build it here.
         s.geometry = ctx.kernelBvh ? *ctx.kernelBvh : buildKernelBvh(ctx.geometry->geometry());
@@ -202,7 +231,8 @@ std::string PathtraceScene::defines(bool globalMajorant) const
     o << " -D NB_HAS_EMISSION=" << (emission ? 1 : 0) << " -D NB_TWO_LOBE=" << (twoLobe ? 1 : 0)
       << " -D NB_CHROMATIC=" << (chromatic ? 1 : 0) << " -D NB_GLOBAL_MAJORANT=" << (globalMajorant ? 1 : 0)
       << " -D NB_GEOM_HOLDOUTS=" << (holdouts ? 1 : 0) << " -D NB_GEOM_SHADOW_CASTERS=" << (shadowCasters ? 1 : 0)
-      << " -D NB_HOLDOUT_DEPTH=" << (holdoutDepth.empty() ? 0 : 1) << " -D NB_HAS_VELOCITY=" << (velocity ? 1 : 0);
+      << " -D NB_HOLDOUT_DEPTH=" << (holdoutDepth.empty() ? 0 : 1) << " -D NB_HAS_VELOCITY=" << (velocity ? 1 : 0)
+      << " -D NB_EQUIANGULAR=" << (equiangular ? 1 : 0) << " -D NB_GRID_PNANOVDB=" << (pnanovdb ? 1 : 0);
     return o.str();
 }
 

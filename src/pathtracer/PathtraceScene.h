@@ -31,7 +31,9 @@ struct PathtraceScene {
     bool velocity = false;        // some volume moves over the shutter (velocity blur)
     bool twoLobe = false;         // some phase function has a second lobe
     bool chromatic = false;       // some medium's coefficients differ between channels
+    bool pnanovdb = false;        // densities as NanoVDB grids (NB_GRID_PNANOVDB, nanogrid.h)
     uint32_t lightTypes = 0;      // bit NB_LIGHT_<TYPE> set for each type present
+    bool equiangular = false;     // render.equiangular and a point or spot light: NB_EQUIANGULAR
     // Scene geometry (docs/geometry.md): the BVH the kernel traverses; empty without geometry.
     KernelBvh geometry;
     bool holdouts = false;       // some object is a holdout (camera rays trace the BVH)
@@ -47,9 +49,17 @@ struct PathtraceScene {
     // "-D NB_NUM_VOLUMES=2 -D NB_HAS_LIGHT_DISTANT=1 ..." for buildProgram. A scene without
     // geometry or depth map compiles none of their code (NB_GEOM_*, NB_HOLDOUT_DEPTH 0).
     std::string defines(bool globalMajorant) const;
+    // Bytes of the volume buffers the kernel reads (tables, pools, slot majorants, descriptors).
+    size_t volumeBytes() const
+    {
+        return tables.size() * sizeof(int32_t) + pools.size() * sizeof(float) + majorants.size() * sizeof(float) +
+               volumes.size() * sizeof(NbVolumeDesc);
+    }
 };
 
-// Throws Error when the scene has more than kMaxPathtraceVolumes volumes.
-PathtraceScene buildPathtraceScene(const RenderContext& ctx);
+// Throws Error when the scene has more than kMaxPathtraceVolumes volumes. pnanovdbDensity: the
+// densities go up as NanoVDB grids inside `pools` for the NB_GRID_PNANOVDB kernel variant
+// (kernels/shared/nanogrid.h) instead of as brick tables and pools; the slot majorants are the same.
+PathtraceScene buildPathtraceScene(const RenderContext& ctx, bool pnanovdbDensity = false);
 
 }  // namespace nimbus

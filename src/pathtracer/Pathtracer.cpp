@@ -6,12 +6,14 @@
 #include "../core/Log.h"
 #include "../scene/KernelScene.h"
 #include "KernelCache.h"
+#include "PNanoVdbSource.h"
 #include "LaunchSize.h"
 #include "OpenCl.h"
 #include "PathtraceScene.h"
 #include "PathtraceState.h"
 
 #include <algorithm>
+#include <cstdlib>
 #include <chrono>
 #include <cmath>
 
@@ -104,7 +106,9 @@ void renderPathtrace(const RenderContext& ctx, Film& film, const RenderControl& 
     if (pixelCount > 0x7fffffffLL)
         throw Error("path tracer: image too large");
 
-    const PathtraceScene ps = buildPathtraceScene(ctx);
+    const char* densityEnv = std::getenv("NIMBUS_PATHTRACE_DENSITY");
+    const bool pnanovdb = pt.pnanovdbDensity || (densityEnv && std::string(densityEnv) == "pnanovdb");
+    const PathtraceScene ps = buildPathtraceScene(ctx, pnanovdb);
     const int stride = NB_ACC_STRIDE(int(ps.lights.size()));
     // The accumulator's light slots are the kernel's lights, by their AOV names.
     std::vector<std::string> lightAovs;
@@ -132,7 +136,7 @@ void renderPathtrace(const RenderContext& ctx, Film& film, const RenderControl& 
     const ocl::DeviceInfo device = ocl::selectDevice(pt.device);
     ocl::Context cl(device);
     const std::string defines = ps.defines(pt.globalMajorant);
-    ProgramBuild build = buildProgram(cl, "pathtrace.cl", defines);
+    ProgramBuild build = buildProgram(cl, "pathtrace.cl", defines, pnanovdb ? pnanovdbOpenClSource() : std::string());
     cl_int err = CL_SUCCESS;
     ocl::Kernel kernel(clCreateKernel(build.program.get(), "nbPathtrace", &err));
     ocl::check(err, "clCreateKernel(nbPathtrace)");
@@ -168,9 +172,11 @@ void renderPathtrace(const RenderContext& ctx, Film& film, const RenderControl& 
     ocl::Mem paramBuf = cl.allocate(sizeof params);
     ocl::Mem lightBuf = cl.upload(ps.lights);
     ocl::Mem volumeBuf = cl.upload(ps.volumes);
-    ocl::Mem tableBuf = cl.upload(ps.tables);
-    ocl::Mem poolBuf = cl.upload(ps.pools);
-    ocl::Mem majorantBuf = cl.upload(ps.majorants);
+    // A scene of empty volumes, or the PNanoVDB variant (no tables), may leave a buffer empty:
+    // one placeholder element (OpenCL has no empty buffers).
+    ocl::Mem tableBuf = ps.tables.empty() ? cl.allocate(sizeof(int32_t)) : cl.upload(ps.tables);
+    ocl::Mem poolBuf = ps.pools.empty() ? cl.allocate(sizeof(float)) : cl.upload(ps.pools);
+    ocl::Mem majorantBuf = ps.majorants.empty() ? cl.allocate(sizeof(float)) : cl.upload(ps.majorants);
     ocl::Mem envBuf = cl.upload(ps.envData.empty() ? std::vector<float>(1, 0.0f) : ps.envData);
     ocl::Mem accBuf = cl.allocate(size_t(pixelCount) * stride * sizeof(float));
     if (!resumed.empty())
@@ -307,6 +313,7 @@ void renderPathtrace(const RenderContext& ctx, Film& film, const RenderControl& 
         s.defines = defines;
         s.geometryBuildSeconds = ps.geometry.buildSeconds;
         s.geometryBytes = ps.geometry.memoryBytes();
+        s.volumeBytes = ps.volumeBytes();
     }
 }
 

@@ -34,6 +34,8 @@ struct PathtraceStats {
     std::string defines;
     double geometryBuildSeconds = 0;  // the kernel's BVH (KernelBvh.h): Embree's builder and flattening
     size_t geometryBytes = 0;         // its nodes and primitives on the device
+    size_t volumeBytes = 0;           // the volumes' buffers on the device: brick tables, pools (or
+                                      // NanoVDB grids), slot majorants, descriptors
     double pathsPerSecond() const { return renderSeconds > 0 ? double(pathSamples) / renderSeconds : 0.0; }
 };
 
@@ -63,6 +65,10 @@ struct PathtraceOptions {
     bool runtimeWorkGroupSize = false;  // benchmarks: a null local size, the runtime's choice
     int samplesPerPass = 0;             // samples per pixel per launch; 0: adaptive, ~0.5 s launches
     bool globalMajorant = false;        // one majorant per volume instead of per brick (benchmarks)
+    // Density lookups through PNanoVDB instead of the brick pool (NB_GRID_PNANOVDB,
+    // kernels/shared/nanogrid.h): the measured alternative of issue 17, item 10. Also set by the
+    // environment variable NIMBUS_PATHTRACE_DENSITY=pnanovdb (docs/pathtracer.md).
+    bool pnanovdbDensity = false;
     PathtraceStats* stats = nullptr;
 };
 

@@ -199,6 +199,9 @@ struct RenderSettings {
     int maxDepth = 0;           // pathtrace: the most scattering events; 0 = unbounded, 1 = single scattering
     double timeLimit = 0.0;     // pathtrace: seconds, 0 = none
     double noiseTarget = 1e-4;  // pathtrace with spp 0: stop at this beauty relMSE (from the variance AOV); 0 = none
+    // pathtrace: equi-angular sampling towards point and spot lights, combined with distance
+    // sampling by MIS (docs/pathtracer.md); no effect without such lights.
+    bool equiangular = true;
     // vrl (docs/vrl.md): light paths per iteration (each iteration is one sample per pixel that
     // gathers from all their segments) and the joint distribution of the gather.
     int vrlPaths = 16;

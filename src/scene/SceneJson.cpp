@@ -291,6 +291,7 @@ void visitRender(V& v, R& r)
     v.field("max_depth", r.maxDepth);
     v.field("time_limit", r.timeLimit);
     v.field("noise_target", r.noiseTarget);
+    v.field("equiangular", r.equiangular);
     v.field("vrl_paths", r.vrlPaths);
     v.field("vrl_sampling", r.vrlSampling);
     v.field("wkb_kernel", r.wkbKernel);

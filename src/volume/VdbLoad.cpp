@@ -16,6 +16,7 @@
 #include "../scene/SceneValidate.h"
 #include "PluginSource.h"
 #include "Procedural.h"
+#include "NanoVdbFileReader.h"
 #include "VdbFileReader.h"
 #include "VdbToBricks.h"
 #include "VolumeShader.h"
@@ -129,12 +130,20 @@ RoleGrids readVdb(const VolumeSource& source, const std::string& path, bool allR
     if (!fs::exists(path, ec))
         throw InputError(fileKey + ": cannot open '" + path + "': no such file");
     // Read whole (the conversion reads every leaf, from many threads), through a stream that
-    // bounds what a damaged file can make OpenVDB allocate (VdbFileReader.h).
+    // bounds what a damaged file can make OpenVDB allocate (VdbFileReader.h). An .nvdb file is
+    // read by NanoVDB and its grids converted to OpenVDB grids (NanoVdbFileReader.h); from there
+    // on both take the same path.
     std::unique_ptr<VdbFileReader> file;
+    std::unique_ptr<NanoVdbFileReader> nanoFile;
     std::vector<std::string> available;
     try {
-        file = std::make_unique<VdbFileReader>(path);
-        available = file->gridNames();
+        if (NanoVdbFileReader::isNanoVdbPath(path)) {
+            nanoFile = std::make_unique<NanoVdbFileReader>(path);
+            available = nanoFile->gridNames();
+        } else {
+            file = std::make_unique<VdbFileReader>(path);
+            available = file->gridNames();
+        }
     } catch (const std::exception& e) {
         throw InputError(fileKey + ": cannot open '" + path + "': " + e.what());
     }
@@ -181,7 +190,7 @@ RoleGrids readVdb(const VolumeSource& source, const std::string& path, bool allR
         const std::string key = keyOf(role);
         GridBase::Ptr raw;
         try {
-            raw = file->readGrid(name);
+            raw = nanoFile ? nanoFile->readGrid(name) : file->readGrid(name);
         } catch (const std::exception& e) {
             throw InputError(key + ": cannot read grid '" + name + "' from '" + path + "': " + e.what());
         }

@@ -4,12 +4,19 @@
 //
 //   bench_pathtrace [spp=16] [size=128] [device=""] [cloud=dense|wispy]
 //   bench_pathtrace [spp=16] [size=128] [device=""] launch [rounds=3]
+//   bench_pathtrace [spp=16] [size=128] [device=""] pnanovdb [rounds=5]
 //
 // "launch" compares, on the dense cloud at the default max_depth (unbounded), the OpenCL
 // runtime's work-group size (a null local size) with the one chosen from the device's properties
 // (src/pathtracer/LaunchSize.h): path samples per second and the process's CPU time over wall
 // time (getrusage, so every driver thread counts), interleaved rounds and their medians; then the
 // mean beauty at max_depth 64 against unbounded.
+// "pnanovdb" (issue 17, item 10) compares, on the dense and the wispy cloud and then on the
+// default scene (its procedural cloud centred at the origin, its camera and lights), the kernel's density
+// lookups through the brick pool (brickgrid.h, the default) and through PNanoVDB
+// (NB_GRID_PNANOVDB, nanogrid.h): path samples per second in interleaved rounds and their
+// medians, the volume buffers' bytes on the device, and whether the images agree bit for bit
+// (same seed; they should, the densities being equal to the bit).
 // "dense": a cumulus-like blob whose core is saturated (density 1), wispy at the edges;
 // "wispy": the same blob modulated by high-contrast noise (smoke-like: the maximum far above
 // the mean), where one global majorant wastes most collisions.
@@ -18,6 +25,7 @@
 #include "../../kernels/shared/rng.h"
 #include "pathtracer/Pathtracer.h"
 #include "render/RenderContext.h"
+#include "scene/DefaultScene.h"
 #include "scene/KernelScene.h"
 #include "volume/VolumeData.h"
 
@@ -28,6 +36,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <cstring>
 #include <memory>
 #include <string>
 #include <tuple>
@@ -190,6 +199,49 @@ void launchComparison(const RenderContext& ctx, Scene& scene, const std::string&
                 mean[1], se[1], 100 * (mean[0] / mean[1] - 1));
 }
 
+// Brick pool against PNanoVDB density lookups on one cloud: rounds interleaved (pool, nano, pool,
+// nano, ...), the first render of each only building or loading its kernel.
+void densityComparison(const RenderContext& ctx, const std::string& device, int rounds)
+{
+    std::vector<double> rate[2], ratio;
+    size_t bytes[2] = {0, 0};
+    Film first[2];
+    for (int round = -1; round < rounds; ++round)
+        for (int mode = 0; mode < 2; ++mode) {
+            PathtraceStats stats;
+            PathtraceOptions pt = benchOptions(device, &stats);
+            pt.pnanovdbDensity = mode == 1;
+            Film film;
+            renderPathtrace(ctx, film, RenderControl{}, pt);
+            bytes[mode] = stats.volumeBytes;
+            if (round < 0) {  // warm-up: the kernel build, the first touch of the buffers
+                first[mode] = film;
+                if (mode == 0)
+                    std::printf("device: %s\n", stats.device.c_str());
+                continue;
+            }
+            rate[mode].push_back(stats.pathsPerSecond());
+            if (mode == 1)
+                ratio.push_back(rate[1].back() / std::max(1.0, rate[0].back()));
+            std::printf("round %d %-12s %8.0f path samples/s  (%.2f s)\n", round, mode ? "PNanoVDB:" : "brick pool:",
+                        stats.pathsPerSecond(), stats.renderSeconds);
+        }
+    const Aov* a = first[0].find("beauty");
+    const Aov* b = first[1].find("beauty");
+    size_t same = 0;
+    for (size_t k = 0; k < a->pixels.size(); ++k)
+        same += std::memcmp(&a->pixels[k], &b->pixels[k], sizeof(float)) == 0;
+    std::sort(ratio.begin(), ratio.end());
+    std::printf("median of %d rounds: brick pool %.0f, PNanoVDB %.0f path samples/s; PNanoVDB/brick pool: ratio of "
+                "medians %.2fx, median of the rounds' ratios %.2fx (range %.2f-%.2f)\n",
+                rounds, median(rate[0]), median(rate[1]), median(rate[1]) / std::max(1.0, median(rate[0])),
+                median(ratio), ratio.front(), ratio.back());
+    std::printf("volume buffers on the device: brick pool %.2f MiB, PNanoVDB %.2f MiB (%.2fx); "
+                "beauty bit-identical in %zu of %zu values\n",
+                bytes[0] / 1048576.0, bytes[1] / 1048576.0, double(bytes[1]) / double(std::max<size_t>(1, bytes[0])), same,
+                a->pixels.size());
+}
+
 }  // namespace
 
 int main(int argc, char** argv)
@@ -199,8 +251,28 @@ int main(int argc, char** argv)
     const std::string device = argc > 3 ? argv[3] : "";
     gWispy = argc > 4 && std::string(argv[4]) == "wispy";
     const bool launch = argc > 4 && std::string(argv[4]) == "launch";
-    const int rounds = argc > 5 ? std::max(1, std::atoi(argv[5])) : 3;
+    const bool nano = argc > 4 && std::string(argv[4]) == "pnanovdb";
+    const int rounds = argc > 5 ? std::max(1, std::atoi(argv[5])) : (nano ? 5 : 3);
+    // "pnanovdb" runs both clouds, one after the other; the other modes one.
+    for (int cloudPass = 0; cloudPass < (nano ? 3 : 1); ++cloudPass) {
     try {
+        if (nano)
+            gWispy = cloudPass == 1;
+        if (nano && cloudPass == 2) {
+            // The default scene's cloud (the procedural generator, ~2 m across, centred at the
+            // origin) under its own camera and lights, at the bench's size and samples.
+            Scene scene = defaultScene();
+            scene.camera.width = scene.camera.height = 128;
+            scene.render.method = Method::Pathtrace;
+            scene.render.spp = spp;
+            scene.render.maxDepth = 64;
+            auto ctx = RenderContext::create(scene, /*buildShadowMaps=*/false);
+            const VolumeData& v = *ctx->volumes.volumes().at(0);
+            std::printf("default scene's cloud: %zu bricks allocated, %.1f MiB\n", v.density.brickCount(),
+                        v.density.memoryBytes() / 1048576.0);
+            densityComparison(*ctx, device, rounds);
+            continue;
+        }
         Scene scene;
         scene.camera.width = 128;
         scene.camera.height = 128;
@@ -236,6 +308,10 @@ int main(int argc, char** argv)
             launchComparison(ctx, scene, device, rounds);
             return 0;
         }
+        if (nano) {
+            densityComparison(ctx, device, rounds);
+            continue;
+        }
 
         double rate[2] = {0, 0};
         for (int mode = 0; mode < 2; ++mode) {
@@ -257,6 +333,7 @@ int main(int argc, char** argv)
     } catch (const std::exception& e) {
         std::fprintf(stderr, "bench_pathtrace: %s\n", e.what());
         return 1;
+    }
     }
     return 0;
 }

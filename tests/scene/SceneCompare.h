@@ -102,6 +102,7 @@ inline void expectSceneEq(const Scene& a, const Scene& b)
     EXPECT_EQ(r.maxDepth, s.maxDepth);
     EXPECT_EQ(r.timeLimit, s.timeLimit);
     EXPECT_EQ(r.noiseTarget, s.noiseTarget);
+    EXPECT_EQ(r.equiangular, s.equiangular);
     EXPECT_EQ(r.vrlPaths, s.vrlPaths);
     EXPECT_EQ(r.vrlSampling, s.vrlSampling);
     EXPECT_EQ(a.output.file, b.output.file);

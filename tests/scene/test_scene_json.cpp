@@ -310,6 +310,7 @@ Scene everyFieldScene()
     s.render.threads = 3, s.render.spp = 77, s.render.step = 0.33f, s.render.shadowMapResolution = 1000;
     s.render.tolerance = 0.0005f, s.render.shadowStep = 0.75f, s.render.lightSamples = 5;
     s.render.maxDepth = 9, s.render.timeLimit = 12.5, s.render.noiseTarget = 3e-5;
+    s.render.equiangular = false;
     s.output.file = "renders/x.exr", s.output.preview = "renders/x.png", s.output.aovs = {"beauty", "depth"};
     s.background = make_float3(0.001f, 0.002f, 0.003f);
     return s;

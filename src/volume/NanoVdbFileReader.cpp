@@ -1,0 +1,257 @@
+// NanoVdbFileReader.cpp: see NanoVdbFileReader.h for why the lengths are checked before
+// NanoVDB's I/O reads them. The walk follows nanovdb::io::Segment::read and io::readGrid
+// (NanoVDB 32.x, Debian's libnanovdb-dev 10.0.1).
+#include "NanoVdbFileReader.h"
+
+#define NANOVDB_USE_ZIP
+#define NANOVDB_USE_BLOSC
+#include <nanovdb/util/GridValidator.h>
+#include <nanovdb/util/IO.h>
+#include <nanovdb/util/NanoToOpenVDB.h>
+
+#include <algorithm>
+#include <cctype>
+#include <cstring>
+#include <fstream>
+#include <sstream>
+#include <stdexcept>
+#include <type_traits>
+
+namespace nimbus {
+
+namespace {
+
+// A compressed grid may decode to at most this many times its bytes in the file (zlib's limit
+// is about 1032:1; BLOSC's block headers keep it below this too); beyond it the size is damage.
+constexpr uint64_t kMaxCompressionRatio = 4096;
+
+std::string bytes(uint64_t n)
+{
+    return std::to_string(n) + " bytes";
+}
+
+void readAt(std::ifstream& in, uint64_t offset, void* out, uint64_t n, const char* what)
+{
+    in.seekg(std::streamoff(offset));
+    in.read(static_cast<char*>(out), std::streamsize(n));
+    if (!in)
+        throw std::runtime_error(std::string("the file ends inside ") + what + " (truncated or damaged)");
+}
+
+// Where the tree's nodes lie inside the grid's buffer of `size` bytes: the root with its tile
+// table, each level's first node and count, every child pointer of the root and the internal
+// nodes (GridValidator's own walk, in NanoVDB 32.4, checks the upper nodes where it means the
+// leaves). "" when all is inside; the first fault otherwise.
+template <class T>
+std::string layoutError(const nanovdb::NanoGrid<T>& grid, uint64_t size)
+{
+    using Tree = nanovdb::NanoTree<T>;
+    const auto* base = reinterpret_cast<const uint8_t*>(&grid);
+    auto inside = [&](const void* p, uint64_t n) {
+        const auto* q = static_cast<const uint8_t*>(p);
+        return q >= base && uint64_t(q - base) <= size && n <= size - uint64_t(q - base) &&
+               (uint64_t(q - base) % NANOVDB_DATA_ALIGNMENT) == 0;
+    };
+    if (sizeof(nanovdb::GridData) + sizeof(typename Tree::DataType) > size)
+        return "shorter than its grid and tree headers";
+    const auto* tree = reinterpret_cast<const typename Tree::DataType*>(&grid.tree());
+    if (tree->mNodeOffset[3] > size || !inside(&grid.tree().root(), sizeof(typename Tree::RootType::DataType)))
+        return "its root node lies outside the grid";
+    const auto& root = grid.tree().root();
+    if (!inside(&root, root.memUsage()))
+        return "its root's tile table lies outside the grid";
+    const uint64_t nodeSize[3] = {std::is_same_v<T, nanovdb::FpN> ? 0 : uint64_t(sizeof(typename Tree::LeafNodeType)),
+                                  sizeof(typename Tree::Node1), sizeof(typename Tree::Node2)};
+    for (int level = 0; level < 3; ++level) {
+        const uint64_t count = tree->mNodeCount[level];
+        if (count == 0)
+            continue;
+        if (tree->mNodeOffset[level] > size || (nodeSize[level] && count > size / nodeSize[level]) ||
+            !inside(reinterpret_cast<const uint8_t*>(tree) + tree->mNodeOffset[level], count * nodeSize[level]))
+            return "its level-" + std::to_string(level) + " nodes lie outside the grid";
+    }
+    const auto* rootData = root.data();
+    for (uint32_t i = 0; i < rootData->mTableSize; ++i) {
+        const auto* tile = rootData->tile(i);
+        if (!tile->isChild())
+            continue;
+        const auto* upper = rootData->getChild(tile);
+        if (!inside(upper, sizeof(*upper)))
+            return "a root tile's child lies outside the grid";
+        for (auto it = upper->beginChild(); it; ++it) {
+            const auto* lower = &*it;
+            if (!inside(lower, sizeof(*lower)))
+                return "an upper node's child lies outside the grid";
+            for (auto leaf = lower->beginChild(); leaf; ++leaf)
+                if (!inside(&*leaf, std::is_same_v<T, nanovdb::FpN> ? sizeof(typename Tree::LeafNodeType::DataType)
+                                                                     : sizeof(*leaf)))
+                    return "a lower node's child lies outside the grid";
+        }
+    }
+    return "";
+}
+
+// Checks a decoded grid of value type T and converts it; nullptr for another type. Order: the
+// header and partial checksum (GridValidator without its node walk), the node layout above, then
+// the full checksum when the file stored one (it walks the nodes, hence after the layout).
+template <class T>
+openvdb::GridBase::Ptr convert(const nanovdb::GridHandle<nanovdb::HostBuffer>& handle, const std::string& name)
+{
+    const nanovdb::NanoGrid<T>* grid = handle.template grid<T>();
+    if (!grid)
+        return nullptr;
+    auto damaged = [&](const std::string& why) {
+        return std::runtime_error("grid '" + name + "' is damaged (" + why + ")");
+    };
+    if (std::string e = layoutError(*grid, handle.size()); !e.empty())
+        throw damaged(e);
+    if (std::string e = nanovdb::GridValidator<T>::check(*grid, /*detailed=*/false); !e.empty())
+        throw damaged("NanoVDB: " + e);
+    if (nanovdb::GridChecksum(grid->checksum()).isFull() && !nanovdb::validateChecksum(*grid, nanovdb::ChecksumMode::Full))
+        throw damaged("NanoVDB: Mis-matching checksum");
+    return nanovdb::nanoToOpenVDB(*grid);
+}
+
+}  // namespace
+
+bool NanoVdbFileReader::isNanoVdbPath(const std::string& path)
+{
+    if (path.size() < 5)
+        return false;
+    std::string ext = path.substr(path.size() - 5);
+    std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return char(std::tolower(c)); });
+    return ext == ".nvdb";
+}
+
+NanoVdbFileReader::NanoVdbFileReader(const std::string& path) : mPath(path)
+{
+    std::ifstream in(path, std::ios_base::in | std::ios_base::binary);
+    if (!in)
+        throw std::runtime_error("could not open the file");
+    in.seekg(0, std::ios_base::end);
+    mFileSize = uint64_t(in.tellg());
+    uint64_t pos = 0;
+    while (pos < mFileSize) {
+        nanovdb::io::Header header;
+        static_assert(sizeof header == 16, "nanovdb::io::Header is 16 bytes in the file");
+        readAt(in, pos, &header, sizeof header, "a segment header");
+        pos += sizeof header;
+        if (header.magic != NANOVDB_MAGIC_NUMBER)
+            throw std::runtime_error(header.magic == nanovdb::io::reverseEndianness(NANOVDB_MAGIC_NUMBER)
+                                         ? "a NanoVDB file of the other byte order"
+                                         : "not a NanoVDB file (no NanoVDB magic number where a segment begins)");
+        if (header.version.getMajor() != NANOVDB_MAJOR_VERSION_NUMBER)
+            throw std::runtime_error("written by NanoVDB " + std::string(header.version.c_str()) +
+                                     "; this nimbus reads NanoVDB " + std::to_string(NANOVDB_MAJOR_VERSION_NUMBER) +
+                                     ".x files (convert it again with that version)");
+        if (uint16_t(header.codec) >= uint16_t(nanovdb::io::Codec::END))
+            throw std::runtime_error("a segment names the unknown compression codec " +
+                                     std::to_string(unsigned(header.codec)) + " (damaged)");
+        if (header.gridCount == 0)
+            throw std::runtime_error("a segment holds no grids (damaged)");
+        std::vector<Entry> segment;
+        for (uint32_t i = 0; i < header.gridCount; ++i) {
+            nanovdb::io::MetaData meta;
+            readAt(in, pos, &meta, sizeof meta, "a grid's metadata");
+            pos += sizeof meta;
+            if (meta.nameSize == 0 || uint64_t(meta.nameSize) > mFileSize - pos)
+                throw std::runtime_error("a grid claims a " + bytes(meta.nameSize) + " name where " +
+                                         bytes(mFileSize - pos) + " are left (truncated or damaged)");
+            std::string name(meta.nameSize, '\0');
+            readAt(in, pos, name.data(), meta.nameSize, "a grid's name");
+            pos += meta.nameSize;
+            name.resize(std::strlen(name.c_str()));
+            Entry e;
+            e.name = name;
+            e.gridType = uint32_t(meta.gridType);
+            e.codec = uint16_t(header.codec);
+            e.gridSize = meta.gridSize;
+            e.fileSize = meta.fileSize;
+            const bool raw = header.codec == nanovdb::io::Codec::NONE;
+            if (e.gridSize < sizeof(nanovdb::GridData) + 64 || (raw && e.gridSize != e.fileSize) ||
+                (!raw && e.gridSize / kMaxCompressionRatio > e.fileSize))
+                throw std::runtime_error("grid '" + name + "' claims " + bytes(e.gridSize) + " in memory from " +
+                                         bytes(e.fileSize) + " in the file (damaged)");
+            segment.push_back(e);
+        }
+        for (Entry& e : segment) {
+            if (e.fileSize > mFileSize - pos)
+                throw std::runtime_error("grid '" + e.name + "' claims " + bytes(e.fileSize) + " where " +
+                                         bytes(mFileSize - pos) + " are left (truncated or damaged)");
+            e.offset = pos;
+            pos += e.fileSize;
+            mEntries.push_back(e);
+        }
+    }
+    if (mEntries.empty())
+        throw std::runtime_error("an empty file (no NanoVDB segment)");
+}
+
+std::vector<std::string> NanoVdbFileReader::gridNames() const
+{
+    std::vector<std::string> names;
+    for (const Entry& e : mEntries)
+        names.push_back(e.name);
+    return names;
+}
+
+openvdb::GridBase::Ptr NanoVdbFileReader::readGrid(const std::string& name)
+{
+    const Entry* e = nullptr;
+    for (const Entry& c : mEntries)
+        if (c.name == name) {
+            e = &c;
+            break;
+        }
+    if (!e)
+        throw std::runtime_error("no grid named '" + name + "'");
+
+    // The grid's block, bounded by the file (constructor), then its compressed chunks' sizes
+    // checked against it before NanoVDB allocates them (io::Internal::read).
+    std::string block(e->fileSize, '\0');
+    {
+        std::ifstream in(mPath, std::ios_base::in | std::ios_base::binary);
+        if (!in)
+            throw std::runtime_error("could not open the file again");
+        readAt(in, e->offset, block.data(), e->fileSize, ("grid '" + name + "'").c_str());
+    }
+    const auto codec = nanovdb::io::Codec(e->codec);
+    if (codec != nanovdb::io::Codec::NONE) {
+        uint64_t at = 0, decoded = 0;
+        do {
+            uint64_t size = 0;
+            if (block.size() - at < sizeof size)
+                throw std::runtime_error("grid '" + name + "': a compressed chunk's size lies past its block (damaged)");
+            std::memcpy(&size, block.data() + at, sizeof size);
+            at += sizeof size;
+            if (size > block.size() - at)
+                throw std::runtime_error("grid '" + name + "': a compressed chunk claims " + bytes(size) + " where " +
+                                         bytes(block.size() - at) + " are left (damaged)");
+            at += size;
+            decoded += codec == nanovdb::io::Codec::ZIP ? e->gridSize
+                                                        : std::min<uint64_t>(nanovdb::io::Internal::MAX_SIZE,
+                                                                             e->gridSize - decoded);
+        } while (decoded < e->gridSize);
+    }
+    nanovdb::GridHandle<nanovdb::HostBuffer> handle(nanovdb::HostBuffer::create(e->gridSize));
+    std::istringstream is(block);
+    nanovdb::io::Internal::read(is, handle, codec);
+
+    const auto* data = reinterpret_cast<const nanovdb::GridData*>(handle.data());
+    if (!data || data->mGridSize != e->gridSize)
+        throw std::runtime_error("grid '" + name + "' decodes to a grid whose size differs from its metadata (damaged)");
+    openvdb::GridBase::Ptr grid;
+    if (!(grid = convert<float>(handle, name)) && !(grid = convert<double>(handle, name)) &&
+        !(grid = convert<nanovdb::Fp4>(handle, name)) && !(grid = convert<nanovdb::Fp8>(handle, name)) &&
+        !(grid = convert<nanovdb::Fp16>(handle, name)) && !(grid = convert<nanovdb::FpN>(handle, name)) &&
+        !(grid = convert<nanovdb::Vec3f>(handle, name)) && !(grid = convert<nanovdb::Vec3d>(handle, name)) &&
+        !(grid = convert<int32_t>(handle, name)) && !(grid = convert<int64_t>(handle, name)) &&
+        !(grid = convert<bool>(handle, name)) && !(grid = convert<nanovdb::ValueMask>(handle, name)))
+        throw std::runtime_error("grid '" + name + "' has the NanoVDB type " +
+                                 nanovdb::toStr(nanovdb::GridType(std::min<uint32_t>(
+                                     e->gridType, uint32_t(nanovdb::GridType::End)))) +
+                                 "; a float grid (or a vec3 grid for Cd and vel) is needed");
+    return grid;
+}
+
+}  // namespace nimbus
