@@ -20,6 +20,9 @@ packages=(
   pybind11-dev python3-dev python3-numpy
   # nimbus compare's charts (src/compare/compare_charts.py), run with /usr/bin/python3.
   python3-matplotlib
+  # The sanitized build (scripts/sanitize.sh): clang with libFuzzer and the ASan/UBSan runtimes
+  # (libclang-rt-14-dev is only recommended by clang, and recommends are not installed).
+  clang libclang-rt-14-dev
   # The Blender add-on's end-to-end test (tests/blender): ~30 s to install, ~15 s to run.
   blender
 )

@@ -3,6 +3,7 @@
 #include "ApiError.h"
 
 #include "../core/Error.h"
+#include "../core/OneLine.h"
 
 #include <chrono>
 
@@ -113,7 +114,7 @@ void SessionObject::run(std::shared_ptr<const Scene> scene)
     }
     std::lock_guard<std::mutex> lock(mMutex);
     mStatus = status;
-    mMessage = message;
+    mMessage = oneLine(message);
     if (frame) {
         mFrame = std::move(frame);
         mProgress = 1.0f;

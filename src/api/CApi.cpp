@@ -12,6 +12,7 @@
 #include "HandleRegistry.h"
 
 #include "../core/Error.h"
+#include "../core/OneLine.h"
 #include "../engine/Renderer.h"
 #include "../io/Outputs.h"
 #include "../scene/SceneJson.h"
@@ -34,7 +35,7 @@ thread_local std::string tLastError;
 NimbusStatus fail(NimbusStatus status, const std::string& message)
 {
     try {
-        tLastError = message;
+        tLastError = oneLine(message);
     } catch (...) {
         tLastError.clear();
     }

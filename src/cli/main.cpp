@@ -20,6 +20,7 @@
 #include "compare/Compare.h"
 #include "core/Error.h"
 #include "core/Log.h"
+#include "core/OneLine.h"
 #include "engine/Renderer.h"
 #include "farm/FarmPlan.h"
 #include "farm/SlurmSubmit.h"
@@ -607,7 +608,7 @@ int main(int argc, char** argv)
         return app.exit(e) == 0 ? kOk : kBadInput;
     } catch (const CLI::ParseError& e) {
         // One line, as every other bad input (CLI11 would add "Run with --help ...").
-        std::fprintf(stderr, "nimbus: error: %s\n", e.what());
+        std::fprintf(stderr, "nimbus: error: %s\n", oneLine(e.what()).c_str());
         return kBadInput;
     }
 
@@ -661,13 +662,13 @@ int main(int argc, char** argv)
             return kOk;
         }
     } catch (const InputError& e) {
-        std::fprintf(stderr, "nimbus: error: %s\n", e.what());
+        std::fprintf(stderr, "nimbus: error: %s\n", oneLine(e.what()).c_str());
         return kBadInput;
     } catch (const Cancelled& e) {
-        std::fprintf(stderr, "nimbus: %s\n", e.what());
+        std::fprintf(stderr, "nimbus: %s\n", oneLine(e.what()).c_str());
         return kRenderFailure;
     } catch (const std::exception& e) {
-        std::fprintf(stderr, "nimbus: render failed: %s\n", e.what());
+        std::fprintf(stderr, "nimbus: render failed: %s\n", oneLine(e.what()).c_str());
         return kRenderFailure;
     }
     return kOk;

@@ -34,7 +34,9 @@ namespace nimbus {
     p = std::fma(p, r, 0.5f);
     p = std::fma(p, r, 1.0f);
     p = std::fma(p, r, 1.0f);
-    const int32_t bits = (127 - int32_t(k)) << 23;  // 2^{-k}, k in [-126, 126]
+    // 2^{-k}, k in [-126, 126]; a NaN k (x NaN: p is NaN already) must not reach the int
+    // conversion, undefined behaviour (UBSan in the sanitized build, test_expneg).
+    const int32_t bits = (127 - int32_t(k == k ? k : 0.0f)) << 23;
     float scale;
     std::memcpy(&scale, &bits, sizeof scale);
     return p * scale;

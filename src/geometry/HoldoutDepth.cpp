@@ -1,6 +1,7 @@
 #include "HoldoutDepth.h"
 
 #include "../core/Error.h"
+#include "../core/ImageFileCheck.h"
 #include "../core/Log.h"
 
 #include "../../kernels/shared/holdoutdepth.h"
@@ -42,6 +43,10 @@ std::unique_ptr<HoldoutDepth> HoldoutDepth::load(const Scene& scene)
     std::error_code ec;
     if (!std::filesystem::exists(spec.file, ec))
         throw InputError(fileKey + ": cannot open " + quoted + ": no such file");
+    // What the header claims must fit in the file before OpenImageIO allocates it.
+    const std::string claims = imageHeaderProblem(spec.file);
+    if (!claims.empty())
+        throw InputError(fileKey + ": cannot read " + quoted + ": " + claims);
     auto in = OIIO::ImageInput::open(spec.file);
     if (!in)
         throw InputError(fileKey + ": cannot read " + quoted + ": " + OIIO::geterror());

@@ -10,6 +10,9 @@
 #include <cctype>
 #include <cmath>
 #include <filesystem>
+#include <fstream>
+#include <map>
+#include <sstream>
 #include <system_error>
 
 namespace nimbus {
@@ -21,6 +24,76 @@ std::string lowerExtension(const std::string& path)
     std::string ext = std::filesystem::path(path).extension().string();
     std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return char(std::tolower(c)); });
     return ext;
+}
+
+// A PLY file's header, checked before Assimp reads it: every line one PLY keyword with its
+// operands, and the elements' records able to fit in the file. Assimp 5.2 takes an unknown
+// header line for a property of no type, then hangs or crashes reading the data (fuzz_mesh: a
+// 218-byte file, "properend_header", SIGSEGV in nimbus render), and reserves whatever count an
+// element claims. Returns why not, or "".
+std::string plyHeaderProblem(const std::string& path)
+{
+    std::ifstream in(path, std::ios::binary);
+    std::string line;
+    if (!std::getline(in, line) || (line != "ply" && line != "ply\r"))
+        return "";  // not PLY: Assimp says what it is not
+    const std::streampos header = in.tellg();
+    in.seekg(0, std::ios::end);
+    const double fileSize = double(in.tellg());
+    in.seekg(header);
+    static const std::map<std::string, int> kTypeBytes = {
+        {"char", 1},  {"uchar", 1},  {"int8", 1},  {"uint8", 1},  {"short", 2},   {"ushort", 2},
+        {"int16", 2}, {"uint16", 2}, {"int", 4},   {"uint", 4},   {"int32", 4},   {"uint32", 4},
+        {"float", 4}, {"float32", 4}, {"double", 8}, {"float64", 8}};
+    bool binary = false, ended = false;
+    double minimumBytes = 0.0, count = 0.0, recordBytes = 0.0;  // of the element being declared
+    for (int n = 2; !ended && std::getline(in, line); ++n) {
+        if (!line.empty() && line.back() == '\r')
+            line.pop_back();
+        std::istringstream words(line);
+        std::string keyword, a, b, c, rest;
+        words >> keyword;
+        const auto isType = [](const std::string& t) { return kTypeBytes.count(t) > 0; };
+        bool ok = true;
+        if (keyword == "comment" || keyword == "obj_info") {
+        } else if (keyword == "format") {
+            ok = bool(words >> a >> b) && !(words >> rest) &&
+                 (a == "ascii" || a == "binary_little_endian" || a == "binary_big_endian");
+            binary = a != "ascii";
+        } else if (keyword == "element") {
+            long long elements = -1;
+            ok = bool(words >> a >> elements) && elements >= 0 && !(words >> rest);
+            minimumBytes += count * std::max(recordBytes, binary ? 0.0 : 1.0);
+            count = double(elements), recordBytes = 0.0;
+        } else if (keyword == "property") {
+            ok = bool(words >> a >> b);
+            if (ok && a == "list") {
+                ok = isType(b) && bool(words >> c >> rest) && isType(c) && !(words >> a);
+                recordBytes += binary ? kTypeBytes.at(b) : 2.0;  // the list's length at least
+            } else if (ok) {
+                ok = isType(a) && !(words >> rest);
+                recordBytes += binary ? kTypeBytes.at(a) : 2.0;  // a number and a separator
+            }
+        } else if (keyword == "end_header") {
+            ended = words >> rest ? false : true;
+            ok = ended;
+        } else {
+            ok = false;
+        }
+        if (!ok)
+            return "PLY header line " + std::to_string(n) + " '" + line.substr(0, 80) +
+                   "' is not a PLY header line (damaged)";
+        if (n > 100000)
+            break;
+    }
+    if (!ended)
+        return "its PLY header has no end_header line (truncated or damaged)";
+    minimumBytes += count * std::max(recordBytes, binary ? 0.0 : 1.0);
+    const double left = fileSize - double(in.tellg());
+    if (minimumBytes > left)
+        return "its PLY header describes at least " + std::to_string((long long)std::min(minimumBytes, 9e18)) +
+               " bytes of elements where " + std::to_string((long long)left) + " are left (truncated or damaged)";
+    return "";
 }
 
 }  // namespace
@@ -36,6 +109,12 @@ TriangleMesh readMeshFile(const std::string& path, const std::string& key)
         throw InputError(key + ": cannot open " + quoted + ": no such file");
     if (!std::filesystem::is_regular_file(path, ec))
         throw InputError(key + ": cannot open " + quoted + ": not a regular file");
+
+    if (ext == ".ply") {
+        const std::string problem = plyHeaderProblem(path);
+        if (!problem.empty())
+            throw InputError(key + ": cannot read mesh " + quoted + ": " + problem);
+    }
 
     Assimp::Importer importer;
     // Only positions and faces: drop normals, UVs, colours, materials before the post-steps.

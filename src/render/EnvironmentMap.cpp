@@ -1,6 +1,7 @@
 #include "EnvironmentMap.h"
 
 #include "../core/Error.h"
+#include "../core/ImageFileCheck.h"
 
 #include <OpenImageIO/imageio.h>
 
@@ -75,6 +76,10 @@ std::shared_ptr<const EnvironmentMap> EnvironmentMap::load(const Scene& scene, s
     std::error_code ec;
     if (!std::filesystem::is_regular_file(l.map, ec))
         throw InputError(where + ": cannot open " + quoted + ": no such file");
+    // What the header claims must fit in the file before OpenImageIO allocates it.
+    const std::string claims = imageHeaderProblem(l.map);
+    if (!claims.empty())
+        throw InputError(where + ": cannot read " + quoted + ": " + claims);
     auto in = OIIO::ImageInput::open(l.map);
     if (!in)
         throw InputError(where + ": cannot read " + quoted + ": " + OIIO::geterror());

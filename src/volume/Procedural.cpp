@@ -64,7 +64,9 @@ public:
         : mSource(source), mKeyPath(keyPath)
     {
         for (const auto& [name, value] : source.params) {
-            bool ok = std::find_if(known.begin(), known.end(), [&](const char* k) { return name == k; }) != known.end();
+            // An init-capture: C++17 cannot capture a structured binding (clang refuses it).
+            bool ok = std::find_if(known.begin(), known.end(), [&n = name](const char* k) { return n == k; }) !=
+                      known.end();
             if (!ok) {
                 std::string list;
                 for (const char* k : known)

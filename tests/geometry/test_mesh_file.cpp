@@ -89,6 +89,23 @@ TEST(MeshFile, MalformedFileIsAnInputError)
     EXPECT_NE(e.find("bad.ply"), std::string::npos) << e;
 }
 
+// fuzz_mesh's finding: an unknown PLY header line made Assimp 5.2 crash (SIGSEGV) or hang; the
+// header is checked first (MeshFile.cpp, plyHeaderProblem), as are element counts the file
+// cannot hold.
+TEST(MeshFile, DamagedPlyHeadersAreRefusedBeforeAssimpReadsThem)
+{
+    const std::string found = std::string(NIMBUS_TEST_DIR) + "/../fuzz/regressions/mesh/";
+    for (const char* name : {"ply_unknown_header_line_segv.ply", "ply_unknown_header_line_hang.ply"}) {
+        const std::string e = meshError(found + name);
+        EXPECT_NE(e.find("PLY header line 6 'properend_header' is not a PLY header line"), std::string::npos) << e;
+    }
+    TempDir dir;
+    writeText(dir / "huge.ply", "ply\nformat binary_little_endian 1.0\nelement vertex 1000000000\nproperty float x\n"
+                                "property float y\nproperty float z\nend_header\n0000");
+    const std::string e = meshError(dir / "huge.ply");
+    EXPECT_NE(e.find("describes at least 12000000000 bytes of elements where 4 are left"), std::string::npos) << e;
+}
+
 TEST(MeshFile, NoTrianglesIsAnInputError)
 {
     TempDir dir;

@@ -201,3 +201,60 @@ TEST(EnvironmentMap, LoadsExrAndReportsBadMaps)
     std::fclose(f);
     EXPECT_THROW(EnvironmentMap::load(sceneWithMap(text), 0), InputError);
 }
+
+namespace {
+
+// The file's bytes with `patch` written over the 4 bytes at `at` bytes after `key`'s first
+// occurrence (a header attribute's name), to a new file.
+std::string patched(const std::string& from, const std::string& name, const std::string& key, size_t at,
+                    uint32_t value)
+{
+    FILE* f = std::fopen(from.c_str(), "rb");
+    std::string bytes;
+    for (int c; f && (c = std::fgetc(f)) != EOF;)
+        bytes += char(c);
+    if (f)
+        std::fclose(f);
+    const size_t k = bytes.find(key);
+    EXPECT_NE(k, std::string::npos);
+    for (int b = 0; b < 4 && k != std::string::npos; ++b)
+        bytes[k + at + size_t(b)] = char((value >> (8 * b)) & 0xff);
+    const std::string path = std::string(::testing::TempDir()) + name;
+    FILE* out = std::fopen(path.c_str(), "wb");
+    std::fwrite(bytes.data(), 1, bytes.size(), out);
+    std::fclose(out);
+    return path;
+}
+
+std::string loadError(const std::string& path)
+{
+    try {
+        EnvironmentMap::load(sceneWithMap(path), 0);
+    } catch (const InputError& e) {
+        return e.what();
+    }
+    return "(no error)";
+}
+
+}  // namespace
+
+// What a header claims must fit in the file before anything is allocated (src/core/
+// ImageFileCheck.h; fuzz_envmap's first finding): a string attribute of 2 GB in a 298-byte file
+// (the saved finding: OpenEXR resized a string to it and the load took seconds and 2 GB), and a
+// data window of 2^30 x 4 pixels in a file of a few hundred bytes.
+TEST(EnvironmentMap, HeadersClaimingMoreThanTheFileHoldsAreRefusedUnread)
+{
+    const std::string finding =
+        std::string(NIMBUS_TEST_DIR) + "/../fuzz/regressions/envmap/exr_string_attribute_claims_2gb.exr";
+    const std::string what = loadError(finding);
+    EXPECT_NE(what.find("lights[0].map"), std::string::npos) << what;
+    EXPECT_NE(what.find("attribute 'capDate' claims 2020540435 bytes where"), std::string::npos) << what;
+
+    const std::string good = test::writeEnvMap("envmap_window.exr", 8, 4, std::vector<float>(8 * 4 * 3, 0.5f));
+    // dataWindow: "dataWindow\0box2i\0" then the size (4 bytes), xMin, yMin, xMax, yMax.
+    const size_t xMax = std::string("dataWindow").size() + 1 + std::string("box2i").size() + 1 + 4 + 8;
+    const std::string wide = patched(good, "envmap_wide.exr", "dataWindow", xMax, (1u << 30) - 1);
+    const std::string message = loadError(wide);
+    EXPECT_NE(message.find("describes 1073741824 x 4 pixels"), std::string::npos) << message;
+    EXPECT_NE(message.find("more than its"), std::string::npos) << message;
+}

@@ -1,0 +1,225 @@
+#include "ImageFileCheck.h"
+
+#include <algorithm>
+#include <cstdint>
+#include <cstdio>
+#include <cstring>
+#include <fstream>
+#include <string>
+
+namespace nimbus {
+
+namespace {
+
+// Reads little-endian fields from the stream; any read past the end sets `bad`.
+struct Reader {
+    std::ifstream& in;
+    bool bad = false;
+
+    int32_t i32()
+    {
+        unsigned char b[4] = {};
+        if (!in.read(reinterpret_cast<char*>(b), 4))
+            bad = true;
+        return int32_t(uint32_t(b[0]) | uint32_t(b[1]) << 8 | uint32_t(b[2]) << 16 | uint32_t(b[3]) << 24);
+    }
+    unsigned char u8()
+    {
+        char c = 0;
+        if (!in.get(c))
+            bad = true;
+        return static_cast<unsigned char>(c);
+    }
+    // A NUL-terminated string of at most 255 bytes (OpenEXR's longest names); false if longer.
+    bool name(std::string& out)
+    {
+        out.clear();
+        for (;;) {
+            char c = 0;
+            if (!in.get(c)) {
+                bad = true;
+                return false;
+            }
+            if (c == '\0')
+                return true;
+            if (out.size() == 255)
+                return false;
+            out += c;
+        }
+    }
+    uint64_t offset() { return uint64_t(std::max<std::streamoff>(0, in.tellg())); }
+};
+
+// Scanlines per chunk by compression (ImfCompression.h: NO, RLE, ZIPS, ZIP, PIZ, PXR24, B44,
+// B44A, DWAA, DWAB), and the most a chunk's pixel bytes can exceed its stored bytes: deflate
+// at most ~1032:1 (ZIPS, ZIP, PXR24 on 24-bit floats: 1376), run-length 64:1 (RLE), B44 32 bytes
+// in 14 (float channels stored whole), B44A a flat block in 3, PIZ's Huffman run codes below
+// deflate's bound, DWA's DCT keeps one of 64 coefficients of a flat block before deflate (each
+// rounded up). Unknown codes: the most lenient.
+int linesPerChunk(int compression)
+{
+    static const int lines[] = {1, 1, 1, 16, 32, 16, 32, 32, 32, 256};
+    return compression >= 0 && compression < 10 ? lines[compression] : 256;
+}
+double maxRatio(int compression)
+{
+    static const double ratio[] = {1.0, 64.0, 1100.0, 1100.0, 4096.0, 1500.0, 4.0, 16.0, 100000.0, 100000.0};
+    return compression >= 0 && compression < 10 ? ratio[compression] : 100000.0;
+}
+
+std::string describe(const char* what, uint64_t claimed, uint64_t left)
+{
+    char line[256];
+    std::snprintf(line, sizeof line, "%s %llu bytes where %llu are left (truncated or damaged)", what,
+                  static_cast<unsigned long long>(claimed), static_cast<unsigned long long>(left));
+    return line;
+}
+
+// One part's header: what the size checks need.
+struct ExrPart {
+    bool hasWindow = false;
+    int64_t width = 0, height = 0;
+    int compression = 0;
+    int64_t tileX = 0, tileY = 0;   // > 0: tiled
+    int64_t chunkCount = -1;        // multi-part and deep files state it
+    double bytesPerPixel = 0.0;     // over the channels, subsampling included
+    bool deep = false;
+};
+
+std::string exrProblem(std::ifstream& in, uint64_t fileSize)
+{
+    Reader r{in};
+    const int32_t version = r.i32();
+    const bool multipart = version & 0x1000;
+    double chunkTableBytes = 0.0;
+    for (;;) {
+        ExrPart p;
+        bool any = false;
+        std::string name, type;
+        for (;;) {
+            if (!r.name(name))
+                return r.bad ? "its header ends early (truncated)" : "a header attribute name is longer than 255 bytes";
+            if (name.empty())
+                break;
+            any = true;
+            if (!r.name(type))
+                return r.bad ? "its header ends early (truncated)" : "a header type name is longer than 255 bytes";
+            const int32_t size = r.i32();
+            const uint64_t here = r.offset(), left = here <= fileSize ? fileSize - here : 0;
+            if (r.bad)
+                return "its header ends early (truncated)";
+            if (size < 0 || uint64_t(size) > left)
+                return describe(("its header attribute '" + name + "' claims").c_str(), uint64_t(uint32_t(size)), left);
+            const uint64_t end = here + uint64_t(size);
+            if (name == "dataWindow" && type == "box2i" && size == 16) {
+                const int64_t x0 = r.i32(), y0 = r.i32(), x1 = r.i32(), y1 = r.i32();
+                p.hasWindow = x1 >= x0 && y1 >= y0;
+                p.width = x1 - x0 + 1, p.height = y1 - y0 + 1;
+            } else if (name == "compression" && size == 1) {
+                p.compression = r.u8();
+            } else if (name == "tiles" && type == "tiledesc" && size == 9) {
+                p.tileX = uint32_t(r.i32()), p.tileY = uint32_t(r.i32());
+            } else if (name == "chunkCount" && size == 4) {
+                p.chunkCount = r.i32();
+            } else if (name == "type" && type == "string") {
+                std::string value(size_t(size), '\0');
+                in.read(&value[0], size);
+                p.deep = value.compare(0, 4, "deep") == 0;
+            } else if (name == "channels" && type == "chlist") {
+                std::string channel;
+                while (r.offset() < end && r.name(channel) && !channel.empty()) {
+                    const int32_t pixelType = r.i32();
+                    r.i32();  // pLinear and reserved
+                    const int64_t xs = std::max<int32_t>(1, r.i32()), ys = std::max<int32_t>(1, r.i32());
+                    p.bytesPerPixel += (pixelType == 1 ? 2.0 : 4.0) / double(xs * ys);
+                }
+            }
+            in.clear();
+            in.seekg(std::streamoff(end));
+            if (!in)
+                return "its header ends early (truncated)";
+        }
+        if (!any)
+            break;  // multi-part: the empty header after the last
+        if (p.hasWindow) {
+            double chunks;
+            if (p.chunkCount >= 0)
+                chunks = double(p.chunkCount);
+            else if (p.tileX > 0 && p.tileY > 0)
+                chunks = double((p.width + p.tileX - 1) / p.tileX) * double((p.height + p.tileY - 1) / p.tileY);
+            else
+                chunks = double((p.height + linesPerChunk(p.compression) - 1) / linesPerChunk(p.compression));
+            chunkTableBytes += 8.0 * chunks;
+            const double pixelBytes = double(p.width) * double(p.height) * std::max(2.0, p.bytesPerPixel);
+            if (!p.deep && pixelBytes > maxRatio(p.compression) * double(fileSize)) {
+                char line[256];
+                std::snprintf(line, sizeof line,
+                              "its header describes %lld x %lld pixels (%.3g bytes), more than its %llu bytes can "
+                              "hold (truncated or damaged)",
+                              static_cast<long long>(p.width), static_cast<long long>(p.height), pixelBytes,
+                              static_cast<unsigned long long>(fileSize));
+                return line;
+            }
+        }
+        if (!multipart)
+            break;
+    }
+    const uint64_t here = r.offset(), left = here <= fileSize ? fileSize - here : 0;
+    if (chunkTableBytes > double(left))
+        return describe("its chunk offset table needs", uint64_t(std::min(chunkTableBytes, 1.8e19)), left);
+    return "";
+}
+
+// Radiance RGBE: "#?RADIANCE" or "#?RGBE", header lines up to an empty one, then the size as
+// "-Y H +X W" (or another orientation). Run-length coding stores at most 127 bytes in 2 (128:1
+// counted on the 4-byte pixels, with room). Only the first 64 KiB are looked at.
+std::string hdrProblem(std::ifstream& in, uint64_t fileSize)
+{
+    std::string head(65536, '\0');
+    in.read(&head[0], std::streamsize(head.size()));
+    head.resize(size_t(in.gcount()));
+    const size_t blank = head.find("\n\n");
+    if (blank == std::string::npos)
+        return "";  // OpenImageIO refuses what has no header end or size line
+    char a[3] = {}, b[3] = {};
+    long long n1 = 0, n2 = 0;
+    if (std::sscanf(head.c_str() + blank + 2, "%2s %lld %2s %lld", a, &n1, b, &n2) != 4 || n1 < 0 || n2 < 0)
+        return "";
+    const double pixelBytes = 4.0 * double(n1) * double(n2);
+    if (pixelBytes > 128.0 * double(fileSize)) {
+        char out[256];
+        std::snprintf(out, sizeof out,
+                      "its header describes %lld x %lld pixels, more than its %llu bytes can hold (truncated or "
+                      "damaged)",
+                      n2, n1, static_cast<unsigned long long>(fileSize));
+        return out;
+    }
+    return "";
+}
+
+}  // namespace
+
+std::string imageHeaderProblem(const std::string& path)
+{
+    std::ifstream in(path, std::ios::binary);
+    if (!in)
+        return "";
+    in.seekg(0, std::ios::end);
+    const std::streamoff end = in.tellg();
+    in.seekg(0);
+    if (end <= 0)
+        return "";
+    const uint64_t fileSize = uint64_t(end);
+    char magic[4] = {};
+    if (!in.read(magic, 4))
+        return "";
+    if (std::memcmp(magic, "\x76\x2f\x31\x01", 4) == 0)
+        return exrProblem(in, fileSize);
+    if (std::memcmp(magic, "#?", 2) == 0) {
+        in.seekg(0);
+        return hdrProblem(in, fileSize);
+    }
+    return "";
+}
+
+}  // namespace nimbus
