@@ -36,9 +36,12 @@ using openvdb::Vec3d;
 using LeafT = FloatTree::LeafNodeType;
 static_assert(std::is_same<VdbFloatGrid, FloatGrid>::value, "Procedural.h spells out openvdb::FloatGrid");
 
-// Beyond this a grid would need gigabytes as bricks (4 bytes x 729/512 per voxel, before the
-// emission and majorant arrays); a scene asking for it almost certainly has a unit error.
-constexpr double kMaxVoxels = 2e8;
+// The index box's voxel count is limited to a 1024^3 box, the largest scale nimbus is measured
+// at (docs/benchmarks.md "Scale", issue 18 item 7). Generators allocate only the blocks their
+// shape touches (a cloud fills about a fifth of its box), but a box filled throughout would take
+// ~6 GB as bricks (4 bytes x 729/512 per voxel), so beyond it a scene almost certainly has a unit
+// error. The render's own memory check (render.memory_limit) comes after the volume is built.
+constexpr double kMaxVoxels = 1.1e9;
 // Lengths (metres) a generator accepts: at most 1e30, so that they and the voxel edge fit a
 // float; a voxel edge of at least 2e-5 m, because below about 1.5e-5 m OpenVDB's transform
 // refuses the scale as zero ("Non-zero scale values required", a render failure before issue

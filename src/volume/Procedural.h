@@ -47,7 +47,7 @@ using VdbFloatGrid = openvdb::Grid<openvdb::tree::Tree<openvdb::tree::RootNode<
 // (fog volume: background 0, active where the density is non-zero; uniform interiors are
 // active tiles). keyPath prefixes error messages and names the source, e.g.
 // "scene.json: volumes[0].source": an unknown generator, an unknown parameter, a bad value or a
-// grid over ~2e8 voxels throws InputError "<keyPath>.<param>: <why>".
+// grid over ~1.1e9 voxels (a 1024^3 index box) throws InputError "<keyPath>.<param>: <why>".
 std::shared_ptr<VdbFloatGrid> makeProceduralGrid(const VolumeSource& source, const std::string& keyPath);
 
 // Writes the grid makeProceduralGrid builds to a .vdb file (one grid, "density"), e.g. to render

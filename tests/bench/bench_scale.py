@@ -1,16 +1,17 @@
 """Scale: time and peak memory against voxels and pixels (issue 18, item 7).
 
-The default scene's procedural cumulus (4.5 m across) at voxel sizes giving 128 to 1024 voxels
-across its largest extent, rendered at 1920x1080 by `single`, `wkb` and `pathtrace`; then, at 256
-voxels across, the same three at 480x270, 960x540 and 1920x1080. Per render: the voxels in
-allocated bricks (`--explain`: bricks x 512), the time to build the volume (the procedural
-generator; `--explain`'s "volumes" stage), the render's own wall time less that (EXR header
-nimbus:render_time, which excludes process start), the process's CPU time (user + system, from
-wait4), the peak resident memory the render measured (nimbus:memory_peak_bytes) and the whole
-process's wall time (loading and building the volume included). Then the growth exponent of each
-against voxels and against pixels: the least-squares slope of log(time) and log(memory) on
-log(voxels) or log(pixels). One warm-up render per method first (not recorded) compiles and
-caches the path tracer's kernel, so no row pays for it.
+The default scene (sun and sky) with its procedural cumulus (4.5 m across) at voxel sizes giving
+128 to 1024 voxels across its largest extent, rendered at 1920x1080 by `single`, `wkb` and
+`pathtrace`; then, at 256 voxels across, the same three at 480x270, 960x540 and 1920x1080. Each
+scale's cloud is generated once and written to a .vdb file (tests/bench/bench_cloud_vdb), which
+the renders read as a production scene would. Per render: the voxels in allocated bricks
+(`--explain`: bricks x 512), the time to load the volume (`--explain`'s "volumes" stage: the VDB
+read and the bricks), the render's own wall time less that (EXR header nimbus:render_time, which
+excludes process start), the process's CPU time (user + system, from wait4), the peak resident
+memory the render measured (nimbus:memory_peak_bytes) and the whole process's wall time. Then the
+growth exponent of each against voxels and against pixels: the least-squares slope of log(time)
+and log(memory) on log(voxels) or log(pixels). One warm-up render per method first (not
+recorded) compiles and caches the path tracer's kernel, so no row pays for it.
 
     /usr/bin/python3 tests/bench/bench_scale.py build/bin/nimbus [--voxels 128,256,512,1024]
         [--pixel-voxels 256] [--spp 1] [--methods single,wkb,pathtrace] [--quick]
@@ -20,6 +21,7 @@ spp 1 (`--spp`): the per-sample cost is what grows; the time of a render at spp 
 times this one's sample part. Prints a Markdown section for docs/benchmarks.md.
 """
 import argparse
+import json
 import math
 import os
 import re
@@ -33,9 +35,31 @@ import OpenImageIO as oiio
 EXTENT = 4.5  # metres, the default cloud's largest extent (nimbus info: bounds)
 
 
-def run_render(nimbus, sets, workdir):
+DEFAULT_SCENE = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "scene", "data", "default.json")
+
+
+def cloud_scene(tool, across, workdir):
+    """The default scene with its cloud at `across` voxels written once to a .vdb file (the
+    generator runs once per scale; each render then reads the file as a production scene would).
+    Returns the scene path and the seconds the generator and the write took."""
+    vdb = os.path.join(workdir, f"cloud{across}.vdb")
+    scene = os.path.join(workdir, f"scale{across}.json")
+    start = time.monotonic()
+    if not os.path.exists(vdb):
+        subprocess.run([tool, f"{EXTENT / across:.9g}", vdb], check=True)
+    seconds = time.monotonic() - start
+    with open(DEFAULT_SCENE) as f:
+        doc = json.load(f)
+    doc["volumes"][0]["source"] = {"type": "vdb", "file": vdb}
+    doc.pop("output", None)
+    with open(scene, "w") as f:
+        json.dump(doc, f)
+    return scene, seconds
+
+
+def run_render(nimbus, scene, sets, workdir):
     out = os.path.join(workdir, "scale.exr")
-    args = [nimbus, "render", "--default", "-q", "--explain", "-o", out, "--preview", os.path.join(workdir, "scale.png")]
+    args = [nimbus, "render", scene, "-q", "--explain", "-o", out, "--preview", os.path.join(workdir, "scale.png")]
     for s in sets:
         args += ["--set", s]
     start = time.monotonic()
@@ -88,21 +112,26 @@ def main():
         voxels, full_res, resolutions, pixel_voxels = [64, 128], (480, 270), [(240, 135), (480, 270)], 64
     methods = a.methods.split(",")
 
-    def sets_for(method, across, res):
-        return [f"render.method={method}", f"render.spp={a.spp}", f"camera.resolution=[{res[0]},{res[1]}]",
-                f"volumes[0].source.voxel_size={EXTENT / across:.9g}"]
+    tool = os.path.join(os.path.dirname(nimbus), "..", "tests", "bench", "bench_cloud_vdb")
+
+    def sets_for(method, res):
+        return [f"render.method={method}", f"render.spp={a.spp}", f"camera.resolution=[{res[0]},{res[1]}]"]
 
     rows = []  # (ladder, method, across, res, voxels, result)
     with tempfile.TemporaryDirectory() as d:
         # Warm-up, not recorded: compiles and caches the path tracer's kernel for this scene.
+        scenes, generated = {}, {}
+        for across in sorted(set(voxels + [pixel_voxels])):
+            scenes[across], generated[across] = cloud_scene(tool, across, d)
+            print(f"cloud at {across} voxels across: generated and written in {generated[across]:.1f} s, "
+                  f"{os.path.getsize(os.path.join(d, f'cloud{across}.vdb')) / 2**20:.0f} MiB", file=sys.stderr, flush=True)
         for method in methods:
-            run_render(nimbus, sets_for(method, voxels[0], (64, 36)), d)
+            run_render(nimbus, scenes[voxels[0]], sets_for(method, (64, 36)), d)
         for ladder, cases in (("voxels", [(n, full_res) for n in voxels]),
                               ("pixels", [(pixel_voxels, r) for r in resolutions])):
             for method in methods:
                 for across, res in cases:
-                    sets = sets_for(method, across, res)
-                    r = run_render(nimbus, sets, d)
+                    r = run_render(nimbus, scenes[across], sets_for(method, res), d)
                     nvox = r["voxels"]
                     rows.append((ladder, method, across, res, nvox, r))
                     print(f"{ladder} {method} {across} {res[0]}x{res[1]} voxels {nvox} volume {r['volume_s']:.2f} s render {r['render_s']:.2f} s "
@@ -110,15 +139,16 @@ def main():
                           file=sys.stderr, flush=True)
 
     load = os.getloadavg()
-    print(f"Default cloud, spp {a.spp}, {os.cpu_count()} cores, load average at the end "
-          f"{load[0]:.1f} / {load[1]:.1f} / {load[2]:.1f}.\n")
-    print("| ladder | method | voxels across | pixels | voxels in bricks | volume build s | render s | process CPU s "
+    print(f"Default scene (sun and sky), its cloud as a .vdb file per scale, spp {a.spp}, {os.cpu_count()} cores, "
+          f"load average at the end {load[0]:.1f} / {load[1]:.1f} / {load[2]:.1f}. Generating and writing each "
+          "cloud: " + ", ".join(f"{n} across {t:.0f} s" for n, t in sorted(generated.items())) + ".\n")
+    print("| ladder | method | voxels across | pixels | voxels in bricks | volume load s | render s | process CPU s "
           "| process wall s | peak MiB |")
     print("|---|---|---|---|---|---|---|---|---|---|")
     for ladder, method, across, res, nvox, r in rows:
         print(f"| {ladder} | {method} | {across} | {res[0]}x{res[1]} | {nvox:.3g} | {r['volume_s']:.2f} | {r['render_s']:.2f} | "
               f"{r['cpu_s']:.1f} | {r['process_s']:.1f} | {r['peak_mib']:.0f} |")
-    print("\nGrowth exponents (least-squares slope in log-log; time = the render's own time less the volume build):\n")
+    print("\nGrowth exponents (least-squares slope in log-log; time = the render's own time less the volume load):\n")
     print("| method | render time vs voxels | peak memory vs voxels | render time vs pixels | peak memory vs pixels |")
     print("|---|---|---|---|---|")
     for method in methods:
