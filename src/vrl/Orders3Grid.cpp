@@ -1,0 +1,104 @@
+#include "Orders3Grid.h"
+
+#include "../pathtracer/PathtraceScene.h"
+#include "../render/SphericalHarmonics.h"
+#include "VrlLightPass.h"
+#include "VrlMedium.h"
+
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
+#include <cmath>
+
+namespace nimbus::vrl {
+
+namespace {
+
+// Partial grids summed in parallel (a fixed number, not the thread count: determinism).
+constexpr int kPartials = 8;
+// Light paths per light-pass call (bounds the memory of the segment list).
+constexpr long long kBatch = 8192;
+// A segment's deposit ends where its transmittance falls below this (relative bias <= this).
+constexpr float kMinTransmittance = 1e-3f;
+
+// Deposits one segment into grid data `out`.
+void deposit(const RenderContext& ctx, const wkb::RadianceGrid& grid, const Vrl& v, float h, float* out)
+{
+    double y[wkb::RadianceGrid::kCoeffs];
+    shEvaluate(wkb::RadianceGrid::kOrder, v.dir, y);
+    const float invV = 1.0f / grid.cellVolume();
+    float T[3] = {1.0f, 1.0f, 1.0f};
+    const float flux[3] = {v.flux.x, v.flux.y, v.flux.z};
+    grid.walk(v.origin, v.dir, v.t0, v.t1, [&](size_t cell, float ta, float tb) {
+        // int T dt over [ta, tb], the extinction piecewise constant over steps of at most h
+        // (sampled at each step's midpoint), each step's integral exact: T (1 - e^{-s dt}) / s.
+        const int n = std::max(1, int(std::ceil((tb - ta) / h)));
+        const float dt = (tb - ta) / float(n);
+        float I[3] = {0, 0, 0};
+        for (int k = 0; k < n; ++k) {
+            const MediumSample m = ctx.volumes.sample(v.origin + v.dir * (ta + (float(k) + 0.5f) * dt));
+            const float st[3] = {m.sigma_t.x, m.sigma_t.y, m.sigma_t.z};
+            for (int c = 0; c < 3; ++c) {
+                const float x = st[c] * dt;
+                const float e = std::exp(-x);
+                I[c] += T[c] * (x > 1e-4f ? (1.0f - e) / st[c] : dt * (1.0f - 0.5f * x));
+                T[c] *= e;
+            }
+        }
+        float* d = out + cell * wkb::RadianceGrid::kFloats;
+        for (int jm = 0; jm < wkb::RadianceGrid::kCoeffs; ++jm)
+            for (int c = 0; c < 3; ++c)
+                d[3 * jm + c] += float(y[jm]) * flux[c] * I[c] * invV;
+        return std::max(T[0], std::max(T[1], T[2])) >= kMinTransmittance;
+    });
+}
+
+}  // namespace
+
+std::shared_ptr<const wkb::RadianceGrid> traceOrders3(const RenderContext& ctx, const Orders3Options& options)
+{
+    if (ctx.volumes.empty() || options.paths <= 0)
+        return nullptr;
+    PathtraceScene ps = buildPathtraceScene(ctx);
+    VrlMedium medium(ps);
+    const LightPass pass(ctx, ps, medium, 0);  // unbounded: wkb has no depth cap
+    if (pass.empty())
+        return nullptr;
+    auto grid = std::make_shared<wkb::RadianceGrid>();
+    grid->init(ctx.volumes.worldBounds(), 0.0f, options.maxCells);
+    if (grid->empty())
+        return nullptr;
+    // Transmittance steps: the finest density voxel, and never coarser than half a cell.
+    const float h = std::fmax(1e-6f, std::fmin(ctx.volumes.minVoxelSize(), 0.5f * grid->cellSize()));
+
+    const long long batches = (options.paths + kBatch - 1) / kBatch;
+    const int perBatch = int((options.paths + batches - 1) / batches);
+    const float scale = 1.0f / float(batches);  // each batch's flux is divided by its own path count
+    const size_t floats = grid->data().size();
+    std::vector<std::vector<float>> partial(kPartials, std::vector<float>(floats, 0.0f));
+    std::vector<Vrl> kept;
+    for (long long b = 0; b < batches; ++b) {
+        if (ctx.stop.raised())
+            break;
+        std::vector<Vrl> all = pass.trace(options.seed, uint32_t(b), perBatch);
+        kept.clear();
+        for (const Vrl& v : all)
+            if (v.order >= options.firstOrder) {
+                kept.push_back(v);
+                kept.back().flux = kept.back().flux * scale;
+            }
+        const size_t n = kept.size();
+        tbb::parallel_for(0, kPartials, [&](int p) {
+            const size_t lo = n * size_t(p) / kPartials, hi = n * size_t(p + 1) / kPartials;
+            for (size_t i = lo; i < hi; ++i)
+                deposit(ctx, *grid, kept[i], h, partial[size_t(p)].data());
+        });
+    }
+    std::vector<float>& data = grid->data();
+    for (int p = 0; p < kPartials; ++p)
+        for (size_t i = 0; i < floats; ++i)
+            data[i] += partial[size_t(p)][i];
+    return grid;
+}
+
+}  // namespace nimbus::vrl
