@@ -18,16 +18,21 @@ namespace {
 constexpr int kPartials = 8;
 // Light paths per light-pass call (bounds the memory of the segment list).
 constexpr long long kBatch = 8192;
-// A segment's deposit ends where its transmittance falls below this (relative bias <= this).
-constexpr float kMinTransmittance = 1e-3f;
+// Where a segment's transmittance (times its roulette weight) falls below this, Russian roulette
+// decides whether its deposit goes on, with survival T r / kRoulette and r divided by it: unbiased,
+// and a segment costs a few optical depths of steps however thick the medium.
+constexpr float kRoulette = 0.05f;
+// The deposits' random stream, keyed apart from the light paths'.
+constexpr uint32_t kDepositKey = 0x64657030u;
 
 // Deposits one segment into grid data `out`.
-void deposit(const RenderContext& ctx, const wkb::RadianceGrid& grid, const Vrl& v, float h, float* out)
+void deposit(const RenderContext& ctx, const wkb::RadianceGrid& grid, const Vrl& v, float h, NbRng& rng, float* out)
 {
     double y[wkb::RadianceGrid::kCoeffs];
     shEvaluate(wkb::RadianceGrid::kOrder, v.dir, y);
     const float invV = 1.0f / grid.cellVolume();
     float T[3] = {1.0f, 1.0f, 1.0f};
+    float r = 1.0f;  // the roulette's weight
     const float flux[3] = {v.flux.x, v.flux.y, v.flux.z};
     grid.walk(v.origin, v.dir, v.t0, v.t1, [&](size_t cell, float ta, float tb) {
         // int T dt over [ta, tb], the extinction piecewise constant over steps of at most h
@@ -35,21 +40,30 @@ void deposit(const RenderContext& ctx, const wkb::RadianceGrid& grid, const Vrl&
         const int n = std::max(1, int(std::ceil((tb - ta) / h)));
         const float dt = (tb - ta) / float(n);
         float I[3] = {0, 0, 0};
-        for (int k = 0; k < n; ++k) {
+        bool alive = true;
+        for (int k = 0; k < n && alive; ++k) {
             const MediumSample m = ctx.volumes.sample(v.origin + v.dir * (ta + (float(k) + 0.5f) * dt));
             const float st[3] = {m.sigma_t.x, m.sigma_t.y, m.sigma_t.z};
             for (int c = 0; c < 3; ++c) {
                 const float x = st[c] * dt;
                 const float e = std::exp(-x);
-                I[c] += T[c] * (x > 1e-4f ? (1.0f - e) / st[c] : dt * (1.0f - 0.5f * x));
+                I[c] += r * T[c] * (x > 1e-4f ? (1.0f - e) / st[c] : dt * (1.0f - 0.5f * x));
                 T[c] *= e;
+            }
+            const float tr = r * std::max(T[0], std::max(T[1], T[2]));
+            if (tr < kRoulette) {
+                const float q = tr / kRoulette;
+                if (nbRngNext(&rng) >= q)
+                    alive = false;
+                else
+                    r /= q;
             }
         }
         float* d = out + cell * wkb::RadianceGrid::kFloats;
         for (int jm = 0; jm < wkb::RadianceGrid::kCoeffs; ++jm)
             for (int c = 0; c < 3; ++c)
                 d[3 * jm + c] += float(y[jm]) * flux[c] * I[c] * invV;
-        return std::max(T[0], std::max(T[1], T[2])) >= kMinTransmittance;
+        return alive;
     });
 }
 
@@ -90,8 +104,10 @@ std::shared_ptr<const wkb::RadianceGrid> traceOrders3(const RenderContext& ctx, 
         const size_t n = kept.size();
         tbb::parallel_for(0, kPartials, [&](int p) {
             const size_t lo = n * size_t(p) / kPartials, hi = n * size_t(p + 1) / kPartials;
-            for (size_t i = lo; i < hi; ++i)
-                deposit(ctx, *grid, kept[i], h, partial[size_t(p)].data());
+            for (size_t i = lo; i < hi; ++i) {
+                NbRng rng = nbRngStart(options.seed ^ kDepositKey, uint32_t(i), uint32_t(b));
+                deposit(ctx, *grid, kept[i], h, rng, partial[size_t(p)].data());
+            }
         });
     }
     std::vector<float>& data = grid->data();
