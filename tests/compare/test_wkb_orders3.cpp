@@ -169,8 +169,9 @@ void checkScene(const char* name, const Scene& s, bool flipMatters)
                 "order 2 twice %+.3f (relative)\n",
                 name, ref.energy, ref.se, rel(traced), rel(flipped), rel(missing3), rel(twice2));
     EXPECT_LT(std::fabs(rel(traced)), kEnergyTarget) << name;
-    if (flipMatters)
+    if (flipMatters) {
         EXPECT_GT(std::fabs(rel(flipped)), kEnergyTarget) << name << ": the cache read in the flipped direction passes";
+    }
     EXPECT_GT(std::fabs(rel(missing3)), kEnergyTarget) << name << ": a cache missing order 3 passes";
     EXPECT_GT(std::fabs(rel(twice2)), kEnergyTarget) << name << ": a cache counting order 2 twice passes";
 }
