@@ -110,18 +110,22 @@ float3 marchOrders3(const VolumeSet& volumes, const std::vector<NbPhase>& phases
                         pj /= wsum;
                     const float3 S = grid.inScatter(lp, wo, p);
                     const double s3[3] = {S.x, S.y, S.z};
-                    // A truncated SH sum can ring below zero where the true distribution is small.
+                    // Not clamped here: the cache's noise makes the truncated sum dip below zero
+                    // where the radiance is small, and clamping each step would bias the ray up.
                     for (int c = 0; c < 3; ++c)
-                        L[c] += T[c] * ss[c] * std::max(0.0, s3[c]) * integral[c];
+                        L[c] += T[c] * ss[c] * s3[c] * integral[c];
                 }
             }
             for (int c = 0; c < 3; ++c)
                 T[c] *= decay[c];
             if (std::max(T[0], std::max(T[1], T[2])) < 1e-4)
-                return make_float3(float(L[0]), float(L[1]), float(L[2]));
+                break;
         }
+        if (std::max(T[0], std::max(T[1], T[2])) < 1e-4)
+            break;
     }
-    return make_float3(float(L[0]), float(L[1]), float(L[2]));
+    // Radiance cannot be negative: the ray's sum is clamped (a truncated sum can ring below zero).
+    return make_float3(float(std::max(0.0, L[0])), float(std::max(0.0, L[1])), float(std::max(0.0, L[2])));
 }
 
 }  // namespace nimbus::wkb
