@@ -26,7 +26,7 @@
 //                = sigma_s(x) sum_jm p_j L_jm(x) y_jm(wo)        (Funk-Hecke; p_j = 2 pi int p P_j, g^j for HG)
 //
 // so forward scattering (p_1 > 0) favours radiance travelling toward the camera, y evaluated at wo
-// (tests/wkb/test_wkb_orders3.cpp fails with wo flipped to d).
+// (tests/compare/test_wkb_orders3.cpp fails with wo flipped to d).
 #pragma once
 
 #include "../../kernels/shared/phase.h"
@@ -87,7 +87,8 @@ private:
 // within it, per channel. p_j(t): the sigma_s-weighted mixture of the volumes' phase moments
 // (two-lobe phases included, nbPhaseAddMoments). wo is the direction toward the camera, -d; tests
 // pass others to show that only -d matches the path tracer. The grid is read where the frame's
-// light is (VolumeSet::sampleAt's lightPoint). Stops where T < 1e-4 in every channel.
+// light is (VolumeSet::sampleAt's lightPoint). Stops where T < 1e-4 in every channel; the sum is
+// clamped at 0 per channel.
 float3 marchOrders3(const VolumeSet& volumes, const std::vector<NbPhase>& phases, const RadianceGrid& grid, float3 o,
                     float3 d, float3 wo, float tFar, float seconds, float jitter, float stepFraction,
                     float stepScale);
