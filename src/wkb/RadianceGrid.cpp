@@ -99,7 +99,7 @@ float3 marchOrders3(const VolumeSet& volumes, const std::vector<NbPhase>& phases
                 integral[c] = y > 1e-6 ? -std::expm1(-y) / st[c] : double(dt) * (1.0 - 0.5 * y);  // int_0^dt e^{-st u} du
             }
             if (ss[0] + ss[1] + ss[2] > 0.0) {
-                double p[3] = {0, 0, 0}, wsum = 0.0;
+                double p[RadianceGrid::kOrder + 1] = {}, wsum = 0.0;
                 for (size_t v = 0; v < nv; ++v)
                     if (weights[v] > 0.0f) {
                         nbPhaseAddMoments(phases[v], double(weights[v]), RadianceGrid::kOrder, p);

@@ -41,8 +41,8 @@ namespace nimbus::wkb {
 
 class RadianceGrid {
 public:
-    static constexpr int kOrder = 2;            // SH order j <= 2
-    static constexpr int kCoeffs = 9;           // (kOrder + 1)^2
+    static constexpr int kOrder = 3;            // SH order j <= 3
+    static constexpr int kCoeffs = 16;          // (kOrder + 1)^2
     static constexpr int kFloats = 3 * kCoeffs;  // per cell: [jm][rgb]
 
     // A grid over `box` with cubic cells no smaller than `minCell` (metres) and at most `maxCells`
