@@ -2,7 +2,7 @@
 // docs/wkb.md "Orders 3 and up, traced").
 //
 // A regular world-space grid over the volumes' box. Each cell holds, per RGB channel, the projection
-// onto the real orthonormal spherical harmonics y_jm (SphericalHarmonics.h), j <= 2, of the radiance
+// onto the real orthonormal spherical harmonics y_jm (SphericalHarmonics.h), j <= 3, of the radiance
 // that has scattered at least twice, averaged over the cell's volume:
 //
 //     L_jm(cell) = (1 / V_cell) int_cell dx int dw L(x, w) y_jm(w)        (w: the light's travel direction)
@@ -63,7 +63,7 @@ public:
     template <class F>
     void walk(float3 o, float3 d, float t0, float t1, F&& f) const;
 
-    // The nine L_jm per channel at world point x, trilinear between cell centres (clamped at the
+    // The kCoeffs L_jm per channel at world point x, trilinear between cell centres (clamped at the
     // box's edge cells), into out[kFloats] ([jm][rgb]); zero outside the box.
     void fetch(float3 x, float* out) const;
 
