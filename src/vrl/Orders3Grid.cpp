@@ -23,7 +23,7 @@ constexpr long long kBatch = 8192;
 // and a segment costs a few optical depths of steps however thick the medium.
 constexpr float kRoulette = 0.05f;
 // Passes of the [1 2 1] / 4 filter over the finished cache (a Gaussian of sigma 0.7 cells): fitted
-// on the calibration suite (docs/validation.md, "Orders 3 and up, traced"): one pass lowers the
+// on the calibration suite (docs/validation.md, "Orders 3 and up, traced"): with SH order 2, one pass lowers the
 // cache's noise enough to meet the targets on 4 of 9 scenes instead of 2, at the price of a bias
 // where orders 3+ live in a skin thinner than a cell (slab_lit, absorbing_backscatter).
 constexpr int kBlurPasses = 1;
