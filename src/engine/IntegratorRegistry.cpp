@@ -3,10 +3,12 @@
 #include "Renderer.h"
 
 #include "../pathtracer/Pathtracer.h"
+#include "../vrl/Orders3Grid.h"
 #include "../vrl/VrlIntegrator.h"
 #include "../single/SingleIntegrator.h"
 #include "../wkb/WkbIntegrator.h"
 
+#include <chrono>
 #include <stdexcept>
 
 namespace nimbus {
@@ -31,7 +33,20 @@ IntegratorEntry wkbEntry()
     };
     e.create = [](const RenderContext& ctx, const RenderPlan& plan, const RenderOptions&,
                   RenderStats& stats) -> std::unique_ptr<Integrator> {
-        return std::make_unique<wkb::WkbIntegrator>(ctx, plan, stats);
+        std::shared_ptr<const wkb::RadianceGrid> orders3;
+        const RenderSettings& rs = ctx.scene->render;
+        if (rs.wkbOrders3 == WkbOrders3::Traced) {
+            // The traced radiance cache of orders 3+ (docs/wkb.md), from the VRL light pass.
+            const auto start = std::chrono::steady_clock::now();
+            vrl::Orders3Options o;
+            o.paths = rs.wkbOrders3Paths;
+            o.maxCells = rs.wkbOrders3Grid;
+            o.seed = rs.seed;
+            orders3 = vrl::traceOrders3(ctx, o);
+            stats.addStage("orders 3+ light paths",
+                           std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
+        }
+        return std::make_unique<wkb::WkbIntegrator>(ctx, plan, stats, std::move(orders3));
     };
     return e;
 }

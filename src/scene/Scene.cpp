@@ -71,4 +71,9 @@ const char* wkbOrder2Name(WkbOrder2 o)
     return o == WkbOrder2::Traced ? "traced" : "kernel";
 }
 
+const char* wkbOrders3Name(WkbOrders3 o)
+{
+    return o == WkbOrders3::Traced ? "traced" : "kernel";
+}
+
 }  // namespace nimbus

@@ -172,6 +172,10 @@ enum class WkbSource { Straight, RandomWalk };
 // a direction from the phase function, and single's march along it; the kernel then carries
 // orders 3 and up) or, as Tessendorf's reduction does, by the angular kernel with the rest.
 enum class WkbOrder2 { Traced, Kernel };
+// How L2+'s orders 3 and up from the lights are computed: the angular kernel over the blurred light
+// pyramid (kernel), or a radiance cache traced from the lights (traced: docs/wkb.md "Orders 3 and
+// up, traced"). Emission's L2+ keeps the kernel either way.
+enum class WkbOrders3 { Kernel, Traced };
 
 // The pixel reconstruction filter (kernels/shared/filter.h), by filter importance sampling.
 enum class PixelFilter { Box, Gaussian, BlackmanHarris };
@@ -181,6 +185,7 @@ const char* pixelFilterName(PixelFilter f);  // "box", "gaussian", "blackman_har
 const char* wkbKernelName(WkbKernel k);      // "gaussian", "exact"
 const char* wkbSourceName(WkbSource s);      // "straight", "random_walk"
 const char* wkbOrder2Name(WkbOrder2 o);      // "traced", "kernel"
+const char* wkbOrders3Name(WkbOrders3 o);    // "kernel", "traced"
 const char* vrlSamplingName(VrlSampling s);  // "auto", "simple", "advanced"
 
 // Samples per pixel of single and wkb when `spp` is 0 (the default).
@@ -222,6 +227,9 @@ struct RenderSettings {
     WkbSource wkbSource = WkbSource::RandomWalk;
     WkbOrder2 wkbOrder2 = WkbOrder2::Traced;  // order 2 of L2+ (docs/wkb.md "Order 2, traced")
     int wkbOrder2Samples = 4;                 // traced order-2 samples per camera ray
+    WkbOrders3 wkbOrders3 = WkbOrders3::Kernel;  // orders 3+ of the lights' L2+ (docs/wkb.md)
+    int wkbOrders3Paths = 65536;                 // traced: light paths of the radiance cache
+    int wkbOrders3Grid = 48;                     // traced: cache cells along the volumes' longest side
     float wkbBlurK = 24.0f;         // K in the blur width s sqrt(K mu l), Tessendorf eq. 79
     float wkbLStep = 0.25f;         // l-march step, scattering lengths; grows as l_step * l past l = 1
     int wkbOrderMax = 128;          // cap on the Legendre order j of the angular sum (eq. 88)

@@ -62,6 +62,7 @@ public:
     void field(const std::string& key, WkbKernel k) { mJson[key] = wkbKernelName(k); }
     void field(const std::string& key, WkbSource k) { mJson[key] = wkbSourceName(k); }
     void field(const std::string& key, WkbOrder2 k) { mJson[key] = wkbOrder2Name(k); }
+    void field(const std::string& key, WkbOrders3 k) { mJson[key] = wkbOrders3Name(k); }
     void field(const std::string& key, VrlSampling s) { mJson[key] = vrlSamplingName(s); }
     void field(const std::string& key, PixelFilter f) { mJson[key] = pixelFilterName(f); }
     void rgb(const std::string& key, Rgb v) { mJson[key] = array(v); }
@@ -188,6 +189,10 @@ public:
     {
         named(key, out, {WkbOrder2::Traced, WkbOrder2::Kernel}, wkbOrder2Name, "order-2 model");
     }
+    void field(const std::string& key, WkbOrders3& out)
+    {
+        named(key, out, {WkbOrders3::Kernel, WkbOrders3::Traced}, wkbOrders3Name, "orders-3+ model");
+    }
 
 private:
     template <class T, class ReadValue>
@@ -298,6 +303,9 @@ void visitRender(V& v, R& r)
     v.field("wkb_source", r.wkbSource);
     v.field("wkb_order2", r.wkbOrder2);
     v.field("wkb_order2_samples", r.wkbOrder2Samples);
+    v.field("wkb_orders3", r.wkbOrders3);
+    v.field("wkb_orders3_paths", r.wkbOrders3Paths);
+    v.field("wkb_orders3_grid", r.wkbOrders3Grid);
     v.field("wkb_blur_k", r.wkbBlurK);
     v.field("wkb_l_step", r.wkbLStep);
     v.field("wkb_order_max", r.wkbOrderMax);

@@ -85,7 +85,9 @@ struct WkbIntegrator::Scratch {
     float seconds = 0.0f;  // the ray's shutter time (velocity blur)
 };
 
-WkbIntegrator::WkbIntegrator(const RenderContext& ctx, const RenderPlan& plan, RenderStats& stats) : mCtx(&ctx)
+WkbIntegrator::WkbIntegrator(const RenderContext& ctx, const RenderPlan& plan, RenderStats& stats,
+                             std::shared_ptr<const RadianceGrid> orders3)
+    : mCtx(&ctx), mOrders3(std::move(orders3))
 {
     const auto* setup = dynamic_cast<const WkbSetup*>(plan.integrator.get());
     if (!setup)
@@ -109,6 +111,11 @@ WkbIntegrator::WkbIntegrator(const RenderContext& ctx, const RenderPlan& plan, R
     for (const SourcePlan& sp : mSetup.sources)
         if (sp.mode == SourceMode::Sh)
             mMaxShOrder = std::max(mMaxShOrder, sp.order);
+    if (mOrders3) {
+        mKernelSources = false;
+        for (const SourcePlan& sp : mSetup.sources)
+            mKernelSources = mKernelSources || (sp.emission && sp.mode != SourceMode::Skip);
+    }
 }
 
 void WkbIntegrator::marchRays(int n, const float3* o, const float3* d, const float* tFar, const float* time,
@@ -357,8 +364,8 @@ void WkbIntegrator::evaluateNode(Scratch& sc, float3 o, float3 d, const TableEnt
 
     for (size_t si = 0; si < mSetup.sources.size(); ++si) {
         const SourcePlan& sp = mSetup.sources[si];
-        if (sp.mode == SourceMode::Skip)
-            continue;
+        if (sp.mode == SourceMode::Skip || (mOrders3 && !sp.emission))
+            continue;  // traced orders 3+ (marchOrders3) replace the lights' kernel
         const std::vector<double>& coef = mOrder2 && !sp.emission ? sc.coef3 : sc.coef;
         double S[3] = {0, 0, 0};
         if (sp.mode == SourceMode::Delta) {
@@ -401,6 +408,20 @@ void WkbIntegrator::march(float3 o, float3 d, NbRng& rng, CameraSample& out, flo
         return;
     if (mOrder2)
         mOrder2->add(o, d, rng, out, perLight, tFar, seconds);
+    if (mOrders3) {
+        // The lights' orders 3+ from the traced radiance cache, read toward the camera (-d).
+        const float3 L3 = marchOrders3(mCtx->volumes, mPhase, *mOrders3, o, d, -d, tFar, seconds, nbRngNext(&rng),
+                                       mCtx->scene->render.step, float(kFineStepScale));
+        out.L2plus += L3;
+        // The cache sums every light's paths: a light's own AOV gets them only when it is the one light.
+        if (perLight && mCtx->lights.size() == 1) {
+            perLight[0] += L3.x;
+            perLight[1] += L3.y;
+            perLight[2] += L3.z;
+        }
+        if (!mKernelSources)
+            return;
+    }
     thread_local Scratch sc;
     sc.seconds = seconds;
     const VolumeSet& vs = mCtx->volumes;

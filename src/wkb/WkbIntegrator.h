@@ -10,6 +10,7 @@
 #include "../single/EmissionScatter.h"
 #include "../single/SingleScatter.h"
 #include "LightVolumes.h"
+#include "RadianceGrid.h"
 #include "SourcePlacement.h"
 #include "TracedOrder2.h"
 #include "WkbPlanner.h"
@@ -33,7 +34,11 @@ class WkbIntegrator final : public Integrator {
 public:
     // Builds the light volumes and their pyramids for the plan's WkbSetup (plan.integrator, made
     // by planWkb in the planning pass); sizes and stage times go to stats.
-    WkbIntegrator(const RenderContext& ctx, const RenderPlan& plan, RenderStats& stats);
+    // orders3: with render.wkb_orders3 "traced", the radiance cache of the lights' orders 3 and up
+    // (vrl::traceOrders3, built by the engine above this layer); it then replaces the kernel's
+    // orders 3+ of every light (emission keeps the kernel). Null: the kernel's.
+    WkbIntegrator(const RenderContext& ctx, const RenderPlan& plan, RenderStats& stats,
+                  std::shared_ptr<const RadianceGrid> orders3 = nullptr);
 
     Drive drive() const override { return Drive::CameraRays; }
     // L0 + L1 by marchSingle, then L2+ by march, ray by ray on one random stream each.
@@ -73,6 +78,8 @@ private:
     LightVolumes mLights;
     std::unique_ptr<TracedOrder2> mOrder2;  // set with setup().tracedOrder2
     std::unique_ptr<EmissionScatter> mEmission;  // emission's L1, as single's
+    std::shared_ptr<const RadianceGrid> mOrders3;  // traced orders 3+ of the lights, or null
+    bool mKernelSources = true;  // some source the l-march still evaluates (with mOrders3: emission)
     PlacementModel mModel = PlacementModel::Straight;
     float mMinLightVoxel = 1.0f;
     std::vector<Rgb> mSigmaS, mSigmaA;  // per volume, 1/m at density 1 (density scale included)

@@ -1,0 +1,29 @@
+// Orders3Grid.h: fills WKB's traced radiance cache for orders 3 and up (wkb/RadianceGrid.h;
+// render.wkb_orders3 = "traced", docs/wkb.md "Orders 3 and up, traced") from the VRL light pass
+// (VrlLightPass.h): the same light paths (lights chosen by power, delta tracking on the path
+// tracer's brick majorants, its Russian roulette), each segment that leaves a path's second or
+// later scattering vertex deposited along the cells it crosses with its expected track length.
+#pragma once
+
+#include "../render/RenderContext.h"
+#include "../wkb/RadianceGrid.h"
+
+#include <memory>
+
+namespace nimbus::vrl {
+
+struct Orders3Options {
+    long long paths = 0;   // light paths in all (render.wkb_orders3_paths)
+    int maxCells = 64;     // cells along the box's longest side (render.wkb_orders3_grid)
+    uint32_t seed = 0;     // render.seed
+    // The first segment order deposited: 2 (a segment leaving the second scattering vertex) gives
+    // orders 3 and up at the camera. Tests set 1 or 3 to show that a wrong order is caught.
+    int firstOrder = 2;
+};
+
+// The grid of ctx's scene, or null where no light reaches a volume. Deterministic for a seed on
+// any thread count: the segments are split into kPartials fixed ranges, each summed in order into
+// its own grid, and the partial grids are added in a fixed order.
+std::shared_ptr<const wkb::RadianceGrid> traceOrders3(const RenderContext& ctx, const Orders3Options& options);
+
+}  // namespace nimbus::vrl

@@ -1,0 +1,131 @@
+#include "RadianceGrid.h"
+
+#include "../render/SphericalHarmonics.h"
+
+namespace nimbus::wkb {
+
+void RadianceGrid::init(const Bbox& box, float minCell, int maxCells)
+{
+    mData.clear();
+    mN[0] = mN[1] = mN[2] = 0;
+    if (box.empty())
+        return;
+    const float3 e = box.extent();
+    const float longest = std::fmax(e.x, std::fmax(e.y, e.z));
+    if (!(longest > 0.0f))
+        return;
+    mCell = std::fmax(minCell, longest / float(std::max(1, maxCells)));
+    mN[0] = std::max(1, int(std::ceil(e.x / mCell)));
+    mN[1] = std::max(1, int(std::ceil(e.y / mCell)));
+    mN[2] = std::max(1, int(std::ceil(e.z / mCell)));
+    // Centre the whole cells on the box.
+    const float3 full = make_float3(float(mN[0]), float(mN[1]), float(mN[2])) * mCell;
+    mBox.lo = box.center() - full * 0.5f;
+    mBox.hi = box.center() + full * 0.5f;
+    mData.assign(cellCount() * size_t(kFloats), 0.0f);
+}
+
+void RadianceGrid::fetch(float3 x, float* out) const
+{
+    std::fill(out, out + kFloats, 0.0f);
+    if (mData.empty() || !mBox.contains(x))
+        return;
+    const float3 u = (x - mBox.lo) * (1.0f / mCell) - splat(0.5f);  // cell-centred coordinates
+    const float uu[3] = {u.x, u.y, u.z};
+    int i0[3], i1[3];
+    float f[3];
+    for (int k = 0; k < 3; ++k) {
+        const float c = std::fmin(std::fmax(uu[k], 0.0f), float(mN[k] - 1));
+        i0[k] = std::min(int(c), mN[k] - 1);
+        i1[k] = std::min(i0[k] + 1, mN[k] - 1);
+        f[k] = c - float(i0[k]);
+    }
+    for (int corner = 0; corner < 8; ++corner) {
+        const int ix = corner & 1 ? i1[0] : i0[0], iy = corner & 2 ? i1[1] : i0[1], iz = corner & 4 ? i1[2] : i0[2];
+        const float w = (corner & 1 ? f[0] : 1.0f - f[0]) * (corner & 2 ? f[1] : 1.0f - f[1]) *
+                        (corner & 4 ? f[2] : 1.0f - f[2]);
+        if (!(w > 0.0f))
+            continue;
+        const float* c = mData.data() + ((size_t(iz) * size_t(mN[1]) + size_t(iy)) * size_t(mN[0]) + size_t(ix)) * kFloats;
+        for (int k = 0; k < kFloats; ++k)
+            out[k] += w * c[k];
+    }
+}
+
+float3 RadianceGrid::inScatter(float3 x, float3 wo, const double* p) const
+{
+    float L[kFloats];
+    fetch(x, L);
+    double y[kCoeffs];
+    shEvaluate(kOrder, wo, y);
+    double s[3] = {0, 0, 0};
+    for (int j = 0; j <= kOrder; ++j)
+        for (int m = -j; m <= j; ++m) {
+            const int jm = shIndex(j, m);
+            const double f = p[j] * y[jm];
+            for (int c = 0; c < 3; ++c)
+                s[c] += f * double(L[3 * jm + c]);
+        }
+    return make_float3(float(s[0]), float(s[1]), float(s[2]));
+}
+
+float3 marchOrders3(const VolumeSet& volumes, const std::vector<NbPhase>& phases, const RadianceGrid& grid, float3 o,
+                    float3 d, float3 wo, float tFar, float seconds, float jitter, float stepFraction, float stepScale)
+{
+    thread_local std::vector<Span> spans;
+    thread_local std::vector<float> weights;
+    thread_local std::vector<BrickGrid::Stencil> stencils;
+    volumes.spansAt(seconds, o, d, 0.0f, std::min(tFar, 1e30f), stepFraction, spans);
+    const size_t nv = volumes.volumes().size();
+    weights.assign(nv, 0.0f);
+    stencils.resize(nv);
+    double T[3] = {1, 1, 1}, L[3] = {0, 0, 0};
+    for (const Span& sp : spans) {
+        const float len = sp.t1 - sp.t0;
+        if (!(len > 0.0f))
+            continue;
+        const int n = std::max(1, int(std::ceil(len / (stepScale * sp.step))));
+        const float dt = len / float(n);
+        for (int k = 0; k < n; ++k) {
+            const float3 x = o + d * (sp.t0 + (float(k) + jitter) * dt);
+            float3 lp;
+            const MediumSample m = volumes.sampleAt(seconds, x, weights.data(), stencils.data(), &lp);
+            const double st[3] = {m.sigma_t.x, m.sigma_t.y, m.sigma_t.z};
+            const double ss[3] = {m.sigma_s.x, m.sigma_s.y, m.sigma_s.z};
+            double decay[3], integral[3];
+            for (int c = 0; c < 3; ++c) {
+                const double y = st[c] * double(dt);
+                decay[c] = std::exp(-y);
+                integral[c] = y > 1e-6 ? -std::expm1(-y) / st[c] : double(dt) * (1.0 - 0.5 * y);  // int_0^dt e^{-st u} du
+            }
+            if (ss[0] + ss[1] + ss[2] > 0.0) {
+                double p[RadianceGrid::kOrder + 1] = {}, wsum = 0.0;
+                for (size_t v = 0; v < nv; ++v)
+                    if (weights[v] > 0.0f) {
+                        nbPhaseAddMoments(phases[v], double(weights[v]), RadianceGrid::kOrder, p);
+                        wsum += double(weights[v]);
+                    }
+                if (wsum > 0.0) {
+                    for (double& pj : p)
+                        pj /= wsum;
+                    const float3 S = grid.inScatter(lp, wo, p);
+                    const double s3[3] = {S.x, S.y, S.z};
+                    // Not clamped here: the cache's noise makes the truncated sum dip below zero
+                    // where the radiance is small, and clamping each step would bias the ray up.
+                    for (int c = 0; c < 3; ++c)
+                        L[c] += T[c] * ss[c] * s3[c] * integral[c];
+                }
+            }
+            for (int c = 0; c < 3; ++c)
+                T[c] *= decay[c];
+            if (std::max(T[0], std::max(T[1], T[2])) < 1e-4)
+                break;
+        }
+        if (std::max(T[0], std::max(T[1], T[2])) < 1e-4)
+            break;
+    }
+    // Radiance cannot be negative: the ray's sum is clamped (a truncated sum can ring below zero).
+    return make_float3(float(std::max(0.0, L[0])), float(std::max(0.0, L[1])), float(std::max(0.0, L[2])));
+}
+
+}  // namespace nimbus::wkb
