@@ -177,7 +177,8 @@ void evaluateAnimation(Scene& s)
         std::vector<double> frames;
         knotFrames(c.fovKeys.frames, frames);
         if (frames.size() > size_t(NB_CAMERA_FOV_KNOTS))
-            throw InputError("camera.fov: " + std::to_string(frames.size() - 2) + " keys within the shutter of frame " +
+            throw InputError((s.sourcePath.empty() ? std::string() : s.sourcePath + ": ") + "camera.fov: " +
+                             std::to_string(frames.size() - 2) + " keys within the shutter of frame " +
                              std::to_string(s.render.frame) + "; at most " + std::to_string(NB_CAMERA_FOV_KNOTS - 2) +
                              " can be motion-blurred");
         bool moves = false;  // a fov whose knots all agree holds still

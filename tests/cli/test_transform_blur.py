@@ -403,6 +403,20 @@ class TransformBlur(unittest.TestCase):
         # Shutter [0, 1] at frame 1: the open, the key at 1.25 and the close.
         self.assertIn("fov moves within the shutter (3 knots, 24 to 40 deg)", out)
 
+    def test_more_fov_keys_in_a_shutter_than_the_kernel_holds_is_one_line(self):
+        s = zoom_scene("single", self.path("dense.exr"))
+        s["camera"]["fov"] = [{"frame": 1.0 + 0.1 * j, "value": 30 + j} for j in range(11)]  # 9 inside
+        f = self.path("dense.json")
+        with open(f, "w") as out:
+            json.dump(s, out)
+        code, _, err = vb.run("render", f)
+        self.assertEqual(code, 2, err)
+        lines = err.strip().splitlines()
+        self.assertEqual(len(lines), 1, err)
+        self.assertIn("dense.json", lines[0])
+        self.assertIn("camera.fov: 9 keys within the shutter", lines[0])
+        self.assertFalse(os.path.exists(self.path("dense.exr")))
+
     # ---- what stays at the shutter's centre ---------------------------------------------------
 
     def test_geometry_keys_still_warn_and_fov_keys_do_not(self):
