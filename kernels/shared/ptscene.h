@@ -50,7 +50,7 @@ typedef struct {
                                 * zw unused */
 } NbVolumeDesc;
 
-/* Per-launch parameters, 260 bytes. */
+/* Per-launch parameters, 324 bytes. */
 typedef struct {
     NbCamera camera;
     float background[4]; /* radiance seen by camera rays that leave the volumes (L0) */

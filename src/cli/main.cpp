@@ -462,7 +462,17 @@ int runInfo(const SceneArgs& args)
     const Camera& c = scene.camera;
     std::cout << "scene " << (scene.sourcePath.empty() ? "(default)" : scene.sourcePath) << "\n";
     std::cout << "  camera: " << c.width << "x" << c.height << ", fov " << c.fov << " deg"
-              << (c.hasMotion ? ", motion blur" : "") << "\n";
+              << (c.hasMotion ? ", motion blur" : "");
+    // The camera alone at the frame (the volumes and geometry are planRender's, which warns).
+    Scene cameraAtFrame;
+    cameraAtFrame.camera = c;
+    cameraAtFrame.render = scene.render;
+    evaluateAnimation(cameraAtFrame);
+    const Keys<float>& zoom = cameraAtFrame.camera.fovShutterMotion;
+    if (!zoom.frames.empty())
+        std::cout << "; fov moves within the shutter (" << zoom.frames.size() << " knots, " << zoom.values.front()
+                  << " to " << zoom.values.back() << " deg)";
+    std::cout << "\n";
     std::cout << "  " << scene.lights.size() << " light(s), " << scene.volumes.size() << " volume(s), method "
               << methodName(scene.render.method) << ", spp ";
     if (scene.render.spp > 0)

@@ -20,12 +20,25 @@ inline double filterMargin(float filterWidth)
     return 1.0 + std::max(0.0, 0.5 * double(filterWidth) - 0.5);
 }
 
+// The least and largest tan(fov/2) of the camera over the shutter: a zoom's fov is linear in
+// angle between its knots (camera.h), so its extremes are knots. A still fov: both tanHalfFov.
+inline void tanHalfFovRange(const NbCamera& cam, double& lo, double& hi)
+{
+    lo = hi = double(cam.tanHalfFov);
+    for (int i = 0; i < int(cam.fovKnots); ++i) {
+        const double t = std::tan(double(cam.fovHalf[i]));
+        lo = std::min(lo, t), hi = std::max(hi, t);
+    }
+}
+
 // True where no primary ray through pixels [x0, x1) x [y0, y1) can meet `box`: the box lies
 // wholly outside one of the four planes through the eye that bound the tile's rays, or behind
 // the eye (every ray's direction has a positive forward part). The pixel filter spreads a pixel's
 // rays up to its radius r from the pixel's centre; `margin` pixels on each side (filterMargin:
 // r - 1/2 past the pixel, plus one for rounding) cover them. A moving camera sweeps its frustum
-// over the shutter, so it is never culled.
+// over the shutter, so it is never culled. A zoom (fov knots) scales the tile's image-plane
+// rectangle by tan(fov/2) over [lo, hi]: each of its edges is linear in that scale, so the
+// rectangle spanned by its edges at lo and at hi holds every ray of the shutter.
 inline bool tileMissesBox(const NbCamera& cam, int width, int height, int x0, int y0, int x1, int y1, const Bbox& box,
                           double margin)
 {
@@ -35,10 +48,13 @@ inline bool tileMissesBox(const NbCamera& cam, int width, int height, int x0, in
         return true;  // no volume: every ray misses
     const float3 o = nbLoad3(cam.originOpen), f = nbLoad3(cam.forwardOpen), r = nbLoad3(cam.rightOpen);
     const float3 u = cross(r, f);
-    const double sx0 = (2.0 * (x0 - margin) / width - 1.0) * cam.tanHalfFov * cam.aspect;
-    const double sx1 = (2.0 * (x1 + margin) / width - 1.0) * cam.tanHalfFov * cam.aspect;
-    const double sy0 = (1.0 - 2.0 * (y1 + margin) / height) * cam.tanHalfFov;  // y runs down the image
-    const double sy1 = (1.0 - 2.0 * (y0 - margin) / height) * cam.tanHalfFov;
+    double lo, hi;
+    tanHalfFovRange(cam, lo, hi);
+    const double ax0 = 2.0 * (x0 - margin) / width - 1.0, ax1 = 2.0 * (x1 + margin) / width - 1.0;
+    const double ay0 = 1.0 - 2.0 * (y1 + margin) / height;  // y runs down the image
+    const double ay1 = 1.0 - 2.0 * (y0 - margin) / height;
+    const double sx0 = std::min(ax0 * lo, ax0 * hi) * cam.aspect, sx1 = std::max(ax1 * lo, ax1 * hi) * cam.aspect;
+    const double sy0 = std::min(ay0 * lo, ay0 * hi), sy1 = std::max(ay1 * lo, ay1 * hi);
     bool left = true, right = true, below = true, above = true, behind = true;
     for (int i = 0; i < 8; ++i) {
         const float3 c =
@@ -71,7 +87,9 @@ inline int tileIndex(double v, int lo, int hi)
 // wider on each side (jitter, rounding), marks the tiles it overlaps. Returns false, marking
 // nothing more, where some brick reaches to or behind the eye's plane (the caller then keeps
 // every tile) or the camera moves. A cloud in its bounding box leaves the box's corners empty:
-// those rays no longer walk bricks to find nothing. `margin` as for tileMissesBox.
+// those rays no longer walk bricks to find nothing. `margin` as for tileMissesBox. A zoom: a
+// corner's pixel is linear in 1 / tan(fov/2), so its images at the least and largest
+// tan(fov/2) bound where it goes over the shutter.
 inline bool markTilesSeeingBricks(const NbCamera& cam, int width, int height, int fx0, int fy0, int tile, int tilesX,
                                   int tilesY, const BrickGrid& grid, const Transform& worldFromIndex,
                                   std::vector<char>& seen, double margin)
@@ -80,7 +98,9 @@ inline bool markTilesSeeingBricks(const NbCamera& cam, int width, int height, in
         return false;
     const float3 o = nbLoad3(cam.originOpen), f = nbLoad3(cam.forwardOpen), r = nbLoad3(cam.rightOpen);
     const float3 u = cross(r, f);
-    const double kx = 0.5 * width / (double(cam.tanHalfFov) * cam.aspect), ky = 0.5 * height / double(cam.tanHalfFov);
+    double tanLo, tanHi;
+    tanHalfFovRange(cam, tanLo, tanHi);
+    const double tans[2] = {tanLo, tanHi};
     return forEachOccupiedBrick(grid, worldFromIndex, [&](const float3* corners) {
         double pxLo = 1e300, pxHi = -1e300, pyLo = 1e300, pyHi = -1e300;
         for (int i = 0; i < 8; ++i) {
@@ -88,10 +108,13 @@ inline bool markTilesSeeingBricks(const NbCamera& cam, int width, int height, in
             const double cz = dot(q, f);
             if (!(cz > 1e-6 * double(length(q))))
                 return false;  // at or behind the eye's plane: no bounded image
-            const double px = (double(dot(q, r)) / cz) * kx + 0.5 * width;
-            const double py = 0.5 * height - (double(dot(q, u)) / cz) * ky;  // y runs down the image
-            pxLo = std::min(pxLo, px), pxHi = std::max(pxHi, px);
-            pyLo = std::min(pyLo, py), pyHi = std::max(pyHi, py);
+            for (double tanHalfFov : tans) {
+                const double kx = 0.5 * width / (tanHalfFov * cam.aspect), ky = 0.5 * height / tanHalfFov;
+                const double px = (double(dot(q, r)) / cz) * kx + 0.5 * width;
+                const double py = 0.5 * height - (double(dot(q, u)) / cz) * ky;  // y runs down the image
+                pxLo = std::min(pxLo, px), pxHi = std::max(pxHi, px);
+                pyLo = std::min(pyLo, py), pyHi = std::max(pyHi, py);
+            }
         }
         // Pixels [floor(lo - margin), hi + margin] hold every ray that can pass the rectangle.
         const double x0 = std::floor(pxLo - margin) - fx0, x1 = pxHi + margin - fx0;

@@ -12,7 +12,7 @@ namespace nimbus {
 
 static_assert(sizeof(NbGridDesc) == 48, "NbGridDesc layout is shared with OpenCL");
 static_assert(sizeof(NbVolumeDesc) == 352, "NbVolumeDesc layout is shared with OpenCL");
-static_assert(sizeof(NbPtParams) == 260, "NbPtParams layout is shared with OpenCL");
+static_assert(sizeof(NbPtParams) == 324, "NbPtParams layout is shared with OpenCL");
 static_assert(sizeof(NbLight) == 112, "NbLight layout is shared with OpenCL");
 
 namespace {

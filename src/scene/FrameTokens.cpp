@@ -1,5 +1,6 @@
 #include "FrameTokens.h"
 
+#include "../../kernels/shared/camera.h"
 #include "../core/Error.h"
 #include "../core/Log.h"
 
@@ -167,7 +168,29 @@ void evaluateAnimation(Scene& s)
         if (!shutterOpen)
             c.fromClose = c.from, c.toClose = c.to, c.upClose = c.up;
     }
-    at(c.fov, c.fovKeys, centre, "camera.fov");
+    // The fov zooms within the shutter (camera.h): its knots are kept, at most
+    // NB_CAMERA_FOV_KNOTS, and the static value is the shutter centre's (nimbus:camera's
+    // matrices, tile culling's bounds take every knot).
+    if (c.fovKeys.animated())
+        c.fovShutterMotion = {};
+    if (c.fovKeys.animated() && shutterOpen) {
+        std::vector<double> frames;
+        knotFrames(c.fovKeys.frames, frames);
+        if (frames.size() > size_t(NB_CAMERA_FOV_KNOTS))
+            throw InputError((s.sourcePath.empty() ? std::string() : s.sourcePath + ": ") + "camera.fov: " +
+                             std::to_string(frames.size() - 2) + " keys within the shutter of frame " +
+                             std::to_string(s.render.frame) + "; at most " + std::to_string(NB_CAMERA_FOV_KNOTS - 2) +
+                             " can be motion-blurred");
+        bool moves = false;  // a fov whose knots all agree holds still
+        for (double f : frames) {
+            c.fovShutterMotion.frames.push_back(f - frame);
+            c.fovShutterMotion.values.push_back(evaluateKeys(c.fovKeys, f));
+            moves |= !sameValue(c.fovShutterMotion.values.back(), c.fovShutterMotion.values.front());
+        }
+        if (!moves)
+            c.fovShutterMotion = {};
+    }
+    at(c.fov, c.fovKeys, centre, "");
     // Lights and volume transforms move within the shutter (kernels/shared/motion.h): their
     // knots are kept, and the static value is the shutter centre's (shadow maps, light volumes
     // and bounds are built there).
@@ -239,8 +262,9 @@ void evaluateAnimation(Scene& s)
         for (const std::string& m : moving)
             list += (list.empty() ? "" : ", ") + m;
         logWarning("frame " + std::to_string(s.render.frame) + ": " + list +
-                   " move during the shutter but are not motion-blurred (only the camera, lights and volume "
-                   "transforms are); they are placed at the shutter's centre");
+                   (moving.size() == 1 ? " moves during the shutter but is not motion-blurred; it is"
+                                       : " move during the shutter but are not motion-blurred; they are") +
+                   " placed at the shutter's centre");
     }
 }
 

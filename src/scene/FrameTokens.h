@@ -42,12 +42,13 @@ bool sceneHasFrameTokens(const Scene& scene);
 
 // Evaluates the scene's animation keys (Animation.h) at render.frame and clears them, leaving
 // the frame's static scene. The camera's from, to, up are read at frame + shutter open and, with
-// an open shutter, at frame + shutter close as its motion-blur pose. Lights and volume
-// transforms are read at the shutter's centre and, where they move during an open shutter,
-// keep their motion within it (Light::shutterMotion, Volume::shutterMotion: the values at open,
-// close and every key between; docs/motion-blur.md). The fov and geometry transforms are read at
-// the shutter's centre and not blurred within it (one warning where they move during it).
-// Throws InputError if a camera has both keys and motion.
+// an open shutter, at frame + shutter close as its motion-blur pose. Lights, volume transforms
+// and the camera's fov are read at the shutter's centre and, where they move during an open
+// shutter, keep their motion within it (Light::shutterMotion, Volume::shutterMotion,
+// Camera::fovShutterMotion: the values at open, close and every key between;
+// docs/motion-blur.md). Geometry transforms are read at the shutter's centre and not blurred
+// within it (one warning where they move during it). Throws InputError if a camera has both
+// keys and motion, or if more than NB_CAMERA_FOV_KNOTS - 2 fov keys lie within the shutter.
 void evaluateAnimation(Scene& scene);
 
 }  // namespace nimbus

@@ -1,5 +1,6 @@
 #include "KernelScene.h"
 
+#include <algorithm>
 #include <cmath>
 
 namespace nimbus {
@@ -27,7 +28,7 @@ void frame(float3 from, float3 to, float3 up, float* origin, float* forward, flo
 
 }  // namespace
 
-static_assert(sizeof(NbCamera) == 112, "NbCamera layout is shared with OpenCL");
+static_assert(sizeof(NbCamera) == 176, "NbCamera layout is shared with OpenCL");
 static_assert(sizeof(NbLight) == 112, "NbLight layout is shared with OpenCL");
 
 int nbFilterType(PixelFilter filter)
@@ -51,6 +52,17 @@ NbCamera makeNbCamera(const Camera& c)
     k.tanHalfFov = float(std::tan(c.fov * M_PI / 360.0));
     k.aspect = float(c.width) / float(c.height);
     k.hasMotion = c.hasMotion ? 1.0f : 0.0f;
+    // A zoom within the shutter: the knots' times as fractions of the shutter (evaluateAnimation
+    // keeps at most NB_CAMERA_FOV_KNOTS, open first and close last).
+    const Keys<float>& fov = c.fovShutterMotion;
+    const double shutter = double(c.shutterClose) - double(c.shutterOpen);
+    if (fov.frames.size() >= 2 && fov.frames.size() <= size_t(NB_CAMERA_FOV_KNOTS) && shutter > 0.0) {
+        k.fovKnots = float(fov.frames.size());
+        for (size_t j = 0; j < fov.frames.size(); ++j) {
+            k.fovTime[j] = float(std::clamp((fov.frames[j] - double(c.shutterOpen)) / shutter, 0.0, 1.0));
+            k.fovHalf[j] = float(double(fov.values[j]) * M_PI / 360.0);
+        }
+    }
     return k;
 }
 

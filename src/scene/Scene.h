@@ -44,6 +44,10 @@ struct Camera {
     // hold the first key's until sceneAtFrame evaluates them at the frame (and the shutter).
     Keys<float3> fromKeys, toKeys, upKeys;
     Keys<float> fovKeys;
+    // The fov's motion within the shutter (evaluateAnimation, FrameTokens.h; camera.h): its value
+    // (degrees) at the shutter's open and close and at every key between, frames after
+    // render.frame; `fov` is then the shutter centre's. Empty: the fov holds still over the shutter.
+    Keys<float> fovShutterMotion;
 };
 
 enum class LightType { Distant, Point, Spot, Rect, Sphere, Environment };

@@ -267,8 +267,8 @@ class Sequences(unittest.TestCase):
         np.testing.assert_allclose(keys, motion, rtol=0, atol=1e-6)
 
     def test_what_moves_in_the_shutter_warns_only_where_not_blurred_and_bad_keys_are_one_line(self):
-        # Lights and volume transforms are blurred within the shutter (docs/motion-blur.md): no
-        # warning; the fov and geometry are not: one warning naming them.
+        # Lights, volume transforms and the fov are blurred within the shutter
+        # (docs/motion-blur.md): no warning; geometry is not: one warning naming it.
         s = self.animated_shot(self.path("out", "w.exr"))
         s["camera"]["shutter"] = [0, 0.5]
         s["render"]["frame"] = 2
@@ -279,9 +279,17 @@ class Sequences(unittest.TestCase):
         s["camera"]["fov"] = [{"frame": 1, "value": 40}, {"frame": 5, "value": 30}]
         code, _, err = run("render", self.scene_file(s), "-q")
         self.assertEqual(code, 0, err)
-        self.assertIn("camera.fov", err)
-        self.assertIn("shutter", err)
+        self.assertNotIn("not motion-blurred", err)
+        self.assertNotIn("camera.fov", err)
+        s["geometry"] = [{"type": "sphere", "radius": 0.1, "holdout": False,
+                          "transform": [{"frame": 1, "value": {"translate": [1, 0, 0]}},
+                                        {"frame": 5, "value": {"translate": [1, 1, 0]}}]}]
+        code, _, err = run("render", self.scene_file(s), "-q")
+        self.assertEqual(code, 0, err)
+        self.assertIn("geometry[0].transform moves during the shutter but is not motion-blurred", err)
+        self.assertNotIn("camera.fov", err)
         self.assertNotIn("lights[0].direction", err)
+        del s["geometry"]
         s["camera"]["from"] = [{"frame": 1, "value": [0, 0, 6]}, {"frame": 1, "value": [1, 0, 6]}]
         self.expect_bad_input(["render", self.scene_file(s, "bad.json")], "bad.json", "camera.from[1]",
                               "second key at frame 1")

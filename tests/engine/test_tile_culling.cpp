@@ -18,6 +18,27 @@ namespace {
 constexpr float kFilterWidth = 3.0f;
 constexpr float kReach = 0.5f * kFilterWidth - 0.5f;  // how far past its pixel a ray may go
 
+// A zoom within the shutter [0, 1]: fov knots at open, one key between and close (camera.h),
+// each 10 to 80 degrees, so the fov may widen and narrow again.
+void zoom(Camera& c, std::mt19937& rng)
+{
+    std::uniform_real_distribution<float> u01(0.0f, 1.0f);
+    c.shutterOpen = 0.0f, c.shutterClose = 1.0f;
+    c.fovShutterMotion.frames = {0.0, 0.2 + 0.6 * u01(rng), 1.0};
+    for (int i = 0; i < 3; ++i)
+        c.fovShutterMotion.values.push_back(10.0f + 70.0f * u01(rng));
+}
+
+// The times at which a tile's footprint corners are probed: the open, and every fov knot (a
+// zoom's extremes are knots).
+std::vector<float> cornerTimes(const NbCamera& cam)
+{
+    std::vector<float> t = {0.0f};
+    for (int i = 0; i < int(cam.fovKnots); ++i)
+        t.push_back(cam.fovTime[i]);
+    return t;
+}
+
 struct Counts {
     int culled = 0, kept = 0, keptHit = 0;
 };
@@ -42,12 +63,13 @@ Counts probe(const Camera& c, const Bbox& box, std::mt19937& rng)
                 hit = hit || box.intersect(o, safeInverse(d), 0.0f, 1e30f, t0, t1);
             }
             // The footprint's corners, where a ray grazes the frustum's side planes.
-            for (int k = 0; k < 4; ++k) {
-                float3 o, d;
-                nbCameraRay(cam, k & 1 ? xb : xa, k & 2 ? yb : ya, c.width, c.height, 0.0f, &o, &d);
-                float t0, t1;
-                hit = hit || box.intersect(o, safeInverse(d), 0.0f, 1e30f, t0, t1);
-            }
+            for (float time : cornerTimes(cam))
+                for (int k = 0; k < 4; ++k) {
+                    float3 o, d;
+                    nbCameraRay(cam, k & 1 ? xb : xa, k & 2 ? yb : ya, c.width, c.height, time, &o, &d);
+                    float t0, t1;
+                    hit = hit || box.intersect(o, safeInverse(d), 0.0f, 1e30f, t0, t1);
+                }
             if (culled) {
                 ++n.culled;
                 EXPECT_FALSE(hit) << "culled tile " << x0 << "," << y0 << " has a ray that meets the box";
@@ -65,24 +87,28 @@ TEST(TileCulling, CulledTilesHaveNoRayThatMeetsTheBox)
 {
     std::mt19937 rng(7);
     std::uniform_real_distribution<float> s(-1.0f, 1.0f);
-    Counts all;
-    for (int trial = 0; trial < 60; ++trial) {
+    Counts all, zoomed;
+    for (int trial = 0; trial < 120; ++trial) {
         Camera c;
         c.width = 96, c.height = 64;
         c.fov = 20.0f + 60.0f * (0.5f + 0.5f * s(rng));
         c.from = make_float3(6 * s(rng), 3 * s(rng), 6 + 4 * s(rng));
         c.to = make_float3(s(rng), s(rng), s(rng));
+        if (trial >= 60)  // the last half zoom within the shutter
+            zoom(c, rng);
         Bbox box;
         box.expand(make_float3(s(rng), s(rng), s(rng)) * 2.0f);
         box.expand(make_float3(s(rng), s(rng), s(rng)) * 2.0f);
         const Counts n = probe(c, box, rng);
-        all.culled += n.culled, all.kept += n.kept, all.keptHit += n.keptHit;
+        Counts& sum = trial >= 60 ? zoomed : all;
+        sum.culled += n.culled, sum.kept += n.kept, sum.keptHit += n.keptHit;
     }
     // Not vacuous: many tiles are culled, and most kept tiles do see the box.
     EXPECT_GT(all.culled, 1000);
     EXPECT_GT(all.keptHit, all.kept / 2);
-    std::printf("%d tiles culled, %d kept (%d of them with a ray that meets the box)\n", all.culled, all.kept,
-                all.keptHit);
+    EXPECT_GT(zoomed.culled, 500);
+    std::printf("%d tiles culled, %d kept (%d of them with a ray that meets the box); zooming: %d culled, %d kept\n",
+                all.culled, all.kept, all.keptHit, zoomed.culled, zoomed.kept);
 }
 
 TEST(TileCulling, NothingCulledFromInsideTheBoxOrWithCameraMotion)
@@ -114,7 +140,7 @@ TEST(TileCulling, TilesLeftUnmarkedHaveNoRayThroughAnOccupiedBrick)
     std::mt19937 rng(11);
     std::uniform_real_distribution<float> s(-1.0f, 1.0f), u01(0.0f, 1.0f);
     int unmarkedInBox = 0, marked = 0, markedHit = 0, unbounded = 0;
-    for (int trial = 0; trial < 40; ++trial) {
+    for (int trial = 0; trial < 80; ++trial) {
         BrickGrid g;
         g.reset({-2, -2, -2}, {5, 5, 5}, 1);
         for (int b = 0; b < 6; ++b) {  // a few scattered bricks, each a blob of density
@@ -131,6 +157,8 @@ TEST(TileCulling, TilesLeftUnmarkedHaveNoRayThroughAnOccupiedBrick)
         c.fov = 20.0f + 50.0f * u01(rng);
         c.from = make_float3(5 * s(rng), 3 * s(rng), 5 + 3 * s(rng));
         c.to = make_float3(0.5f * s(rng), 0.5f * s(rng), 0.5f * s(rng));
+        if (trial >= 40)  // the last half zoom within the shutter
+            zoom(c, rng);
         const NbCamera cam = makeNbCamera(c);
         constexpr int kTile = 8;
         const int tilesX = (c.width + kTile - 1) / kTile, tilesY = (c.height + kTile - 1) / kTile;
@@ -163,9 +191,10 @@ TEST(TileCulling, TilesLeftUnmarkedHaveNoRayThroughAnOccupiedBrick)
                 const float xa = x0 - kReach, xb = x1 + kReach, ya = y0 - kReach, yb = y1 + kReach;
                 bool hit = false;
                 for (int k = 0; k < 24 && !hit; ++k)
-                    hit = rayMeetsBrick(xa + (xb - xa) * u01(rng), ya + (yb - ya) * u01(rng), 0.0f);
-                for (int k = 0; k < 4 && !hit; ++k)
-                    hit = rayMeetsBrick(k & 1 ? xb : xa, k & 2 ? yb : ya, 0.0f);
+                    hit = rayMeetsBrick(xa + (xb - xa) * u01(rng), ya + (yb - ya) * u01(rng), u01(rng));
+                for (float time : cornerTimes(cam))
+                    for (int k = 0; k < 4 && !hit; ++k)
+                        hit = rayMeetsBrick(k & 1 ? xb : xa, k & 2 ? yb : ya, time);
                 if (seen[size_t(ty) * tilesX + tx]) {
                     ++marked;
                     markedHit += hit;

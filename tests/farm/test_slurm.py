@@ -14,6 +14,18 @@ log shows it mid-render (a progress line under 100%). Then:
 - every merged frame is bit for bit the frame `nimbus render --frames 1-6` writes in one process,
   and the frames differ (the shot is animated).
 
+Then a preemption: a path-tracer frame in 2 sample splits with a checkpoint every second
+(`--sample-splits 2 --checkpoint 1`); once one render task's log shows a checkpoint written and
+its render still running, `scontrol requeue` puts that array task back in the queue as Slurm's
+preemption (PreemptMode=REQUEUE) does: its processes are signalled and it runs again. Then:
+
+- every task of that job ends COMPLETED;
+- the requeued task's log shows its second run (`Slurm restart 1`) resuming from its checkpoint
+  at more than 0 samples per pixel (`resuming from ... at N samples per pixel`), not rendering
+  from the start, and finishing;
+- its part is bit for bit the same task run uninterrupted by hand (the same command, another
+  output), the other part too, and the merged frame is bit for bit the merge of those two.
+
 Skipped (exit 77, one line saying why) only when not root or when apt cannot install Slurm. The
 daemons this test starts are stopped at its end, also when it fails, and by a watchdog process if
 the test itself is killed; a cluster that was already running is used and left running. Tests on
@@ -41,6 +53,7 @@ SLURM_LOCAL = os.path.join(ROOT, "scripts", "slurm-local.sh")
 LOCK = "/run/lock/nimbus-slurm-test.lock"
 JOB_TIMEOUT = 420  # seconds for the whole job; ctest's limit is 900
 FRAMES, TILES = 6, 2
+PT_SPLITS = 2  # sample splits of the requeued path-tracer frame
 TERMINAL = {"COMPLETED", "FAILED", "CANCELLED", "TIMEOUT", "NODE_FAIL", "OUT_OF_MEMORY", "BOOT_FAIL", "DEADLINE",
             "PREEMPTED"}
 
@@ -81,6 +94,16 @@ def shot():
     }
 
 
+def pt_shot():
+    """One path-traced frame of the cloud, long enough (some seconds a split on one core) for a
+    checkpoint to be written before the task is requeued."""
+    s = shot()
+    s["camera"]["resolution"] = [96, 72]
+    s["render"] = {"method": "pathtrace", "spp": 512, "threads": 1}
+    s["output"] = {"file": "outpt/cloud.$F4.exr"}
+    return s
+
+
 def array_states(job_ids):
     """{"<job>_<index>": state} of every array task of the jobs (completed ones are kept MinJobAge)."""
     p = sh("squeue", "-h", "-r", "--states=all", "-j", ",".join(job_ids), "-o", "%i %T", check=False)
@@ -108,6 +131,100 @@ def task_pids(job_dir):
         if len(argv) > 2 and argv[1] == b"render" and env.get(b"NIMBUS_FARM_TEST") == job_dir.encode():
             found[int(entry)] = (env.get(b"SLURM_ARRAY_JOB_ID", b"").decode(), env.get(b"SLURM_ARRAY_TASK_ID", b"").decode())
     return found
+
+
+def wait_for_checkpoint(job_dir, job, tasks, deadline):
+    """The index of a render task whose log shows a checkpoint written and no end yet."""
+    while time.time() < deadline:
+        for index in range(tasks):
+            try:
+                with open(os.path.join(job_dir, "logs", "render_%s_%d.err" % (job, index))) as f:
+                    log = f.read()
+            except OSError:
+                continue
+            if "nimbus: checkpoint written to" in log and "done on attempt" not in log:
+                return index
+        time.sleep(0.05)
+    return None
+
+
+def requeue_a_preempted_task(nimbus, d, check):
+    """Issue 16 items 6 and 7: a path-tracer sample split requeued by Slurm mid-render resumes
+    from its checkpoint, and the frame merged from it is the uninterrupted one bit for bit."""
+    t0 = time.time()
+    scene = os.path.join(d, "pt.json")
+    with open(scene, "w") as f:
+        json.dump(pt_shot(), f)
+    job_dir = os.path.join(d, "jobpt")
+    p = subprocess.run([nimbus, "farm", "submit", scene, "--frames", "1-1", "--sample-splits", str(PT_SPLITS),
+                        "--checkpoint", "1", "--engine", "slurm", "--job-dir", job_dir,
+                        "--sbatch-arg=--cpus-per-task=1"], capture_output=True, text=True, cwd=d, timeout=120)
+    if p.returncode != 0:
+        raise RuntimeError("farm submit (pathtrace) failed (%d): %s" % (p.returncode, p.stderr))
+    say(p.stderr.strip())
+    ids = dict(line.split() for line in p.stdout.splitlines())
+    jobs = [ids["render"], ids["merge"]]
+    render_id = ids["render"]
+    states = {}
+    try:
+        deadline = t0 + JOB_TIMEOUT
+        index = wait_for_checkpoint(job_dir, render_id, PT_SPLITS, deadline)
+        check(index is not None, "a path-tracer render task wrote a checkpoint while running")
+        if index is not None:
+            task = "%s_%d" % (render_id, index)
+            q = sh("scontrol", "requeue", task, check=False)
+            check(q.returncode == 0, "scontrol requeue %s: %s" % (task, (q.stdout + q.stderr).strip() or "ok"))
+        while time.time() < deadline:
+            states = array_states(jobs)
+            if len(states) == PT_SPLITS + 1 and all(s in TERMINAL for s in states.values()):
+                break
+            time.sleep(1)
+        say("job states after %.0f s: %s" % (time.time() - t0, " ".join("%s=%s" % kv for kv in sorted(states.items()))))
+    finally:
+        sh("scancel", *jobs, check=False)
+        for _ in range(60):
+            if all(s in TERMINAL for s in array_states(jobs).values()):
+                break
+            time.sleep(0.5)
+    check(len(states) == PT_SPLITS + 1 and all(s == "COMPLETED" for s in states.values()),
+          "every task of the path-tracer job COMPLETED")
+    if index is None:
+        return
+    with open(os.path.join(job_dir, "logs", "render_%s_%d.err" % (render_id, index))) as f:
+        log = f.read()
+    second = log.split("Slurm restart 1", 1)
+    resumed = re.search(r"^nimbus: resuming from \S+ at (\d+) samples per pixel$", second[-1], re.M)
+    check(len(second) == 2 and resumed is not None and int(resumed.group(1)) > 0 and
+          "rendering from the start" not in second[1] and "done on attempt 1" in second[1],
+          "the requeued task's second run resumed from its checkpoint (%s samples per pixel) and finished" %
+          (resumed.group(1) if resumed else "no resume line"))
+    if len(second) == 2 and resumed is None:
+        print("--- requeued task's log\n" + log[-3000:])
+    # Each render task again by hand, uninterrupted, into another folder; then their merge.
+    with open(os.path.join(job_dir, "plan.json")) as f:
+        plan = json.load(f)
+    renders = [t for t in plan["tasks"] if t["kind"] == "render"]
+    merge = [t for t in plan["tasks"] if t["kind"] == "merge"][0]
+    ref_dir = os.path.join(d, "uninterrupted")
+    os.makedirs(ref_dir, exist_ok=True)
+    refs = []
+    for t in renders:
+        out = t["outputs"][0]
+        ref = os.path.join(ref_dir, os.path.basename(out))
+        cmd = [ref if word == out else word for word in t["command"]] + ["-q"]
+        r = subprocess.run(cmd, capture_output=True, text=True, cwd=d, timeout=600)
+        check(r.returncode == 0, "%s run uninterrupted by hand: %s" % (t["id"], r.stderr.strip()))
+        if r.returncode == 0 and os.path.isfile(out):
+            check(np.array_equal(pixels(out), pixels(ref)),
+                  "%s: the part written on Slurm == the task run uninterrupted, bit for bit (state layers too)" % t["id"])
+        refs.append(ref)
+    whole = os.path.join(ref_dir, "merged.exr")
+    r = subprocess.run([nimbus, "merge", "-q", whole, *refs], capture_output=True, text=True, timeout=120)
+    check(r.returncode == 0, "merge of the uninterrupted parts: " + r.stderr.strip())
+    merged = merge["outputs"][0]
+    check(os.path.isfile(merged) and r.returncode == 0 and np.array_equal(pixels(merged), pixels(whole)),
+          "the frame merged on Slurm == the merge of the uninterrupted parts, bit for bit")
+    say("path-tracer requeue: %.0f s" % (time.time() - t0))
 
 
 def kill_one_mid_render(job_dir, deadline):
@@ -264,6 +381,7 @@ def main():
                   "frame %d: merged tiles == the frame rendered in one process, bit for bit" % frame)
         check(not np.array_equal(pixels(os.path.join(d, "whole", "cloud.0001.exr")),
                                  pixels(os.path.join(d, "whole", "cloud.%04d.exr" % FRAMES))), "the shot is animated")
+        requeue_a_preempted_task(nimbus, d, check)
         if failures:
             for name in sorted(os.listdir(os.path.join(job_dir, "logs"))):
                 with open(os.path.join(job_dir, "logs", name)) as f:

@@ -9,6 +9,7 @@
 #include "scene/Animation.h"
 #include "scene/FrameTokens.h"
 #include "scene/KernelScene.h"
+#include "core/Error.h"
 
 #include <gtest/gtest.h>
 
@@ -153,6 +154,59 @@ TEST(ShutterMotion, TheKernelsLightIsTheAnimationsAtEveryShutterTime)
                 EXPECT_NEAR(got.axisV[c], want.axisV[c], 1e-5) << "light " << i << " frame " << 2 + frames;
             }
         }
+    }
+}
+
+// The camera's fov zooming within the shutter (camera.h): the knots a frame keeps, and the
+// rays' tan(fov/2) at every shutter time against the keys' own evaluation (linear in degrees).
+TEST(ShutterMotion, TheCamerasFovIsTheAnimationsAtEveryShutterTime)
+{
+    Scene templ = movingScene();
+    templ.camera.fovKeys.frames = {1.0, 1.5, 2.25, 4.0};
+    templ.camera.fovKeys.values = {30.0f, 45.0f, 20.0f, 60.0f};
+    const Scene f = sceneAtFrame(templ, 2);
+    // Shutter [1.25, 2.5]: open, the keys at 1.5 and 2.25, close.
+    const Keys<float>& k = f.camera.fovShutterMotion;
+    ASSERT_EQ(k.frames.size(), 4u);
+    EXPECT_DOUBLE_EQ(k.frames[0], -0.75);
+    EXPECT_DOUBLE_EQ(k.frames[1], -0.5);
+    EXPECT_DOUBLE_EQ(k.frames[2], 0.25);
+    EXPECT_DOUBLE_EQ(k.frames[3], 0.5);
+    EXPECT_FLOAT_EQ(f.camera.fov, evaluateKeys(templ.camera.fovKeys, 1.875));  // the centre's
+    EXPECT_EQ(sceneAtFrame(f, 2).camera.fovShutterMotion.frames, k.frames);    // a fixed point
+    const NbCamera cam = makeNbCamera(f.camera);
+    ASSERT_EQ(int(cam.fovKnots), 4);
+    for (int n = 0; n <= 40; ++n) {
+        const double u = n / 40.0;  // fraction of the shutter
+        const double want = std::tan(double(evaluateKeys(templ.camera.fovKeys, 1.25 + 1.25 * u)) * M_PI / 360.0);
+        EXPECT_NEAR(nbCameraTanHalfFov(cam, float(u)), want, 2e-6 * want) << "shutter fraction " << u;
+    }
+    // The ray through a pixel follows: the image-plane offset scales with tan(fov/2).
+    float3 o, d0, d1;
+    nbCameraRay(cam, 0.0f, 0.0f, 64, 64, 0.0f, &o, &d0);
+    nbCameraRay(cam, 0.0f, 0.0f, 64, 64, 0.8f, &o, &d1);  // frame 2.25: the fov narrows to 20 degrees
+    const float3 f0 = nbLoad3(cam.forwardOpen);
+    EXPECT_LT(dot(d0, f0), dot(d1, f0));
+    // Still fovs keep none: a closed shutter, keys that agree over the shutter.
+    Scene closed = templ;
+    closed.camera.shutterOpen = closed.camera.shutterClose = 0.0f;
+    EXPECT_TRUE(sceneAtFrame(closed, 2).camera.fovShutterMotion.frames.empty());
+    EXPECT_EQ(makeNbCamera(sceneAtFrame(closed, 2).camera).fovKnots, 0.0f);
+    Scene flat = templ;
+    flat.camera.fovKeys.values = {40.0f, 40.0f, 40.0f, 40.0f};
+    EXPECT_TRUE(sceneAtFrame(flat, 2).camera.fovShutterMotion.frames.empty());
+    // More keys within one shutter than the kernel holds: an input error naming camera.fov.
+    Scene dense = templ;
+    dense.camera.fovKeys = {};
+    for (int j = 0; j <= 12; ++j) {
+        dense.camera.fovKeys.frames.push_back(1.3 + 0.1 * j);
+        dense.camera.fovKeys.values.push_back(30.0f + float(j));
+    }
+    try {
+        sceneAtFrame(dense, 2);
+        FAIL() << "expected an input error";
+    } catch (const InputError& e) {
+        EXPECT_NE(std::string(e.what()).find("camera.fov"), std::string::npos) << e.what();
     }
 }
 

@@ -192,6 +192,10 @@ TEST(Animation, AFramesSceneHoldsTheKeysValuesAndTheShutterBlursTheCamera)
     expectNear(f2.camera.fromClose, make_float3(1.5f, 0, 5), 0.0f);
     expectNear(f2.camera.toClose, make_float3(0, 0, 0), 0.0f);
     EXPECT_FLOAT_EQ(f2.camera.fov, 40.0f - 5.0f * 1.25f);
+    // The fov zooms within the shutter: its knots at 2 and 2.5 (camera.h).
+    ASSERT_EQ(f2.camera.fovShutterMotion.frames.size(), 2u);
+    EXPECT_FLOAT_EQ(f2.camera.fovShutterMotion.values[0], 40.0f - 5.0f * 1.0f);
+    EXPECT_FLOAT_EQ(f2.camera.fovShutterMotion.values[1], 40.0f - 5.0f * 1.5f);
     expectNear(f2.lights[0].position, make_float3(2.5f, 4, 0), 1e-6f);
     // A frame's scene is a fixed point: evaluating it again changes nothing.
     EXPECT_EQ(sceneToJson(sceneAtFrame(f2, 2)), sceneToJson(f2));
