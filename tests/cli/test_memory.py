@@ -180,6 +180,45 @@ class Memory(unittest.TestCase):
         code, _, err = run("info", self.scene_file(s))
         self.assertEqual(code, 0, err)
 
+    def test_a_damaged_compressed_block_is_refused_before_openvdb_reads_it(self):
+        # fuzz_vdb's finding (tests/fuzz/regressions/vdb): a leaf's block whose size word claims
+        # more uncompressed bytes than the leaf holds; OpenVDB 10's bloscFromStream read them into
+        # the leaf's buffer before comparing (heap overflow; `free(): invalid pointer`, SIGABRT).
+        # Made here in a file pyopenvdb writes (Blosc, as Debian's OpenVDB writes by default): the
+        # last leaf's size word is the one whose block runs to the end of the file.
+        grid = vdb.FloatGrid()
+        grid.name = "density"
+        grid.transform = vdb.createLinearTransform(voxelSize=0.1)
+        acc = grid.getAccessor()
+        for i in range(512):
+            acc.setValueOn((i // 64, i // 8 % 8, i % 8), 1.0 + (i % 7) * 0.5)  # compressible
+        good = os.path.join(self.d, "good.vdb")
+        vdb.write(good, grids=[grid])
+        with open(good, "rb") as f:
+            data = f.read()
+        words = [at for at in range(len(data) - 8)
+                 if 0 < int.from_bytes(data[at:at + 8], "little", signed=True) == len(data) - at - 8]
+        self.assertTrue(words)
+        word = words[-1]
+        s = small_scene()
+        s["volumes"][0]["source"] = {"type": "vdb", "file": good}
+        code, _, err = run("info", self.scene_file(s))
+        self.assertEqual(code, 0, err)
+        for name, value in (("overflow", -(512 * 4 + 8182)), ("beyond_the_file", 1 << 40)):
+            bad = os.path.join(self.d, f"bad_{name}.vdb")
+            with open(bad, "wb") as f:
+                f.write(data[:word] + value.to_bytes(8, "little", signed=True) + data[word + 8:])
+            s["volumes"][0]["source"] = {"type": "vdb", "file": bad}
+            with self.subTest(name):
+                code, _, err = run("render", self.scene_file(s), "-q")
+                self.assertEqual(code, 2, err)
+                lines = [l for l in err.splitlines() if l.strip()]
+                self.assertEqual(len(lines), 1, err)
+                self.assertIn(bad, lines[0])
+                self.assertIn("volumes[0].source.grids.density", lines[0])
+                self.assertIn("block", lines[0])
+                self.assertFalse(os.path.exists(self.out))
+
 
 if __name__ == "__main__":
     NIMBUS = os.path.abspath(sys.argv.pop(1))
