@@ -46,13 +46,15 @@ public:
     {
     }
 
+    // Returns where the tree's data ends. blocks: the grid's block offset, or 0 where the file
+    // has none (written by io::Stream): the buffers then follow the topology (set to where).
     template <class TreeT>
-    void tree(uint64_t topology, uint64_t blocks, uint64_t end)
+    uint64_t tree(uint64_t topology, uint64_t& blocks, uint64_t end)
     {
         using ValueT = typename TreeT::ValueType;
         using RootT = typename TreeT::RootNodeType;
         std::vector<openvdb::Index32> leafActive;  // each leaf's active voxels, in file order
-        start(topology, blocks, "topology");
+        start(topology, blocks ? blocks : end, "topology");
         skip(4, "buffer count");  // checked by readGrid
         skip(sizeof(ValueT), "background");
         const uint32_t tiles = read<uint32_t>("root tile count");
@@ -63,18 +65,23 @@ public:
             node<typename RootT::ChildNodeType>(leafActive);
         }
         // OpenVDB reads the buffers from where the topology ends, not from the block offset.
-        if (mPos != blocks)
+        if (!blocks)
+            blocks = mPos;
+        else if (mPos != blocks)
             damaged("the topology ends short of the grid's block offset " + std::to_string(blocks));
         using LeafT = typename TreeT::LeafNodeType;
-        if constexpr (std::is_same_v<ValueT, bool> || std::is_same_v<ValueT, openvdb::ValueMask>) {
-            return;  // their leaves read fixed-size masks, no blocks
-        } else {
-            start(blocks, end, "leaf buffers");
-            for (const openvdb::Index32 active : leafActive) {
+        start(blocks, end, "leaf buffers");
+        for (const openvdb::Index32 active : leafActive) {
+            if constexpr (std::is_same_v<typename LeafT::BuildType, openvdb::ValueMask>) {
+                skip(LeafT::NodeMaskType::memUsage() + 12, "mask leaf");  // its mask, its origin
+            } else if constexpr (std::is_same_v<ValueT, bool>) {
+                skip(2 * LeafT::NodeMaskType::memUsage() + 12, "bool leaf");  // and its values' mask
+            } else {
                 skip(LeafT::NodeMaskType::memUsage(), "leaf value mask");
                 values<ValueT>(LeafT::SIZE, active, LeafT::NodeMaskType::memUsage());
             }
         }
+        return mPos;
     }
 
 private:
@@ -231,12 +238,15 @@ VdbFileReader::VdbFileReader(const std::string& path) : mPath(path)
     } catch (const std::ios_base::failure&) {
         throw std::runtime_error("not a VDB file (shorter than a VDB header)");
     }
-    if (!inputHasGridOffsets()) {  // format before 212: read whole by OpenVDB (VdbFileReader.h)
-        mStream.close();
-        mUnseekable = std::make_unique<openvdb::io::File>(path);
-        mUnseekable->open(/*delayLoad=*/false);
-        return;
-    }
+    // Without grid offsets: written by io::Stream (each grid right after its descriptor), or a
+    // format before 212. OpenVDB's own reader (io::File) trusts every length of such a file;
+    // a damaged one allocated 4.5 GB before it failed (fuzz_vdb). Streamed files are walked here
+    // grid by grid instead; the formats of OpenVDB before 3 (2014) are not read without offsets.
+    const bool streamed = !inputHasGridOffsets();
+    if (streamed && fileVersion() < openvdb::OPENVDB_FILE_VERSION_NODE_MASK_COMPRESSION)
+        throw std::runtime_error("VDB format " + std::to_string(fileVersion()) +
+                                 " without grid offsets (OpenVDB before 3.0) is not read; save the file again "
+                                 "with a current OpenVDB");
     mStreamMetadata = std::make_shared<openvdb::io::StreamMetadata>();
     mStreamMetadata->setSeekable(true);
     openvdb::io::setStreamMetadataPtr(mStream, mStreamMetadata, /*transfer=*/false);
@@ -269,6 +279,14 @@ VdbFileReader::VdbFileReader(const std::string& path) : mPath(path)
             mStream.seekg(std::streamoff(at));
             openvdb::io::GridDescriptor gd;
             gd.read(mStream);
+            if (streamed) {  // the grid follows; its end is where its tree says
+                gd.setGridPos(mStream.tellg());
+                gd.setBlockPos(0);
+                gd.setEndPos(0);
+                const auto [blocks, end] = checkGrid(gd);
+                gd.setBlockPos(int64_t(blocks));
+                gd.setEndPos(int64_t(end));
+            }
             const int64_t grid = gd.getGridPos(), block = gd.getBlockPos(), end = gd.getEndPos();
             if (!(grid > 0 && grid <= block && block <= end && uint64_t(end) <= mFileSize))
                 throw std::runtime_error("grid '" + gd.gridName() + "' has offsets " + std::to_string(grid) + ", " +
@@ -285,11 +303,6 @@ VdbFileReader::VdbFileReader(const std::string& path) : mPath(path)
 std::vector<std::string> VdbFileReader::gridNames() const
 {
     std::vector<std::string> names;
-    if (mUnseekable) {
-        for (auto it = mUnseekable->beginName(); it != mUnseekable->endName(); ++it)
-            names.push_back(it.gridName());
-        return names;
-    }
     for (const auto& gd : mDescriptors)
         names.push_back(gd.gridName());
     return names;
@@ -351,6 +364,53 @@ void VdbFileReader::checkLengths(uint64_t begin, uint64_t end, const openvdb::io
     mStream.seekg(std::streamoff(begin));
 }
 
+// Checks the grid whose data begins at gd's grid offset (VdbFileReader.h): its metadata and
+// transform lengths, its buffer count and every compressed block of its tree (BlockCheck).
+// Returns where the grid's topology and data end (its block and end offsets). For a file without
+// offsets (io::Stream), gd's block and end offsets are 0: its data then runs as its tree says,
+// and at most to the end of the file.
+std::pair<uint64_t, uint64_t> VdbFileReader::checkGrid(const openvdb::io::GridDescriptor& gd)
+{
+    const std::string what = "grid '" + gd.gridName() + "'";
+    if (!openvdb::GridBase::isRegistered(gd.gridType()))
+        throw std::runtime_error(what + " has the unknown type '" + gd.gridType() + "'");
+    uint64_t blocks = uint64_t(gd.getBlockPos());
+    const uint64_t end = gd.getEndPos() ? uint64_t(gd.getEndPos()) : mFileSize;
+    checkLengths(uint64_t(gd.getGridPos()), blocks ? blocks : end, &gd);
+    // Read the metadata and transform to find the tree, then start over.
+    gd.seekToGrid(mStream);
+    openvdb::GridBase::Ptr probe = openvdb::GridBase::createGrid(gd.gridType());
+    readGridCompression(mStream);
+    probe->readMeta(mStream);
+    probe->readTransform(mStream);
+    const uint64_t topology = uint64_t(mStream.tellg());
+    if (gd.isInstance())
+        return {topology, topology};  // the tree is its parent's
+    // The tree's first word is its buffer count, 1 since OpenVDB 3; for any other value OpenVDB
+    // prints a warning of its own to std::cerr (a second line beside nimbus's error) and reads on.
+    int32_t buffers = 0;
+    mStream.read(reinterpret_cast<char*>(&buffers), sizeof buffers);
+    if (buffers != 1)
+        throw std::runtime_error(what + " claims " + std::to_string(buffers) + " buffers per node, not 1 (damaged)");
+    // Every compressed block checked before OpenVDB reads one (BlockCheck).
+    const uint32_t compression = openvdb::io::getDataCompression(mStream);
+    if (fileVersion() < openvdb::OPENVDB_FILE_VERSION_NODE_MASK_COMPRESSION) {
+        if (compression & openvdb::io::COMPRESS_BLOSC)
+            throw std::runtime_error(what + " claims Blosc compression, which its format version " +
+                                     std::to_string(fileVersion()) + " predates (damaged)");
+        return {blocks, end};
+    }
+    BlockCheck check(mStream, compression, gd.saveFloatAsHalf(), what);
+    uint64_t dataEnd = 0;
+    const bool walked = probe->apply<CheckedGridTypes>([&](auto& typed) {
+        using TreeT = typename std::decay_t<decltype(typed)>::TreeType;
+        dataEnd = check.tree<TreeT>(topology, blocks, end);
+    });
+    if (!walked)
+        throw std::runtime_error(what + " has the type '" + gd.gridType() + "', which nimbus does not read (points?)");
+    return {blocks, dataEnd};
+}
+
 openvdb::GridBase::Ptr VdbFileReader::readGrid(const openvdb::io::GridDescriptor& gd, int depth)
 {
     if (depth > kMaxInstanceDepth)
@@ -361,39 +421,7 @@ openvdb::GridBase::Ptr VdbFileReader::readGrid(const openvdb::io::GridDescriptor
     openvdb::GridBase::Ptr grid = openvdb::GridBase::createGrid(gd.gridType());
     grid->setSaveFloatAsHalf(gd.saveFloatAsHalf());
     try {
-        checkLengths(uint64_t(gd.getGridPos()), uint64_t(gd.getBlockPos()), &gd);
-        if (!gd.isInstance()) {
-            // The tree's first word is its buffer count, 1 since OpenVDB 3; for any other value
-            // OpenVDB prints a warning of its own to std::cerr (a second line beside nimbus's
-            // error) and reads on. Read the metadata and transform to find it, then start over.
-            gd.seekToGrid(mStream);
-            openvdb::GridBase::Ptr probe = openvdb::GridBase::createGrid(gd.gridType());
-            readGridCompression(mStream);
-            probe->readMeta(mStream);
-            probe->readTransform(mStream);
-            const uint64_t topology = uint64_t(mStream.tellg());
-            int32_t buffers = 0;
-            mStream.read(reinterpret_cast<char*>(&buffers), sizeof buffers);
-            if (buffers != 1)
-                throw std::runtime_error("grid '" + gd.gridName() + "' claims " + std::to_string(buffers) +
-                                         " buffers per node, not 1 (damaged)");
-            // Every compressed block checked before OpenVDB reads one (BlockCheck).
-            const uint32_t compression = openvdb::io::getDataCompression(mStream);
-            const std::string what = "grid '" + gd.gridName() + "'";
-            if (fileVersion() >= openvdb::OPENVDB_FILE_VERSION_NODE_MASK_COMPRESSION) {
-                BlockCheck check(mStream, compression, gd.saveFloatAsHalf(), what);
-                const bool walked = probe->apply<CheckedGridTypes>([&](auto& typed) {
-                    using TreeT = typename std::decay_t<decltype(typed)>::TreeType;
-                    check.tree<TreeT>(topology, uint64_t(gd.getBlockPos()), uint64_t(gd.getEndPos()));
-                });
-                if (!walked)
-                    throw std::runtime_error(what + " has the type '" + gd.gridType() +
-                                             "', which nimbus does not read (points?)");
-            } else if (compression & openvdb::io::COMPRESS_BLOSC) {
-                throw std::runtime_error(what + " claims Blosc compression, which its format version " +
-                                         std::to_string(fileVersion()) + " predates (damaged)");
-            }
-        }
+        checkGrid(gd);
         gd.seekToGrid(mStream);
         Archive::readGrid(grid, gd, mStream);
     } catch (const std::ios_base::failure&) {
@@ -413,8 +441,6 @@ openvdb::GridBase::Ptr VdbFileReader::readGrid(const openvdb::io::GridDescriptor
 
 openvdb::GridBase::Ptr VdbFileReader::readGrid(const std::string& name)
 {
-    if (mUnseekable)
-        return mUnseekable->readGrid(name);
     const openvdb::io::GridDescriptor* gd = find(name);
     if (!gd)
         throw std::runtime_error("no grid named '" + name + "'");

@@ -219,6 +219,21 @@ class Memory(unittest.TestCase):
                 self.assertIn("block", lines[0])
                 self.assertFalse(os.path.exists(self.out))
 
+    def test_a_streamed_vdb_with_garbage_lengths_is_refused_within_a_bounded_memory(self):
+        # fuzz_vdb's second finding (tests/fuzz/regressions/vdb): a file whose header says it has
+        # no grid offsets (as io::Stream writes) went to OpenVDB's own reader, which trusted its
+        # lengths: 4.5 GB peak RSS and 6.5 s before its error. Now walked as any other file.
+        bad = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "fuzz", "regressions", "vdb",
+                           "streamed_header_garbage_counts_oom.vdb")
+        s = small_scene()
+        s["volumes"][0]["source"] = {"type": "vdb", "file": bad}
+        result = run_measured("info", self.scene_file(s))
+        self.assertEqual(result["code"], 2, result["stderr"])
+        lines = [l for l in result["stderr"].splitlines() if l.strip()]
+        self.assertEqual(len(lines), 1, result["stderr"])
+        self.assertIn("streamed_header_garbage_counts_oom.vdb", lines[0])
+        self.assertLess(result["maxrss"], DAMAGED_VDB_RSS_LIMIT, lines[0])
+
 
 if __name__ == "__main__":
     NIMBUS = os.path.abspath(sys.argv.pop(1))

@@ -6,6 +6,7 @@
 
 #include <openvdb/io/Compression.h>
 #include <openvdb/io/File.h>
+#include <openvdb/io/Stream.h>
 #include <openvdb/openvdb.h>
 
 #include <cmath>
@@ -418,35 +419,48 @@ TEST(VdbFileReader, ReadsEveryCompressionAndGridTypeAsOpenVdbDoes)
                 file.setCompression(compression);
                 file.write(grids);
             }
+            // The same grids streamed (io::Stream: no grid offsets, each grid after its descriptor).
+            const std::string streamedPath = dir / "streamed.vdb";
+            {
+                std::ofstream out(streamedPath, std::ios::binary);
+                io::Stream stream(out);
+                stream.setCompression(compression);
+                stream.write(grids);
+            }
             io::File reference(path);
             reference.open(false);
-            VdbFileReader reader(path);
+            VdbFileReader reader(path), streamed(streamedPath);
             const std::string what = "compression " + std::to_string(compression) + (half ? ", half" : "");
             for (const std::string name : {"float", "double", "vec3s", "int32", "bool"}) {
                 SCOPED_TRACE(what + ", grid " + name);
-                openvdb::GridBase::Ptr read, expected = reference.readGrid(name);
+                openvdb::GridBase::Ptr read, fromStream, expected = reference.readGrid(name);
                 ASSERT_NO_THROW(read = reader.readGrid(name));
+                ASSERT_NO_THROW(fromStream = streamed.readGrid(name));
+                EXPECT_EQ(fromStream->metaValue<std::string>("file_compression"),
+                          read->metaValue<std::string>("file_compression"));
                 // Written as asked (OpenVDB drops zip for fog volumes and level sets only).
                 const std::string written = read->metaValue<std::string>("file_compression");
                 const bool blosc = written.find("blosc") != std::string::npos;
                 const bool zip = written.find("zip") != std::string::npos;
                 EXPECT_EQ(blosc, bool(compression & io::COMPRESS_BLOSC)) << written;
                 EXPECT_EQ(zip, bool(compression & io::COMPRESS_ZIP)) << written;
-                if (name == "float")
-                    expectSameGrid(*openvdb::gridPtrCast<FloatGrid>(read), *openvdb::gridPtrCast<FloatGrid>(expected),
-                                   name);
-                if (name == "double")
-                    expectSameGrid(*openvdb::gridPtrCast<openvdb::DoubleGrid>(read),
-                                   *openvdb::gridPtrCast<openvdb::DoubleGrid>(expected), name);
-                if (name == "vec3s")
-                    expectSameGrid(*openvdb::gridPtrCast<openvdb::Vec3SGrid>(read),
-                                   *openvdb::gridPtrCast<openvdb::Vec3SGrid>(expected), name);
-                if (name == "int32")
-                    expectSameGrid(*openvdb::gridPtrCast<openvdb::Int32Grid>(read),
-                                   *openvdb::gridPtrCast<openvdb::Int32Grid>(expected), name);
-                if (name == "bool")
-                    expectSameGrid(*openvdb::gridPtrCast<openvdb::BoolGrid>(read),
-                                   *openvdb::gridPtrCast<openvdb::BoolGrid>(expected), name);
+                for (const auto& got : {read, fromStream}) {
+                    if (name == "float")
+                        expectSameGrid(*openvdb::gridPtrCast<FloatGrid>(got),
+                                       *openvdb::gridPtrCast<FloatGrid>(expected), name);
+                    if (name == "double")
+                        expectSameGrid(*openvdb::gridPtrCast<openvdb::DoubleGrid>(got),
+                                       *openvdb::gridPtrCast<openvdb::DoubleGrid>(expected), name);
+                    if (name == "vec3s")
+                        expectSameGrid(*openvdb::gridPtrCast<openvdb::Vec3SGrid>(got),
+                                       *openvdb::gridPtrCast<openvdb::Vec3SGrid>(expected), name);
+                    if (name == "int32")
+                        expectSameGrid(*openvdb::gridPtrCast<openvdb::Int32Grid>(got),
+                                       *openvdb::gridPtrCast<openvdb::Int32Grid>(expected), name);
+                    if (name == "bool")
+                        expectSameGrid(*openvdb::gridPtrCast<openvdb::BoolGrid>(got),
+                                       *openvdb::gridPtrCast<openvdb::BoolGrid>(expected), name);
+                }
             }
         }
     }
