@@ -238,15 +238,16 @@ VdbFileReader::VdbFileReader(const std::string& path) : mPath(path)
     } catch (const std::ios_base::failure&) {
         throw std::runtime_error("not a VDB file (shorter than a VDB header)");
     }
-    // Without grid offsets: written by io::Stream (each grid right after its descriptor), or a
-    // format before 212. OpenVDB's own reader (io::File) trusts every length of such a file;
-    // a damaged one allocated 4.5 GB before it failed (fuzz_vdb). Streamed files are walked here
-    // grid by grid instead; the formats of OpenVDB before 3 (2014) are not read without offsets.
-    const bool streamed = !inputHasGridOffsets();
-    if (streamed && fileVersion() < openvdb::OPENVDB_FILE_VERSION_NODE_MASK_COMPRESSION)
+    // The formats before 222 (OpenVDB before 3.0, 2014) lay out metadata, transforms and trees
+    // differently; the checks here follow 222 and later, and a damaged old header reached
+    // OpenVDB's unchecked metadata reads (1 GB, 27 s under ASan: fuzz_vdb). Not read.
+    if (fileVersion() < openvdb::OPENVDB_FILE_VERSION_NODE_MASK_COMPRESSION)
         throw std::runtime_error("VDB format " + std::to_string(fileVersion()) +
-                                 " without grid offsets (OpenVDB before 3.0) is not read; save the file again "
-                                 "with a current OpenVDB");
+                                 " (OpenVDB before 3.0) is not read; save the file again with a current OpenVDB");
+    // Without grid offsets: written by io::Stream (each grid right after its descriptor).
+    // OpenVDB's own reader (io::File) trusts every length of such a file; a damaged one allocated
+    // 4.5 GB before it failed (fuzz_vdb). Walked here grid by grid instead.
+    const bool streamed = !inputHasGridOffsets();
     mStreamMetadata = std::make_shared<openvdb::io::StreamMetadata>();
     mStreamMetadata->setSeekable(true);
     openvdb::io::setStreamMetadataPtr(mStream, mStreamMetadata, /*transfer=*/false);

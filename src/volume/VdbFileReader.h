@@ -17,7 +17,7 @@
 // oversized uncompressed block into the node's buffer before it checks the size.
 //
 // Files without grid offsets (written by io::Stream) are walked grid by grid to find each grid's
-// extent; those of formats before 222 (OpenVDB before 3.0) are refused.
+// extent. Formats before 222 (OpenVDB before 3.0, 2014) are refused.
 #pragma once
 
 #include <openvdb/io/Archive.h>
