@@ -8,6 +8,10 @@
 #   scripts/sanitize.sh [ctest arguments]    e.g. -L sanitized (unit tests only), -R fuzz.vdb
 #   NIMBUS_JOBS=1                            build and test jobs (default: nproc)
 #   NIMBUS_FUZZ_SMOKE_SECONDS=60             seconds of each harness's smoke run
+#   NIMBUS_SANITIZED_TARGETS="san_core fuzz_vdb ..."
+#                                            build only these targets (san_<area> unit tests,
+#                                            fuzz_<name> harnesses) and run only their tests
+#                                            (default: all); scripts/test.sh (CI) names its part
 #
 # scripts/test.sh (CI) runs it after the normal suite; scripts/fuzz.sh runs the harnesses long.
 set -euo pipefail
@@ -26,6 +30,15 @@ export CCACHE_NOHASHDIR=1
 jobs=${NIMBUS_JOBS:-$(nproc)}
 cmake -S . -B build-san -G Ninja -DCMAKE_C_COMPILER=clang -DCMAKE_CXX_COMPILER=clang++ -DNIMBUS_SANITIZE=ON \
   -DNIMBUS_FUZZ_SMOKE_SECONDS="${NIMBUS_FUZZ_SMOKE_SECONDS:-60}" >/dev/null
-cmake --build build-san -j "$jobs"
-cd build-san
-ctest --output-on-failure -j "$jobs" --timeout 900 "$@"
+targets=(${NIMBUS_SANITIZED_TARGETS:-})
+if [ ${#targets[@]} -gt 0 ]; then
+  cmake --build build-san -j "$jobs" --target "${targets[@]}"
+  # Each test is labelled with its target (tests/sanitized, tests/fuzz).
+  labels=$(IFS='|'; echo "${targets[*]}")
+  cd build-san
+  ctest --output-on-failure -j "$jobs" --timeout 900 -L "^($labels)\$" "$@"
+else
+  cmake --build build-san -j "$jobs"
+  cd build-san
+  ctest --output-on-failure -j "$jobs" --timeout 900 "$@"
+fi

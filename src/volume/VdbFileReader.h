@@ -12,8 +12,12 @@
 // (metadata strings and blobs, up to 4 GiB each) are checked against the bytes left in the file
 // first, and a grid's offsets must lie inside the file.
 //
-// Files without grid offsets (before VDB format 212) cannot be read piecewise; they are read by
-// openvdb::io::File as before.
+// Every compressed block of a grid's tree is checked against what its node holds and the bytes
+// left before OpenVDB reads it (BlockCheck in the .cpp): OpenVDB 10's bloscFromStream writes an
+// oversized uncompressed block into the node's buffer before it checks the size.
+//
+// Files without grid offsets (written by io::Stream) are walked grid by grid to find each grid's
+// extent. Formats before 222 (OpenVDB before 3.0, 2014) are refused.
 #pragma once
 
 #include <openvdb/io/Archive.h>
@@ -22,6 +26,7 @@
 #include <fstream>
 #include <map>
 #include <memory>
+#include <utility>
 #include <string>
 #include <vector>
 
@@ -43,11 +48,11 @@ private:
     std::ifstream mStream;
     openvdb::io::StreamMetadata::Ptr mStreamMetadata;
     std::vector<openvdb::io::GridDescriptor> mDescriptors;
-    std::unique_ptr<openvdb::io::File> mUnseekable;  // files without grid offsets
 
     const openvdb::io::GridDescriptor* find(const std::string& name) const;
     openvdb::GridBase::Ptr readGrid(const openvdb::io::GridDescriptor& gd, int depth);
     void checkLengths(uint64_t begin, uint64_t end, const openvdb::io::GridDescriptor* gd);
+    std::pair<uint64_t, uint64_t> checkGrid(const openvdb::io::GridDescriptor& gd);
 };
 
 }  // namespace nimbus

@@ -180,6 +180,60 @@ class Memory(unittest.TestCase):
         code, _, err = run("info", self.scene_file(s))
         self.assertEqual(code, 0, err)
 
+    def test_a_damaged_compressed_block_is_refused_before_openvdb_reads_it(self):
+        # fuzz_vdb's finding (tests/fuzz/regressions/vdb): a leaf's block whose size word claims
+        # more uncompressed bytes than the leaf holds; OpenVDB 10's bloscFromStream read them into
+        # the leaf's buffer before comparing (heap overflow; `free(): invalid pointer`, SIGABRT).
+        # Made here in a file pyopenvdb writes (Blosc, as Debian's OpenVDB writes by default): the
+        # last leaf's size word is the one whose block runs to the end of the file.
+        grid = vdb.FloatGrid()
+        grid.name = "density"
+        grid.transform = vdb.createLinearTransform(voxelSize=0.1)
+        acc = grid.getAccessor()
+        for i in range(512):
+            acc.setValueOn((i // 64, i // 8 % 8, i % 8), 1.0 + (i % 7) * 0.5)  # compressible
+        good = os.path.join(self.d, "good.vdb")
+        vdb.write(good, grids=[grid])
+        with open(good, "rb") as f:
+            data = f.read()
+        words = [at for at in range(len(data) - 8)
+                 if 0 < int.from_bytes(data[at:at + 8], "little", signed=True) == len(data) - at - 8]
+        self.assertTrue(words)
+        word = words[-1]
+        s = small_scene()
+        s["volumes"][0]["source"] = {"type": "vdb", "file": good}
+        code, _, err = run("info", self.scene_file(s))
+        self.assertEqual(code, 0, err)
+        for name, value in (("overflow", -(512 * 4 + 8182)), ("beyond_the_file", 1 << 40)):
+            bad = os.path.join(self.d, f"bad_{name}.vdb")
+            with open(bad, "wb") as f:
+                f.write(data[:word] + value.to_bytes(8, "little", signed=True) + data[word + 8:])
+            s["volumes"][0]["source"] = {"type": "vdb", "file": bad}
+            with self.subTest(name):
+                code, _, err = run("render", self.scene_file(s), "-q")
+                self.assertEqual(code, 2, err)
+                lines = [l for l in err.splitlines() if l.strip()]
+                self.assertEqual(len(lines), 1, err)
+                self.assertIn(bad, lines[0])
+                self.assertIn("volumes[0].source.grids.density", lines[0])
+                self.assertIn("block", lines[0])
+                self.assertFalse(os.path.exists(self.out))
+
+    def test_a_streamed_vdb_with_garbage_lengths_is_refused_within_a_bounded_memory(self):
+        # fuzz_vdb's second finding (tests/fuzz/regressions/vdb): a file whose header says it has
+        # no grid offsets (as io::Stream writes) went to OpenVDB's own reader, which trusted its
+        # lengths: 4.5 GB peak RSS and 6.5 s before its error. Now walked as any other file.
+        bad = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "fuzz", "regressions", "vdb",
+                           "streamed_header_garbage_counts_oom.vdb")
+        s = small_scene()
+        s["volumes"][0]["source"] = {"type": "vdb", "file": bad}
+        result = run_measured("info", self.scene_file(s))
+        self.assertEqual(result["code"], 2, result["stderr"])
+        lines = [l for l in result["stderr"].splitlines() if l.strip()]
+        self.assertEqual(len(lines), 1, result["stderr"])
+        self.assertIn("streamed_header_garbage_counts_oom.vdb", lines[0])
+        self.assertLess(result["maxrss"], DAMAGED_VDB_RSS_LIMIT, lines[0])
+
 
 if __name__ == "__main__":
     NIMBUS = os.path.abspath(sys.argv.pop(1))
