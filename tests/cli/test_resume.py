@@ -109,6 +109,10 @@ class Resume(unittest.TestCase):
             m = re.search(r"resuming from .* at (\d+) samples per pixel", err)
             if m:
                 resumed_from.append(int(m.group(1)))
+            if killed and proc.returncode == 0:
+                # The render finished between the wait's timeout and the signal (Popen.send_signal
+                # does not signal a process it has seen exit): a run that was never killed.
+                killed = False
             if not killed:
                 self.assertEqual(proc.returncode, 0, err)
                 return resumed_from
