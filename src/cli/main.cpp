@@ -367,8 +367,12 @@ int runRender(const SceneArgs& args, const OutputArgs& out, bool explain, bool q
             std::fprintf(stderr, " and %s", scene.output.deep.c_str());
         std::fprintf(stderr, " (%s, %.2f s", methodName(scene.render.method), seconds);
         if (frames.size() > 1)  // the per-frame line: what the sequence kept from the frame before
+        {
             std::fprintf(stderr, "; volumes: %zu reused, %zu built; shadow maps: %zu reused, %zu built", cache.reused,
                          cache.built, shadowMaps.reused, shadowMaps.built);
+            if (shadowMaps.skyReused + shadowMaps.skyBuilt > 0)
+                std::fprintf(stderr, "; sky grids: %zu reused, %zu built", shadowMaps.skyReused, shadowMaps.skyBuilt);
+        }
         std::fprintf(stderr, ")\n");
     }
     if (frames.size() > 1 && !quiet) {

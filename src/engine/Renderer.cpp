@@ -240,7 +240,8 @@ RenderResult render(const Scene& input, const RenderOptions& callerOptions)
     checkCancel();
     if (entry.traits.shadowMaps) {
         if (options.shadowMapCache)
-            options.shadowMapCache->reused = options.shadowMapCache->built = 0;
+            options.shadowMapCache->reused = options.shadowMapCache->built = options.shadowMapCache->skyReused =
+                options.shadowMapCache->skyBuilt = 0;
         ctx.buildShadowMaps(plan, result.stats, options.shadowMapCache);
     }
     checkCancel();
@@ -256,7 +257,7 @@ RenderResult render(const Scene& input, const RenderOptions& callerOptions)
     }
     zeroNonFinite(result.film);
     if (options.shadowMapCache && entry.traits.shadowMaps)
-        options.shadowMapCache->keep(ctx);
+        options.shadowMapCache->keep(ctx, ctx.skySettings());
     result.plan = planned.plan;
 
     result.seconds = secondsSince(start);

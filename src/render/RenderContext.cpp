@@ -113,17 +113,27 @@ void RenderContext::buildShadowMaps(const RenderPlan& plan, RenderStats& stats, 
     for (size_t i = 0; i < lights.size(); ++i) {
         if (!plan.lights[i].skyGrid || !plan.lights[i].used)
             continue;
-        SkyLight::Settings ss;
-        ss.order = s0.render.wkbShOrderMax;
-        ss.nodesAcross = skyNodesAcross(s0);
-        ss.shadowStep = s0.render.shadowStep;
+        const SkyLight::Settings ss = skySettings();
         anySky = true;
+        if (cache && cache->takeSky(*this, i, ss)) {  // the last frame's, unchanged (ShadowMapCache.h)
+            stats.lights[i].skyBytes = lights[i].sky->memoryBytes();
+            continue;
+        }
         lights[i].sky = SkyLight::build(volumes, shadowCasters(), lights[i].map.get(), nbLoad3(lights[i].light.color), ss);
         stats.lights[i].skyBytes = lights[i].sky->memoryBytes();
         stats.lights[i].skySeconds = lights[i].sky->buildSeconds();
     }
     if (anySky)
         stats.addStage("sky grid", secondsSince(t2));
+}
+
+SkyLight::Settings RenderContext::skySettings() const
+{
+    SkyLight::Settings ss;
+    ss.order = scene->render.wkbShOrderMax;
+    ss.nodesAcross = skyNodesAcross(*scene);
+    ss.shadowStep = scene->render.shadowStep;
+    return ss;
 }
 
 Rgb RenderContext::deltaWeight(size_t i, float3 p, float3& wi, float seconds) const

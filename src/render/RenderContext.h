@@ -105,6 +105,8 @@ struct RenderContext {
     // sizes and times go to stats. With a cache, a light's map from the last frame is reused
     // where nothing it depends on changed (ShadowMapCache.h).
     void buildShadowMaps(const RenderPlan& plan, RenderStats& stats, ShadowMapCache* cache = nullptr);
+    // The sky grids' settings from the scene's render keys (SkyLight.h).
+    SkyLight::Settings skySettings() const;
 
     // Transmittance-weighted light arriving at p from light i, as L_i / pdf (see light.h), and
     // the direction toward the light. Uses the shadow map where there is one, else a shadow ray.

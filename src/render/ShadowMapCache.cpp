@@ -3,6 +3,7 @@
 #include "RenderContext.h"
 
 #include <cstring>
+#include <filesystem>
 
 namespace nimbus {
 
@@ -16,13 +17,32 @@ std::string ShadowMapCache::keyOf(const RenderContext& ctx, size_t i)
     return key;
 }
 
-bool ShadowMapCache::sameVolumes(const RenderContext& ctx, const Entry& e)
+std::string ShadowMapCache::skyKeyOf(const RenderContext& ctx, size_t i, const SkyLight::Settings& settings)
+{
+    std::string key = keyOf(ctx, i);
+    const float grid[3] = {float(settings.order), float(settings.nodesAcross), settings.shadowStep};
+    key.append(reinterpret_cast<const char*>(grid), sizeof grid);
+    const Light& l = ctx.scene->lights[i];
+    if (!l.map.empty()) {
+        // The map as a file: its path, turn and intensity, and its size and time, so that a map
+        // rewritten between frames under the same name is read again (EnvironmentMap::load).
+        std::error_code ec;
+        const auto size = std::filesystem::file_size(l.map, ec);
+        const auto time = std::filesystem::last_write_time(l.map, ec).time_since_epoch().count();
+        const double fields[4] = {double(l.rotate), double(l.mapIntensity), double(size), double(time)};
+        key.append(reinterpret_cast<const char*>(fields), sizeof fields);
+        key += l.map;
+    }
+    return key;
+}
+
+bool ShadowMapCache::sameVolumes(const RenderContext& ctx, const std::vector<std::shared_ptr<VolumeData>>& kept)
 {
     const auto& vols = ctx.volumes.volumes();
-    if (vols.size() != e.volumes.size())
+    if (vols.size() != kept.size())
         return false;
     for (size_t v = 0; v < vols.size(); ++v)
-        if (vols[v] != e.volumes[v])
+        if (vols[v] != kept[v])
             return false;
     return true;
 }
@@ -33,7 +53,7 @@ bool ShadowMapCache::take(RenderContext& ctx, size_t i)
         return false;
     const std::string key = keyOf(ctx, i);
     for (auto it = mEntries.begin(); it != mEntries.end(); ++it)
-        if (it->key == key && sameVolumes(ctx, *it)) {
+        if (it->key == key && sameVolumes(ctx, it->volumes)) {
             ctx.lights[i].shadowMap = std::move(it->map);
             ctx.lights[i].cache = std::move(it->cache);
             mEntries.erase(it);
@@ -44,11 +64,37 @@ bool ShadowMapCache::take(RenderContext& ctx, size_t i)
     return false;
 }
 
-void ShadowMapCache::keep(RenderContext& ctx)
+bool ShadowMapCache::takeSky(RenderContext& ctx, size_t i, const SkyLight::Settings& settings)
+{
+    if (!ctx.scene->geometry.empty()) {
+        ++skyBuilt;
+        return false;
+    }
+    const std::string key = skyKeyOf(ctx, i, settings);
+    for (auto it = mSkies.begin(); it != mSkies.end(); ++it)
+        if (it->key == key && sameVolumes(ctx, it->volumes)) {
+            ctx.lights[i].sky = std::move(it->sky);
+            mSkies.erase(it);
+            ++skyReused;
+            return true;
+        }
+    ++skyBuilt;
+    return false;
+}
+
+void ShadowMapCache::keep(RenderContext& ctx, const SkyLight::Settings& settings)
 {
     mEntries.clear();
+    mSkies.clear();
     if (!ctx.scene->geometry.empty())
         return;
+    for (size_t i = 0; i < ctx.lights.size(); ++i) {
+        LightEntry& e = ctx.lights[i];
+        if (!e.sky)
+            continue;
+        mSkies.push_back(SkyEntry{ctx.volumes.volumes(), skyKeyOf(ctx, i, settings), std::move(*e.sky)});
+        e.sky.reset();
+    }
     for (size_t i = 0; i < ctx.lights.size(); ++i) {
         LightEntry& e = ctx.lights[i];
         if (!e.shadowMap || !e.cache)

@@ -1,6 +1,8 @@
-// ShadowMapCache.h: a sequence's deep shadow maps kept between frames (issue 16, item 1;
-// docs/sequences.md). A light's map and its bake on the voxels are reused when the light (in
-// kernel form), the shadow-map settings and the volumes are unchanged, the volumes meaning the
+// ShadowMapCache.h: a sequence's deep shadow maps and sky grids kept between frames (issue 16,
+// item 1; docs/sequences.md). A light's map and its bake on the voxels are reused when the light
+// (in kernel form), the shadow-map settings and the volumes are unchanged; an environment light's
+// sky grid (SkyLight) when the light, its map (path, turn, intensity, the file's size and
+// modification time), the sky grid's settings and the volumes are unchanged; the volumes meaning the
 // very objects a VolumeCache handed back (an entry holds them, so their addresses cannot be
 // taken by new volumes while it lives). Scenes with geometry are never cached (a mesh file may
 // change with the frame). RenderContext::buildShadowMaps takes from it; the renderer gives the
@@ -9,6 +11,7 @@
 
 #include "DeepShadowMap.h"
 #include "LightCache.h"
+#include "SkyLight.h"
 
 #include <memory>
 #include <string>
@@ -23,10 +26,14 @@ class ShadowMapCache {
 public:
     // Moves light i's map and bake into ctx if an entry matches; false otherwise.
     bool take(RenderContext& ctx, size_t i);
-    // Keeps ctx's maps for the next frame (ctx's lights lose them), dropping the previous frame's.
-    void keep(RenderContext& ctx);
+    // Moves light i's sky grid into ctx if an entry matches the grid settings; false otherwise.
+    bool takeSky(RenderContext& ctx, size_t i, const SkyLight::Settings& settings);
+    // Keeps ctx's maps and sky grids for the next frame (ctx's lights lose them), dropping the
+    // previous frame's. settings: the sky grids' (RenderContext::skySettings).
+    void keep(RenderContext& ctx, const SkyLight::Settings& settings);
 
-    size_t reused = 0, built = 0;  // of the last frame
+    size_t reused = 0, built = 0;        // shadow maps, of the last frame
+    size_t skyReused = 0, skyBuilt = 0;  // sky grids, of the last frame
 
 private:
     struct Entry {
@@ -35,9 +42,16 @@ private:
         DeepShadowMap map;
         LightCache cache;
     };
+    struct SkyEntry {
+        std::vector<std::shared_ptr<VolumeData>> volumes;
+        std::string key;
+        SkyLight sky;
+    };
     static std::string keyOf(const RenderContext& ctx, size_t i);
-    static bool sameVolumes(const RenderContext& ctx, const Entry& e);
+    static std::string skyKeyOf(const RenderContext& ctx, size_t i, const SkyLight::Settings& settings);
+    static bool sameVolumes(const RenderContext& ctx, const std::vector<std::shared_ptr<VolumeData>>& kept);
     std::vector<Entry> mEntries;
+    std::vector<SkyEntry> mSkies;
 };
 
 }  // namespace nimbus

@@ -93,6 +93,8 @@ void forEachPath(S& scene, F f)
     }
     for (auto& g : scene.geometry)
         f(g.file);
+    for (auto& l : scene.lights)
+        f(l.map);  // an environment light's HDR map
     f(scene.camera.holdoutDepth.file);
     f(scene.output.file);
     f(scene.output.preview);

@@ -148,6 +148,41 @@ class Sequences(unittest.TestCase):
         built, _ = read_exr(self.path("wkbalone", "cloud.2.exr"))
         self.assertEqual(reused.tobytes(), built.tobytes())
 
+    def test_static_sky_grid_is_kept_between_frames_and_changes_nothing(self):
+        # An environment light (uniform, then a map) over a static volume: frames 2 and 3 take the
+        # sky grid of the frame before (ShadowMapCache.h), bit-identical to a frame rendered alone.
+        s = scene({"type": "procedural", "generator": "cloud", "radius": 1.0, "voxel_size": 0.08},
+                  self.path("out", "sky.####.exr"))
+        s["lights"].append({"name": "sky", "type": "environment", "radiance": [0.1, 0.2, 0.4]})
+        shot = self.scene_file(s)
+        for method in ("single", "wkb"):
+            with self.subTest(method=method):
+                code, _, err = run("render", shot, "--frames", "1-3", "--method", method, "-o",
+                                   self.path(method, "sky.$F.exr"))
+                self.assertEqual(code, 0, err)
+                self.assertEqual(err.count("sky grids: 0 reused, 1 built"), 1, err)  # frame 1
+                self.assertEqual(err.count("sky grids: 1 reused, 0 built"), 2, err)  # frames 2 and 3
+                code, _, err = run("render", shot, "--frame", "3", "-q", "--method", method, "-o",
+                                   self.path(method + "alone", "sky.$F.exr"))
+                self.assertEqual(code, 0, err)
+                reused, _ = read_exr(self.path(method, "sky.3.exr"))
+                built, _ = read_exr(self.path(method + "alone", "sky.3.exr"))
+                self.assertEqual(reused.tobytes(), built.tobytes())
+        # A map: kept while the file is the same, built again where the frame names another file.
+        write_sky = ("import OpenImageIO as oiio, numpy as np, sys\n"
+                     "o = oiio.ImageOutput.create(sys.argv[1]); o.open(sys.argv[1], oiio.ImageSpec(8, 4, 3, 'float'))\n"
+                     "o.write_image(np.full((4, 8, 3), float(sys.argv[2]), np.float32)); o.close()\n")
+        for name, value in (("sky.exr", "0.3"), ("sky.1.exr", "0.3"), ("sky.2.exr", "0.6")):
+            subprocess.run([sys.executable, "-c", write_sky, self.path(name), value], check=True)
+        for map_name, reused in (("sky.exr", 1), ("sky.$F.exr", 0)):
+            with self.subTest(map=map_name):
+                s["lights"][1] = {"name": "sky", "type": "environment", "map": self.path(map_name)}
+                shot = self.scene_file(s, "mapped.json")
+                code, _, err = run("render", shot, "--frames", "1-2", "-o", self.path("map", "sky.$F.exr"))
+                self.assertEqual(code, 0, err)
+                self.assertEqual(err.count("sky grids: 1 reused, 0 built"), reused, err)
+                self.assertEqual(err.count("sky grids: 0 reused, 1 built"), 2 - reused, err)
+
     def test_render_frame_key_and_frame_flag(self):
         s = scene({"type": "vdb", "file": "cache/smoke.$F4.vdb"}, self.path("out", "b.$F.exr"))
         s["render"]["frame"] = 3
