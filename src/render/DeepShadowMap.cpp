@@ -36,6 +36,8 @@ DeepShadowMap DeepShadowMap::build(const NbLight& light, const VolumeSet& volume
     }
     const Bbox& bounds = volumes.worldBounds();
     m.placeFaces(light, volumes);
+    if (m.mProjection == Projection::Orthographic && settings.penumbraSlope > 0.0f)
+        m.mPenumbraTexelsPerMetre = 0.5f * settings.penumbraSlope * float(m.mRes) / m.mFaces[0].extent;
 
     const int res = m.mRes;
     const size_t texels = size_t(res) * res * m.mFaces.size();

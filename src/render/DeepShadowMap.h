@@ -39,6 +39,9 @@ public:
         // Keep the march samples where they can be kept (see hasMarchSamples), for a bake that
         // follows; the caller releases them after.
         bool keepMarchSamples = false;
+        // A distant light's disc (its half-angle's tangent; 0: a point on the sky): the lookups
+        // average the transmittance over the penumbra (penumbraTexels below). Orthographic only.
+        float penumbraSlope = 0.0f;
         // Opaque surfaces that stop the texel rays (docs/geometry.md): behind the first one a
         // texel's optical depth jumps by kOpaqueDepth. Null: none (the map is as without geometry).
         const EmbreeScene* shadowCasters = nullptr;
@@ -87,14 +90,17 @@ public:
     // Transmittance (RGB) from the light to world point p. Points outside the map's footprint
     // see no volume between them and the light and get 1. `cursor` is optional.
     Rgb transmittance(float3 p, Cursor* cursor = nullptr) const { return exp(-opticalDepth(p, cursor)); }
-    // The optical depth from the light to p, bilinear over the four nearest texels.
+    // The optical depth from the light to p, bilinear over the four nearest texels (and over a
+    // soft sun's penumbra, penumbraTexels).
     Rgb opticalDepth(float3 p, Cursor* cursor = nullptr) const;
     // Where p falls in the map: the face, (u, v) in [0,1] across it and the depth z. False
     // where no texel sees p (behind a perspective face). Orthographic maps are affine in p,
     // which lets a caller with a lattice of points project three and step the rest.
     bool project(float3 p, int& face, float& u, float& v, float& z) const;
-    // The optical depth at a projected point (opticalDepth = project + this).
+    // The optical depth at a projected point, unfiltered (bilinear over four texels), and with a
+    // soft sun's penumbra filter where it has one (opticalDepth = project + the filtered one).
     Rgb opticalDepthAt(int face, float u, float v, float z, Cursor* cursor = nullptr) const;
+    Rgb filteredOpticalDepthAt(int face, float u, float v, float z, Cursor* cursor = nullptr) const;
 
     // Channel 0 of opticalDepthAt on face 0 of an orthographic map, addressed in texel units
     // (fx = u * resolution - 0.5, so texel centres sit at integers): the light cache bakes grey
@@ -129,6 +135,24 @@ public:
 
     Projection projection() const { return mProjection; }
     int resolution() const { return mRes; }
+
+    // A soft sun's penumbra (Settings::penumbraSlope = tan of the disc's half-angle): a point at
+    // depth z below the map's plane sees the disc's directions through rays tilted by up to the
+    // slope; the map holds parallel rays only, so a lookup averages the transmittance of the
+    // parallel rays offset across a disc of radius slope x z / 2 (the mean lateral offset, over
+    // the depths between the plane and the point, of a tilted ray; exact for the average over a
+    // uniform medium that starts at the plane, an approximation of the penumbra's width
+    // elsewhere) with kPenumbraTaps taps, where that radius is at least kPenumbraMinTexels (below
+    // it the bilinear lookup's own footprint is wider). T is averaged, not tau: tau = -ln(mean T).
+    // penumbraTexels: that radius in texels at world depth z; 0 for a hard light.
+    static constexpr int kPenumbraTaps = 7;
+    static constexpr float kPenumbraMinTexels = 0.5f;
+    // The taps: the centre and a hexagon at radius sqrt(7/12) = 0.764 (equal weights, so their
+    // second moment is the disc's, r^2 / 2), unit disc.
+    static constexpr float kPenumbraTapX[kPenumbraTaps] = {0.0f, 0.764f, 0.382f, -0.382f, -0.764f, -0.382f, 0.382f};
+    static constexpr float kPenumbraTapY[kPenumbraTaps] = {0.0f, 0.0f, 0.6616f, 0.6616f, 0.0f, -0.6616f, -0.6616f};
+    float penumbraTexels(float z) const { return mPenumbraTexelsPerMetre * std::max(z, 0.0f); }
+    bool hasPenumbra() const { return mPenumbraTexelsPerMetre > 0.0f; }
     size_t vertexCount() const { return mVertices.size(); }
     size_t memoryBytes() const;
     double buildSeconds() const { return mBuildSeconds; }
@@ -205,6 +229,7 @@ private:
     float mStepFraction = 1.0f;
     bool mGrey = false;  // every volume's extinction is equal in R, G and B
     float mSampleDz = 0.0f, mInvSampleDz = 0.0f;
+    float mPenumbraTexelsPerMetre = 0.0f;  // slope / 2 x texels per metre (penumbraTexels)
     // The kept march samples, every row's end to end after two zeros (where texels whose ray
     // meets nothing point), each texel's run padded with a 0 before and a copy after; per texel
     // (structure of arrays, for gathers): lo, the padding 0's index; hi, the last sample's;

@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 
 namespace nimbus {
 
@@ -22,15 +23,32 @@ inline void store(float* values, int n, int channels, Rgb tau)
     }
 }
 
+// Grey optical depth at (fx, fy) in texel units and depth zq (march steps where the map kept its
+// samples, else metres), with a soft sun's penumbra filter (DeepShadowMap::penumbraTexels): the
+// mean transmittance of the taps.
+float greyTexelDepth(const DeepShadowMap& map, float fx, float fy, float zq, DeepShadowMap::Cursor& cursor)
+{
+    auto at = [&](float x, float y) {
+        return map.hasMarchSamples() ? map.greyMarchedDepthTexel(x, y, zq) : map.greyOpticalDepthTexel(x, y, zq, cursor);
+    };
+    const float r = map.penumbraTexels(map.hasMarchSamples() ? zq * map.marchSampleStep() : zq);
+    if (!(r >= DeepShadowMap::kPenumbraMinTexels))
+        return at(fx, fy);
+    float T = 0.0f;
+    for (int k = 0; k < DeepShadowMap::kPenumbraTaps; ++k)
+        T += std::exp(-at(fx + r * DeepShadowMap::kPenumbraTapX[k], fy + r * DeepShadowMap::kPenumbraTapY[k]));
+    return -std::log(std::max(T / float(DeepShadowMap::kPenumbraTaps), 1e-30f));
+}
+
 // The optical depth at one point: from the march samples where the map kept them (grey,
-// orthographic), else from the compressed functions.
+// orthographic), else from the compressed functions; filtered over a soft sun's penumbra.
 inline Rgb opticalDepth(const DeepShadowMap& map, float3 p, int channels, DeepShadowMap::Cursor& cursor)
 {
     int face;
     float u, v, z;
     if (channels == 1 && map.hasMarchSamples() && map.project(p, face, u, v, z)) {
         const float res = float(map.resolution());
-        return splat(map.greyMarchedDepthTexel(u * res - 0.5f, v * res - 0.5f, z / map.marchSampleStep()));
+        return splat(greyTexelDepth(map, u * res - 0.5f, v * res - 0.5f, z / map.marchSampleStep(), cursor));
     }
     return map.opticalDepth(p, &cursor);
 }
@@ -59,7 +77,12 @@ void bakeOwnPoints(const DeepShadowMap& map, const Transform& worldFromIndex, In
                 for (int y = 0; y < kB; ++y) {
                     const float3 row = a0 + ty * float(y) + tz * float(z);
                     float* out = values + (z * kS + y) * kS;
-                    if (map.hasMarchSamples()) {
+                    if (map.hasPenumbra()) {
+                        for (int x = 0; x < kB; ++x) {
+                            const float3 q = row + tx * float(x);
+                            out[x] = greyTexelDepth(map, q.x, q.y, q.z, cursor);
+                        }
+                    } else if (map.hasMarchSamples()) {
                         map.greyMarchedDepthRow(row.x, row.y, row.z, tx.x, tx.y, tx.z, kB, out);
                     } else {
                         for (int x = 0; x < kB; ++x) {
@@ -75,7 +98,8 @@ void bakeOwnPoints(const DeepShadowMap& map, const Transform& worldFromIndex, In
                 const float3 row = a + dy * float(y) + dz * float(z);
                 for (int x = 0; x < kB; ++x) {
                     const float3 q = row + dx * float(x);
-                    store(values, (z * kS + y) * kS + x, channels, map.opticalDepthAt(0, q.x, q.y, q.z, &cursor));
+                    store(values, (z * kS + y) * kS + x, channels,
+                          map.filteredOpticalDepthAt(0, q.x, q.y, q.z, &cursor));
                 }
             }
         return;

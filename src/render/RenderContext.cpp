@@ -90,6 +90,11 @@ void RenderContext::buildShadowMaps(const RenderPlan& plan, RenderStats& stats, 
             ls.cacheBytes = lights[i].cache->memoryBytes();
             continue;
         }
+        // A soft sun's disc: its penumbrae filtered over the map (DeepShadowMap::penumbraTexels).
+        const NbLight& nl = lights[i].light;
+        s.penumbraSlope = nl.type == NB_LIGHT_DISTANT && nl.p0 < 1.0f && nl.p0 > 0.0f
+                              ? std::sqrt(std::max(0.0f, 1.0f - nl.p0 * nl.p0)) / nl.p0
+                              : 0.0f;
         lights[i].shadowMap = DeepShadowMap::build(lights[i].light, volumes, s);
         lights[i].cache = LightCache::bake(*lights[i].shadowMap, volumes);
         ls.marchSampleBytes = lights[i].shadowMap->marchSampleBytes();

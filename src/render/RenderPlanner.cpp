@@ -57,6 +57,18 @@ bool sunSharperThanAVoxel(const Light& l, const VolumeSet& volumes)
     return across * std::tan(0.5 * l.angle * M_PI / 180.0) < volumes.minVoxelSize();
 }
 
+// A distant light's disc up to this apparent diameter is shadow-mapped with its penumbra filtered
+// over the map (DeepShadowMap::penumbraTexels: parallel rays across a disc, an approximation that
+// holds for small angles); wider ones are sampled with shadow rays at every step.
+constexpr float kFilteredSunMaxAngleDeg = 5.0f;
+
+std::string shortNumber(double v)
+{
+    char buf[32];
+    std::snprintf(buf, sizeof buf, "%.3g", v);
+    return buf;
+}
+
 }  // namespace
 
 RenderPlan planScene(const Scene& scene, const VolumeSet& volumes)
@@ -102,12 +114,16 @@ RenderPlan planScene(const Scene& scene, const VolumeSet& volumes)
         if (!why.empty()) {
             lp.used = false;
             lp.reason = why;
-        } else if (nbLightIsDelta(k) || sunSharperThanAVoxel(l, volumes)) {
+        } else if (nbLightIsDelta(k) || sunSharperThanAVoxel(l, volumes) ||
+                   (l.type == LightType::Distant && l.angle <= kFilteredSunMaxAngleDeg)) {
             lp.shadowMap = true;
             if (!nbLightIsDelta(k))
                 plan.notes.push_back(
-                    "light " + lp.name + ": its " + std::to_string(l.angle) +
-                    " deg disc casts penumbrae under one voxel here: shadow-mapped as a point on the sky");
+                    "light " + lp.name + ": its " + shortNumber(l.angle) +
+                    (sunSharperThanAVoxel(l, volumes)
+                         ? " deg disc casts penumbrae under one voxel here: shadow-mapped as a point on the sky"
+                         : " deg disc: shadow-mapped, its penumbrae filtered over the map (up to " +
+                               shortNumber(kFilteredSunMaxAngleDeg) + " deg; wider discs are sampled)"));
             lp.resolution = scene.render.shadowMapResolution;
             lp.projection = l.type == LightType::Distant                           ? "orthographic"
                             : (l.type == LightType::Spot && l.coneAngle <= 120.0f) ? "perspective"

@@ -6,6 +6,7 @@
 #include "DeepShadowMap.h"
 
 #include <algorithm>
+#include <cmath>
 
 namespace nimbus {
 
@@ -104,7 +105,21 @@ Rgb DeepShadowMap::opticalDepth(float3 p, Cursor* cursor) const
     float u, v, z;
     if (!project(p, face, u, v, z))
         return splat(0.0f);
-    return opticalDepthAt(face, u, v, z, cursor);
+    return filteredOpticalDepthAt(face, u, v, z, cursor);
+}
+
+Rgb DeepShadowMap::filteredOpticalDepthAt(int face, float u, float v, float z, Cursor* cursor) const
+{
+    const float r = penumbraTexels(z);
+    if (!(r >= kPenumbraMinTexels))
+        return opticalDepthAt(face, u, v, z, cursor);
+    const float s = r / float(mRes);
+    Rgb T = splat(0.0f);
+    for (int k = 0; k < kPenumbraTaps; ++k)
+        T += exp(-opticalDepthAt(face, u + s * kPenumbraTapX[k], v + s * kPenumbraTapY[k], z, cursor));
+    T = T * (1.0f / float(kPenumbraTaps));
+    return make_float3(-std::log(std::max(T.x, 1e-30f)), -std::log(std::max(T.y, 1e-30f)),
+                       -std::log(std::max(T.z, 1e-30f)));
 }
 
 Rgb DeepShadowMap::opticalDepthAt(int face, float u, float v, float z, Cursor* cursor) const

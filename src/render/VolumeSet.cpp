@@ -41,10 +41,13 @@ VolumeSet::VolumeSet(std::vector<std::shared_ptr<VolumeData>> volumes, float)
 namespace {
 
 // Appends the spans of non-empty brick slots of one grid along an index-space ray (3D DDA,
-// Amanatides & Woo 1987). tIn/tOut bound the ray inside the grid's active bounds.
+// Amanatides & Woo 1987). tIn/tOut bound the ray inside the grid's active bounds. Adjacent slots
+// merge into one span, only among this grid's own: `out` may hold another volume's spans, later
+// along the ray, which a merge would cut short (VolumeSet::spans sorts and merges them after).
 void gridSpans(const BrickGrid& grid, const BrickGrid* emission, float3 o, float3 d, float tIn, float tOut, float step,
                std::vector<Span>& out)
 {
+    const size_t first = out.size();
     const float B = float(BrickGrid::kBrick);
     BrickDda dda;
     if (!dda.start(o, d, tIn))
@@ -59,7 +62,7 @@ void gridSpans(const BrickGrid& grid, const BrickGrid* emission, float3 o, float
         float3 centre = make_float3((cell[0] + 0.5f) * B, (cell[1] + 0.5f) * B, (cell[2] + 0.5f) * B);
         bool occupied = grid.majorantAt(centre) > 0.0f || (emission && emission->majorantAt(centre) > 0.0f);
         if (occupied && tExit > t) {
-            if (!out.empty() && out.back().t1 >= t - 1e-6f * std::fabs(t) && out.back().step == step)
+            if (out.size() > first && out.back().t1 >= t - 1e-6f * std::fabs(t) && out.back().step == step)
                 out.back().t1 = tExit;
             else
                 out.push_back({t, tExit, step});

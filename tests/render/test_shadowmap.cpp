@@ -5,6 +5,7 @@
 #include "render/DeepShadowMap.h"
 #include "render/LightCache.h"
 #include "render/MarchParallelRays.h"
+#include "render/RenderContext.h"
 #include "scene/KernelScene.h"
 
 #include <gtest/gtest.h>
@@ -310,4 +311,50 @@ TEST(ShadowMap, EightParallelRaysAreMarchRay)
 #else
     GTEST_SKIP() << "built without AVX2 and FMA: texel rays march one at a time";
 #endif
+}
+
+// Two volumes where a ray meets the second one listed before the first: a scattering layer
+// (first) under an absorbing bar (second, optical depth 3.6 through its 6 cm). VolumeSet::spans
+// once merged the bar's first span into the layer's last one (gridSpans joined whatever span was
+// last in the list), cutting the layer's span short and dropping the bar's: the map had no shadow
+// and camera rays past the bar's box lost the layer (found by SoftSun, 2026-12-03).
+TEST(MultiVolume, ASecondVolumeCrossedFirstCastsItsShadow)
+{
+    Scene s;
+    s.camera.width = 8;
+    s.camera.height = 8;
+    s.camera.from = make_float3(1.2f, 1.2f, 0.3f);
+    s.camera.to = make_float3(0, 0, 0);
+    auto box = [](const char* name, double sx, double sy, float sigmaS, float sigmaA, float y) {
+        Volume v;
+        v.name = name;
+        v.source.type = SourceType::Procedural;
+        v.source.generator = "box";
+        v.source.params = {{"size_x", sx}, {"size_y", sy}, {"size_z", 3.0}, {"voxel_size", 0.02}};
+        v.medium.sigma_s = splat(sigmaS);
+        v.medium.sigma_a = splat(sigmaA);
+        v.transform = Transform::translate(0, y, 0);
+        return v;
+    };
+    s.volumes.push_back(box("layer", 3.0, 0.1, 1.0f, 0.0f, 0.0f));
+    s.volumes.push_back(box("bar", 0.4, 0.06, 0.0f, 60.0f, 0.9f));
+    Light sun;
+    sun.type = LightType::Distant;
+    sun.direction = make_float3(0, -1, 0);
+    sun.irradiance = splat(1.0f);
+    s.lights.push_back(sun);
+    s.output.file = "unused.exr";
+    const auto ctx = RenderContext::create(s, true);
+    ASSERT_TRUE(ctx->lights[0].shadowMap);
+    // Straight down through the bar, then the layer: both spans, in order.
+    std::vector<Span> spans;
+    ctx->volumes.spans(make_float3(0, 2, 0), make_float3(0, -1, 0), 0.0f, 10.0f, 1.0f, spans);
+    ASSERT_GE(spans.size(), 2u);
+    EXPECT_LT(spans.front().t0, 1.1f);   // the bar's box, from y 1.04 down
+    EXPECT_GT(spans.back().t1, 2.0f);    // the layer's, down to y -0.05 or below
+    // Under the bar the layer is in its shadow (e^-3.6 and the layer above the point); beside it, lit.
+    const float under = ctx->lights[0].shadowMap->transmittance(make_float3(0, 0, 0)).x;
+    const float beside = ctx->lights[0].shadowMap->transmittance(make_float3(1, 0, 0)).x;
+    EXPECT_LT(under, 0.04f);
+    EXPECT_GT(beside, 0.9f);
 }
