@@ -118,12 +118,11 @@ RenderPlan planScene(const Scene& scene, const VolumeSet& volumes)
                    (l.type == LightType::Distant && l.angle <= kFilteredSunMaxAngleDeg)) {
             lp.shadowMap = true;
             if (!nbLightIsDelta(k))
-                plan.notes.push_back(
-                    "light " + lp.name + ": its " + shortNumber(l.angle) +
-                    (sunSharperThanAVoxel(l, volumes)
-                         ? " deg disc casts penumbrae under one voxel here: shadow-mapped as a point on the sky"
-                         : " deg disc: shadow-mapped, its penumbrae filtered over the map (up to " +
-                               shortNumber(kFilteredSunMaxAngleDeg) + " deg; wider discs are sampled)"));
+                plan.notes.push_back("light " + lp.name + ": its " + shortNumber(l.angle) +
+                                     " deg disc: shadow-mapped, its penumbrae filtered over the map where wider than "
+                                     "half a texel (discs up to " +
+                                     shortNumber(kFilteredSunMaxAngleDeg) +
+                                     " deg, or with penumbrae under a voxel; wider discs are sampled)");
             lp.resolution = scene.render.shadowMapResolution;
             lp.projection = l.type == LightType::Distant                           ? "orthographic"
                             : (l.type == LightType::Spot && l.coneAngle <= 120.0f) ? "perspective"
