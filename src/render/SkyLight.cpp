@@ -7,6 +7,10 @@
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
+#if defined(__AVX2__) && defined(__FMA__)
+#include <immintrin.h>
+#endif
+
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -19,6 +23,7 @@ namespace {
 // the light travels; RGB innermost) and the direction its shadow rays take.
 struct Cell {
     std::vector<double> E;
+    std::vector<float> Epad;  // E as a grid node lays it out (SkyLight::Grid::stride)
     float3 towardLight;
 };
 
@@ -58,6 +63,12 @@ std::vector<Cell> makeCells(const EnvironmentMap& map, Rgb colour, int order)
     for (size_t k = 0; k < cells.size(); ++k) {
         if (!(weight[k] > 0.0))
             continue;  // a black part of the sky sends no light: no shadow ray
+        // As the grid's nodes lay coefficients out (SkyLight::Grid): RGB and a zero per jm, count
+        // rounded up to even.
+        cells[k].Epad.assign(size_t(4 * ((count + 1) & ~1)), 0.0f);
+        for (int jm = 0; jm < count; ++jm)
+            for (int ch = 0; ch < 3; ++ch)
+                cells[k].Epad[size_t(4 * jm + ch)] = float(cells[k].E[size_t(3 * jm + ch)]);
         float3 m = make_float3(float(mean[3 * k]), float(mean[3 * k + 1]), float(mean[3 * k + 2]));
         const float len = length(m);
         if (len > 1e-6f * float(weight[k])) {
@@ -269,7 +280,8 @@ SkyLight SkyLight::build(const VolumeSet& volumes, const EmbreeScene* casters, c
             g.nx = int(std::ceil(ext.x * g.invSpacing)) + 1;
             g.ny = int(std::ceil(ext.y * g.invSpacing)) + 1;
             g.nz = int(std::ceil(ext.z * g.invSpacing)) + 1;
-            g.L.assign(size_t(g.nx) * size_t(g.ny) * size_t(g.nz) * size_t(3 * count), 0.0f);
+            g.stride = 4 * ((count + 1) & ~1);
+            g.L.assign(size_t(g.nx) * size_t(g.ny) * size_t(g.nz) * size_t(g.stride), 0.0f);
         }
         CoarseDensity& c = coarse[v];
         c.vol = &vol;
@@ -377,6 +389,8 @@ SkyLight SkyLight::build(const VolumeSet& volumes, const EmbreeScene* casters, c
             sum += tau[(size_t(ck8) * c.ny + cj8) * c.nx + ci8] * ((q8 & 1) ? tx : 1.0f - tx) *
                    ((q8 >> 1 & 1) ? ty : 1.0f - ty) * ((q8 >> 2 & 1) ? tz : 1.0f - tz);
         }
+        if (c.sigmaT.x == c.sigmaT.y && c.sigmaT.y == c.sigmaT.z)  // a grey medium: one exponential
+            return splat(std::exp(-c.sigmaT.x * sum));
         return exp(-(c.sigmaT * sum));
     };
 
@@ -389,8 +403,9 @@ SkyLight SkyLight::build(const VolumeSet& volumes, const EmbreeScene* casters, c
         // Probes of the node's neighbourhood, the eight cells around it, at most 4 voxels apart:
         // a brick (8 voxels) that overlaps the neighbourhood holds one of them.
         const int probes = int(std::ceil(2.0f * g.spacing / 4.0f)) + 1;
+        const int stride = g.stride;
         tbb::parallel_for(tbb::blocked_range<int>(0, g.nz), [&](const tbb::blocked_range<int>& r) {
-            std::vector<double> acc(size_t(3 * count));
+            std::vector<float> acc(static_cast<size_t>(stride));
             for (int k = r.begin(); k != r.end(); ++k)
                 for (int j = 0; j < g.ny; ++j)
                     for (int i = 0; i < g.nx; ++i) {
@@ -432,15 +447,14 @@ SkyLight SkyLight::build(const VolumeSet& volumes, const EmbreeScene* casters, c
                             const Rgb T = (sweep ? sweptTransmittance(ci, at)
                                                  : transmittance(vol.worldFromIndex.point(at), c.towardLight)) *
                                           wgt;
-                            for (int jm = 0; jm < count; ++jm) {
-                                acc[3 * jm + 0] += T.x * c.E[3 * jm + 0];
-                                acc[3 * jm + 1] += T.y * c.E[3 * jm + 1];
-                                acc[3 * jm + 2] += T.z * c.E[3 * jm + 2];
-                            }
+                            const float T4[4] = {T.x, T.y, T.z, 0.0f};
+                            const float* E = c.Epad.data();
+                            for (int e = 0; e < stride; e += 4)
+                                for (int ch = 0; ch < 4; ++ch)
+                                    acc[size_t(e + ch)] += T4[ch] * E[e + ch];
                         }
-                        float* out = g.L.data() + ((size_t(k) * g.ny + j) * g.nx + i) * size_t(3 * count);
-                        for (int c = 0; c < 3 * count; ++c)
-                            out[c] = float(acc[c]);
+                        float* out = g.L.data() + ((size_t(k) * g.ny + j) * g.nx + i) * size_t(stride);
+                        std::copy(acc.begin(), acc.end(), out);
                     }
         });
     }
@@ -501,40 +515,10 @@ void SkyLight::contraction(NbPhase phase, float3 wo, float* a) const
             a[shIndex(j, m)] = float((pj[j] - f) * y[shIndex(j, m)]);
 }
 
-Rgb SkyLight::radiance(size_t volume, float3 q, const float* a, Cursor& cursor) const
-{
-    const Grid& g = mGrids[volume];
-    if (g.nx == 0)
-        return splat(0.0f);
-    const float3 f = (q - g.origin) * g.invSpacing;
-    auto split = [](float x, int n, int& i) {
-        if (n < 2) {
-            i = 0;
-            return 0.0f;
-        }
-        x = clamp(x, 0.0f, float(n - 1));
-        i = std::min(int(x), n - 2);
-        return x - float(i);
-    };
-    int i, j, k;
-    const float tx = split(f.x, g.nx, i), ty = split(f.y, g.ny, j), tz = split(f.z, g.nz, k);
-    const long cell = (long(k) * g.ny + j) * g.nx + i;
-    if (cell != cursor.cell) {
-        corners(volume, i, j, k, a, cursor.corner, cursor.cell >= 0 ? cursor.ijk : nullptr);
-        cursor.cell = cell;
-        cursor.ijk[0] = i, cursor.ijk[1] = j, cursor.ijk[2] = k;
-    }
-    const Rgb* c = cursor.corner;
-    const Rgb x00 = c[0] + (c[1] - c[0]) * tx, x10 = c[2] + (c[3] - c[2]) * tx;
-    const Rgb x01 = c[4] + (c[5] - c[4]) * tx, x11 = c[6] + (c[7] - c[6]) * tx;
-    const Rgb y0 = x00 + (x10 - x00) * ty, y1 = x01 + (x11 - x01) * ty;
-    return fmax(y0 + (y1 - y0) * tz, splat(0.0f));
-}
-
 void SkyLight::corners(size_t volume, int i, int j, int k, const float* a, Rgb* out, const int* previous) const
 {
     const Grid& g = mGrids[volume];
-    const int count = this->count();
+    const int count = this->count(), pairs = g.stride / 8;
     // A neighbour across one face (axis `axis`, side `step`): corner c of the new cell with bit
     // `axis` at the near side is the old cell's corner across that bit.
     int keep = -1, keepBit = 0;
@@ -551,16 +535,34 @@ void SkyLight::corners(size_t volume, int i, int j, int k, const float* a, Rgb* 
         for (int c = 0; c < 8; ++c)
             if ((c & keepBit) == keep)
                 out[c] = out[c ^ keepBit];
+#if defined(__AVX2__) && defined(__FMA__)
+    // a_jm four times over, two coefficients to a vector, as the nodes lay them out.
+    __m256 A[(kCountMax + 1) / 2];
+    for (int p = 0; p < pairs; ++p) {
+        const float a0 = a[2 * p], a1 = 2 * p + 1 < count ? a[2 * p + 1] : 0.0f;
+        A[p] = _mm256_setr_ps(a0, a0, a0, a0, a1, a1, a1, a1);
+    }
+#endif
     for (int c = 0; c < 8; ++c) {
         if (keep >= 0 && (c & keepBit) == keep)
             continue;
         const int ci = std::min(i + (c & 1), g.nx - 1), cj = std::min(j + (c >> 1 & 1), g.ny - 1),
                   ck = std::min(k + (c >> 2 & 1), g.nz - 1);
-        const float* L = g.L.data() + ((size_t(ck) * g.ny + cj) * g.nx + ci) * size_t(3 * count);
+        const float* L = g.L.data() + ((size_t(ck) * g.ny + cj) * g.nx + ci) * size_t(g.stride);
+#if defined(__AVX2__) && defined(__FMA__)
+        __m256 s = _mm256_mul_ps(_mm256_loadu_ps(L), A[0]);
+        for (int p = 1; p < pairs; ++p)
+            s = _mm256_fmadd_ps(_mm256_loadu_ps(L + 8 * p), A[p], s);
+        alignas(16) float r[4];
+        _mm_store_ps(r, _mm_add_ps(_mm256_castps256_ps128(s), _mm256_extractf128_ps(s, 1)));
+        out[c] = make_float3(r[0], r[1], r[2]);
+#else
+        (void)pairs;
         Rgb s = splat(0.0f);
         for (int jm = 0; jm < count; ++jm)
-            s += make_float3(L[3 * jm], L[3 * jm + 1], L[3 * jm + 2]) * a[jm];
+            s += make_float3(L[4 * jm], L[4 * jm + 1], L[4 * jm + 2]) * a[jm];
         out[c] = s;
+#endif
     }
 }
 
@@ -570,10 +572,10 @@ std::vector<Rgb> SkyLight::nodeCoefficients(size_t volume, float3 q) const
     const float3 f = (q - g.origin) * g.invSpacing;
     const int i = std::clamp(int(std::lround(f.x)), 0, g.nx - 1), j = std::clamp(int(std::lround(f.y)), 0, g.ny - 1),
               k = std::clamp(int(std::lround(f.z)), 0, g.nz - 1);
-    const float* L = g.L.data() + ((size_t(k) * g.ny + j) * g.nx + i) * size_t(3 * count());
+    const float* L = g.L.data() + ((size_t(k) * g.ny + j) * g.nx + i) * size_t(g.stride);
     std::vector<Rgb> out;
     for (int jm = 0; jm < count(); ++jm)
-        out.push_back(make_float3(L[3 * jm], L[3 * jm + 1], L[3 * jm + 2]));
+        out.push_back(make_float3(L[4 * jm], L[4 * jm + 1], L[4 * jm + 2]));
     return out;
 }
 
