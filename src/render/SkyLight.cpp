@@ -14,6 +14,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstring>
 
 namespace nimbus {
 
@@ -338,37 +339,48 @@ SkyLight SkyLight::build(const VolumeSet& volumes, const EmbreeScene* casters, c
             const int n[3] = {c.nx, c.ny, c.nz};
             std::vector<float>& tau = tauFields[ci];
             tau.assign(c.rho.size(), 0.0f);
-            auto index = [&](int ia, int ib, int id) {
-                int x[3];
-                x[a] = ia, x[b] = ib, x[d] = id;
-                return (size_t(x[2]) * c.ny + x[1]) * c.nx + x[0];
-            };
-            // Bilinear at (fb, fd) in layer ia of field f, zero outside the grid.
-            auto bilinear = [&](const std::vector<float>& f, int ia, float fb, float fd) {
-                const int ib = int(std::floor(fb)), id = int(std::floor(fd));
-                const float tb = fb - float(ib), td = fd - float(id);
-                float sum = 0.0f;
-                for (int q = 0; q < 4; ++q) {
-                    const int jb = ib + (q & 1), jd = id + (q >> 1);
-                    if (jb < 0 || jb >= n[b] || jd < 0 || jd >= n[d])
-                        continue;
-                    sum += f[index(ia, jb, jd)] * ((q & 1) ? tb : 1.0f - tb) * ((q >> 1) ? td : 1.0f - td);
-                }
-                return sum;
-            };
+            // The point one layer toward the light is (ib + vb, id + vd): the same bilinear taps
+            // and weights at every node of the sweep, (ob, od) + {0, 1}^2 from the node.
+            const float fbv = std::floor(vb), fdv = std::floor(vd);
+            const int ob = int(fbv), od = int(fdv);
+            const float tb = vb - fbv, td = vd - fdv;
+            const float wq[4] = {(1.0f - tb) * (1.0f - td), tb * (1.0f - td), (1.0f - tb) * td, tb * td};
+            size_t strides[3] = {1, size_t(c.nx), size_t(c.nx) * size_t(c.ny)};
+            const size_t sa = strides[a], sb = strides[b], sd = strides[d];
+            // Nodes whose four taps all lie inside the layer: ib in [ibLo, ibHi].
+            const int ibLo = std::max(0, -ob), ibHi = std::min(n[b] - 1, n[b] - 2 - ob);
             for (int step = 0; step < n[a]; ++step) {
                 const int ia = va > 0 ? n[a] - 1 - step : step, up = ia + int(va);
                 const bool inside = up >= 0 && up < n[a];
-                for (int id = 0; id < n[d]; ++id)
+                for (int id = 0; id < n[d]; ++id) {
+                    const int jd = id + od;
+                    const bool rowsInside = jd >= 0 && jd + 1 < n[d];
+                    const size_t row = size_t(ia) * sa + size_t(id) * sd;
                     for (int ib = 0; ib < n[b]; ++ib) {
-                        const size_t x = index(ia, ib, id);
+                        const size_t x = row + size_t(ib) * sb;
                         float tauY = 0.0f, rhoY = 0.0f;
                         if (inside) {
-                            tauY = bilinear(tau, up, float(ib) + vb, float(id) + vd);
-                            rhoY = bilinear(c.rho, up, float(ib) + vb, float(id) + vd);
+                            if (rowsInside && ib >= ibLo && ib <= ibHi) {
+                                const size_t y0 = size_t(up) * sa + size_t(jd) * sd + size_t(ib + ob) * sb;
+                                const size_t y[4] = {y0, y0 + sb, y0 + sd, y0 + sb + sd};
+                                for (int q = 0; q < 4; ++q) {
+                                    tauY += tau[y[q]] * wq[q];
+                                    rhoY += c.rho[y[q]] * wq[q];
+                                }
+                            } else {  // at the layer's edge: the taps outside are zero
+                                for (int q = 0; q < 4; ++q) {
+                                    const int kb = ib + ob + (q & 1), kd = jd + (q >> 1);
+                                    if (kb < 0 || kb >= n[b] || kd < 0 || kd >= n[d])
+                                        continue;
+                                    const size_t yq = size_t(up) * sa + size_t(kd) * sd + size_t(kb) * sb;
+                                    tauY += tau[yq] * wq[q];
+                                    rhoY += c.rho[yq] * wq[q];
+                                }
+                            }
                         }
                         tau[x] = tauY + 0.5f * (c.rho[x] + rhoY) * stepMetres;
                     }
+                }
             }
         });
     }
@@ -505,9 +517,18 @@ float SkyLight::forwardPeak(NbPhase phase, int order)
 
 void SkyLight::contraction(NbPhase phase, float3 wo, float* a) const
 {
-    nb_moment pj[kOrderMax + 1] = {};
-    nbPhaseAddMoments(phase, 1.0, mOrder, pj);
-    const nb_moment f = forwardPeak(phase, mOrder);
+    // The moments p_j less the forward peak, kept per thread for the last phase and order: every
+    // camera (and wkb secondary) ray asks, mostly with one volume's phase.
+    thread_local NbPhase lastPhase{};
+    thread_local int lastOrder = -1;
+    thread_local nb_moment pj[kOrderMax + 1];
+    thread_local nb_moment f = 0;
+    if (lastOrder != mOrder || std::memcmp(&lastPhase, &phase, sizeof phase) != 0) {
+        std::fill(pj, pj + kOrderMax + 1, nb_moment(0));
+        nbPhaseAddMoments(phase, 1.0, mOrder, pj);
+        f = forwardPeak(phase, mOrder);
+        lastPhase = phase, lastOrder = mOrder;
+    }
     double y[kCountMax];
     shEvaluate(mOrder, wo, y);
     for (int j = 0; j <= mOrder; ++j)
@@ -550,9 +571,16 @@ void SkyLight::corners(size_t volume, int i, int j, int k, const float* a, Rgb* 
                   ck = std::min(k + (c >> 2 & 1), g.nz - 1);
         const float* L = g.L.data() + ((size_t(ck) * g.ny + cj) * g.nx + ci) * size_t(g.stride);
 #if defined(__AVX2__) && defined(__FMA__)
-        __m256 s = _mm256_mul_ps(_mm256_loadu_ps(L), A[0]);
-        for (int p = 1; p < pairs; ++p)
-            s = _mm256_fmadd_ps(_mm256_loadu_ps(L + 8 * p), A[p], s);
+        // Two chains of sums, so that the multiply-adds overlap.
+        __m256 s = _mm256_mul_ps(_mm256_loadu_ps(L), A[0]), s1 = _mm256_setzero_ps();
+        int p = 1;
+        for (; p + 1 < pairs; p += 2) {
+            s1 = _mm256_fmadd_ps(_mm256_loadu_ps(L + 8 * p), A[p], s1);
+            s = _mm256_fmadd_ps(_mm256_loadu_ps(L + 8 * p + 8), A[p + 1], s);
+        }
+        if (p < pairs)
+            s1 = _mm256_fmadd_ps(_mm256_loadu_ps(L + 8 * p), A[p], s1);
+        s = _mm256_add_ps(s, s1);
         alignas(16) float r[4];
         _mm_store_ps(r, _mm_add_ps(_mm256_castps256_ps128(s), _mm256_extractf128_ps(s, 1)));
         out[c] = make_float3(r[0], r[1], r[2]);
