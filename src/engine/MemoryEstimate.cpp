@@ -6,8 +6,8 @@
 //   ShadowMapProjection.cpp caps it) x kShadowMapTexelBytes (compressed vertices
 //   and offsets, DeepShadowMap.h) plus the bake on the voxels, one float per density voxel
 //   (LightCache.h: the density grids' brick pool again);
-// - sky grids: per volume n^3 nodes x 3 (J+1)^2 floats, n = light_volume_resolution or 32 and J
-//   = wkb_sh_order_max (SkyLight.h);
+// - sky grids: per volume n^3 nodes x 4 (J+1)^2 floats ((J+1)^2 rounded up to even), n =
+//   light_volume_resolution or 32 and J = wkb_sh_order_max (SkyLight.h);
 // - light pyramids: the WKB plan's own estimate (WkbPlanner.cpp);
 // - camera-ray batches: per worker at most kBatchRays rays (TileDriver.cpp) of kRayBytes plus
 //   three floats per light;
@@ -166,7 +166,8 @@ MemoryPlan estimateMemory(const Scene& scene, const RenderContext& ctx, const Re
                 bakes += densityBytes;
             }
             if (l.skyGrid)
-                sky += plan.volumes.size() * size_t(n) * size_t(n) * size_t(n) * 3 * shCoefficients * sizeof(float);
+                sky += plan.volumes.size() * size_t(n) * size_t(n) * size_t(n) * 4 * ((shCoefficients + 1) & ~size_t(1)) *
+                       sizeof(float);
         }
         m.items.push_back({"deep shadow maps", maps});
         m.items.push_back({"shadow bakes on the voxels", bakes});

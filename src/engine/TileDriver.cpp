@@ -185,9 +185,9 @@ void renderTiles(const RenderContext& ctx, const Integrator& integrator, Film& f
     };
     // A pixel of an empty tile under an environment map: each sample what a march of a ray that
     // misses every volume gathers (the background along it), summed the same way.
+    const std::vector<float> none(3 * nLights, 0.0f);  // no light's L1 (read only, shared)
     auto emptyPixel = [&](int x, int y, PixelSum& sum) {
         sum.reset(3 * nLights);
-        const std::vector<float> none(3 * nLights, 0.0f);
         for (int s = 0; s < spp; ++s) {
             NbRng rng;
             float3 o, d;

@@ -7,9 +7,14 @@
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
+#if defined(__AVX2__) && defined(__FMA__)
+#include <immintrin.h>
+#endif
+
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstring>
 
 namespace nimbus {
 
@@ -19,6 +24,7 @@ namespace {
 // the light travels; RGB innermost) and the direction its shadow rays take.
 struct Cell {
     std::vector<double> E;
+    std::vector<float> Epad;  // E as a grid node lays it out (SkyLight::Grid::stride)
     float3 towardLight;
 };
 
@@ -58,6 +64,12 @@ std::vector<Cell> makeCells(const EnvironmentMap& map, Rgb colour, int order)
     for (size_t k = 0; k < cells.size(); ++k) {
         if (!(weight[k] > 0.0))
             continue;  // a black part of the sky sends no light: no shadow ray
+        // As the grid's nodes lay coefficients out (SkyLight::Grid): RGB and a zero per jm, count
+        // rounded up to even.
+        cells[k].Epad.assign(size_t(4 * ((count + 1) & ~1)), 0.0f);
+        for (int jm = 0; jm < count; ++jm)
+            for (int ch = 0; ch < 3; ++ch)
+                cells[k].Epad[size_t(4 * jm + ch)] = float(cells[k].E[size_t(3 * jm + ch)]);
         float3 m = make_float3(float(mean[3 * k]), float(mean[3 * k + 1]), float(mean[3 * k + 2]));
         const float len = length(m);
         if (len > 1e-6f * float(weight[k])) {
@@ -269,7 +281,8 @@ SkyLight SkyLight::build(const VolumeSet& volumes, const EmbreeScene* casters, c
             g.nx = int(std::ceil(ext.x * g.invSpacing)) + 1;
             g.ny = int(std::ceil(ext.y * g.invSpacing)) + 1;
             g.nz = int(std::ceil(ext.z * g.invSpacing)) + 1;
-            g.L.assign(size_t(g.nx) * size_t(g.ny) * size_t(g.nz) * size_t(3 * count), 0.0f);
+            g.stride = 4 * ((count + 1) & ~1);
+            g.L.assign(size_t(g.nx) * size_t(g.ny) * size_t(g.nz) * size_t(g.stride), 0.0f);
         }
         CoarseDensity& c = coarse[v];
         c.vol = &vol;
@@ -326,37 +339,48 @@ SkyLight SkyLight::build(const VolumeSet& volumes, const EmbreeScene* casters, c
             const int n[3] = {c.nx, c.ny, c.nz};
             std::vector<float>& tau = tauFields[ci];
             tau.assign(c.rho.size(), 0.0f);
-            auto index = [&](int ia, int ib, int id) {
-                int x[3];
-                x[a] = ia, x[b] = ib, x[d] = id;
-                return (size_t(x[2]) * c.ny + x[1]) * c.nx + x[0];
-            };
-            // Bilinear at (fb, fd) in layer ia of field f, zero outside the grid.
-            auto bilinear = [&](const std::vector<float>& f, int ia, float fb, float fd) {
-                const int ib = int(std::floor(fb)), id = int(std::floor(fd));
-                const float tb = fb - float(ib), td = fd - float(id);
-                float sum = 0.0f;
-                for (int q = 0; q < 4; ++q) {
-                    const int jb = ib + (q & 1), jd = id + (q >> 1);
-                    if (jb < 0 || jb >= n[b] || jd < 0 || jd >= n[d])
-                        continue;
-                    sum += f[index(ia, jb, jd)] * ((q & 1) ? tb : 1.0f - tb) * ((q >> 1) ? td : 1.0f - td);
-                }
-                return sum;
-            };
+            // The point one layer toward the light is (ib + vb, id + vd): the same bilinear taps
+            // and weights at every node of the sweep, (ob, od) + {0, 1}^2 from the node.
+            const float fbv = std::floor(vb), fdv = std::floor(vd);
+            const int ob = int(fbv), od = int(fdv);
+            const float tb = vb - fbv, td = vd - fdv;
+            const float wq[4] = {(1.0f - tb) * (1.0f - td), tb * (1.0f - td), (1.0f - tb) * td, tb * td};
+            size_t strides[3] = {1, size_t(c.nx), size_t(c.nx) * size_t(c.ny)};
+            const size_t sa = strides[a], sb = strides[b], sd = strides[d];
+            // Nodes whose four taps all lie inside the layer: ib in [ibLo, ibHi].
+            const int ibLo = std::max(0, -ob), ibHi = std::min(n[b] - 1, n[b] - 2 - ob);
             for (int step = 0; step < n[a]; ++step) {
                 const int ia = va > 0 ? n[a] - 1 - step : step, up = ia + int(va);
                 const bool inside = up >= 0 && up < n[a];
-                for (int id = 0; id < n[d]; ++id)
+                for (int id = 0; id < n[d]; ++id) {
+                    const int jd = id + od;
+                    const bool rowsInside = jd >= 0 && jd + 1 < n[d];
+                    const size_t row = size_t(ia) * sa + size_t(id) * sd;
                     for (int ib = 0; ib < n[b]; ++ib) {
-                        const size_t x = index(ia, ib, id);
+                        const size_t x = row + size_t(ib) * sb;
                         float tauY = 0.0f, rhoY = 0.0f;
                         if (inside) {
-                            tauY = bilinear(tau, up, float(ib) + vb, float(id) + vd);
-                            rhoY = bilinear(c.rho, up, float(ib) + vb, float(id) + vd);
+                            if (rowsInside && ib >= ibLo && ib <= ibHi) {
+                                const size_t y0 = size_t(up) * sa + size_t(jd) * sd + size_t(ib + ob) * sb;
+                                const size_t y[4] = {y0, y0 + sb, y0 + sd, y0 + sb + sd};
+                                for (int q = 0; q < 4; ++q) {
+                                    tauY += tau[y[q]] * wq[q];
+                                    rhoY += c.rho[y[q]] * wq[q];
+                                }
+                            } else {  // at the layer's edge: the taps outside are zero
+                                for (int q = 0; q < 4; ++q) {
+                                    const int kb = ib + ob + (q & 1), kd = jd + (q >> 1);
+                                    if (kb < 0 || kb >= n[b] || kd < 0 || kd >= n[d])
+                                        continue;
+                                    const size_t yq = size_t(up) * sa + size_t(kd) * sd + size_t(kb) * sb;
+                                    tauY += tau[yq] * wq[q];
+                                    rhoY += c.rho[yq] * wq[q];
+                                }
+                            }
                         }
                         tau[x] = tauY + 0.5f * (c.rho[x] + rhoY) * stepMetres;
                     }
+                }
             }
         });
     }
@@ -377,6 +401,8 @@ SkyLight SkyLight::build(const VolumeSet& volumes, const EmbreeScene* casters, c
             sum += tau[(size_t(ck8) * c.ny + cj8) * c.nx + ci8] * ((q8 & 1) ? tx : 1.0f - tx) *
                    ((q8 >> 1 & 1) ? ty : 1.0f - ty) * ((q8 >> 2 & 1) ? tz : 1.0f - tz);
         }
+        if (c.sigmaT.x == c.sigmaT.y && c.sigmaT.y == c.sigmaT.z)  // a grey medium: one exponential
+            return splat(std::exp(-c.sigmaT.x * sum));
         return exp(-(c.sigmaT * sum));
     };
 
@@ -389,8 +415,9 @@ SkyLight SkyLight::build(const VolumeSet& volumes, const EmbreeScene* casters, c
         // Probes of the node's neighbourhood, the eight cells around it, at most 4 voxels apart:
         // a brick (8 voxels) that overlaps the neighbourhood holds one of them.
         const int probes = int(std::ceil(2.0f * g.spacing / 4.0f)) + 1;
+        const int stride = g.stride;
         tbb::parallel_for(tbb::blocked_range<int>(0, g.nz), [&](const tbb::blocked_range<int>& r) {
-            std::vector<double> acc(size_t(3 * count));
+            std::vector<float> acc(static_cast<size_t>(stride));
             for (int k = r.begin(); k != r.end(); ++k)
                 for (int j = 0; j < g.ny; ++j)
                     for (int i = 0; i < g.nx; ++i) {
@@ -432,15 +459,14 @@ SkyLight SkyLight::build(const VolumeSet& volumes, const EmbreeScene* casters, c
                             const Rgb T = (sweep ? sweptTransmittance(ci, at)
                                                  : transmittance(vol.worldFromIndex.point(at), c.towardLight)) *
                                           wgt;
-                            for (int jm = 0; jm < count; ++jm) {
-                                acc[3 * jm + 0] += T.x * c.E[3 * jm + 0];
-                                acc[3 * jm + 1] += T.y * c.E[3 * jm + 1];
-                                acc[3 * jm + 2] += T.z * c.E[3 * jm + 2];
-                            }
+                            const float T4[4] = {T.x, T.y, T.z, 0.0f};
+                            const float* E = c.Epad.data();
+                            for (int e = 0; e < stride; e += 4)
+                                for (int ch = 0; ch < 4; ++ch)
+                                    acc[size_t(e + ch)] += T4[ch] * E[e + ch];
                         }
-                        float* out = g.L.data() + ((size_t(k) * g.ny + j) * g.nx + i) * size_t(3 * count);
-                        for (int c = 0; c < 3 * count; ++c)
-                            out[c] = float(acc[c]);
+                        float* out = g.L.data() + ((size_t(k) * g.ny + j) * g.nx + i) * size_t(stride);
+                        std::copy(acc.begin(), acc.end(), out);
                     }
         });
     }
@@ -491,9 +517,18 @@ float SkyLight::forwardPeak(NbPhase phase, int order)
 
 void SkyLight::contraction(NbPhase phase, float3 wo, float* a) const
 {
-    nb_moment pj[kOrderMax + 1] = {};
-    nbPhaseAddMoments(phase, 1.0, mOrder, pj);
-    const nb_moment f = forwardPeak(phase, mOrder);
+    // The moments p_j less the forward peak, kept per thread for the last phase and order: every
+    // camera (and wkb secondary) ray asks, mostly with one volume's phase.
+    thread_local NbPhase lastPhase{};
+    thread_local int lastOrder = -1;
+    thread_local nb_moment pj[kOrderMax + 1];
+    thread_local nb_moment f = 0;
+    if (lastOrder != mOrder || std::memcmp(&lastPhase, &phase, sizeof phase) != 0) {
+        std::fill(pj, pj + kOrderMax + 1, nb_moment(0));
+        nbPhaseAddMoments(phase, 1.0, mOrder, pj);
+        f = forwardPeak(phase, mOrder);
+        lastPhase = phase, lastOrder = mOrder;
+    }
     double y[kCountMax];
     shEvaluate(mOrder, wo, y);
     for (int j = 0; j <= mOrder; ++j)
@@ -501,40 +536,10 @@ void SkyLight::contraction(NbPhase phase, float3 wo, float* a) const
             a[shIndex(j, m)] = float((pj[j] - f) * y[shIndex(j, m)]);
 }
 
-Rgb SkyLight::radiance(size_t volume, float3 q, const float* a, Cursor& cursor) const
-{
-    const Grid& g = mGrids[volume];
-    if (g.nx == 0)
-        return splat(0.0f);
-    const float3 f = (q - g.origin) * g.invSpacing;
-    auto split = [](float x, int n, int& i) {
-        if (n < 2) {
-            i = 0;
-            return 0.0f;
-        }
-        x = clamp(x, 0.0f, float(n - 1));
-        i = std::min(int(x), n - 2);
-        return x - float(i);
-    };
-    int i, j, k;
-    const float tx = split(f.x, g.nx, i), ty = split(f.y, g.ny, j), tz = split(f.z, g.nz, k);
-    const long cell = (long(k) * g.ny + j) * g.nx + i;
-    if (cell != cursor.cell) {
-        corners(volume, i, j, k, a, cursor.corner, cursor.cell >= 0 ? cursor.ijk : nullptr);
-        cursor.cell = cell;
-        cursor.ijk[0] = i, cursor.ijk[1] = j, cursor.ijk[2] = k;
-    }
-    const Rgb* c = cursor.corner;
-    const Rgb x00 = c[0] + (c[1] - c[0]) * tx, x10 = c[2] + (c[3] - c[2]) * tx;
-    const Rgb x01 = c[4] + (c[5] - c[4]) * tx, x11 = c[6] + (c[7] - c[6]) * tx;
-    const Rgb y0 = x00 + (x10 - x00) * ty, y1 = x01 + (x11 - x01) * ty;
-    return fmax(y0 + (y1 - y0) * tz, splat(0.0f));
-}
-
 void SkyLight::corners(size_t volume, int i, int j, int k, const float* a, Rgb* out, const int* previous) const
 {
     const Grid& g = mGrids[volume];
-    const int count = this->count();
+    const int count = this->count(), pairs = g.stride / 8;
     // A neighbour across one face (axis `axis`, side `step`): corner c of the new cell with bit
     // `axis` at the near side is the old cell's corner across that bit.
     int keep = -1, keepBit = 0;
@@ -551,16 +556,41 @@ void SkyLight::corners(size_t volume, int i, int j, int k, const float* a, Rgb* 
         for (int c = 0; c < 8; ++c)
             if ((c & keepBit) == keep)
                 out[c] = out[c ^ keepBit];
+#if defined(__AVX2__) && defined(__FMA__)
+    // a_jm four times over, two coefficients to a vector, as the nodes lay them out.
+    __m256 A[(kCountMax + 1) / 2];
+    for (int p = 0; p < pairs; ++p) {
+        const float a0 = a[2 * p], a1 = 2 * p + 1 < count ? a[2 * p + 1] : 0.0f;
+        A[p] = _mm256_setr_ps(a0, a0, a0, a0, a1, a1, a1, a1);
+    }
+#endif
     for (int c = 0; c < 8; ++c) {
         if (keep >= 0 && (c & keepBit) == keep)
             continue;
         const int ci = std::min(i + (c & 1), g.nx - 1), cj = std::min(j + (c >> 1 & 1), g.ny - 1),
                   ck = std::min(k + (c >> 2 & 1), g.nz - 1);
-        const float* L = g.L.data() + ((size_t(ck) * g.ny + cj) * g.nx + ci) * size_t(3 * count);
+        const float* L = g.L.data() + ((size_t(ck) * g.ny + cj) * g.nx + ci) * size_t(g.stride);
+#if defined(__AVX2__) && defined(__FMA__)
+        // Two chains of sums, so that the multiply-adds overlap.
+        __m256 s = _mm256_mul_ps(_mm256_loadu_ps(L), A[0]), s1 = _mm256_setzero_ps();
+        int p = 1;
+        for (; p + 1 < pairs; p += 2) {
+            s1 = _mm256_fmadd_ps(_mm256_loadu_ps(L + 8 * p), A[p], s1);
+            s = _mm256_fmadd_ps(_mm256_loadu_ps(L + 8 * p + 8), A[p + 1], s);
+        }
+        if (p < pairs)
+            s1 = _mm256_fmadd_ps(_mm256_loadu_ps(L + 8 * p), A[p], s1);
+        s = _mm256_add_ps(s, s1);
+        alignas(16) float r[4];
+        _mm_store_ps(r, _mm_add_ps(_mm256_castps256_ps128(s), _mm256_extractf128_ps(s, 1)));
+        out[c] = make_float3(r[0], r[1], r[2]);
+#else
+        (void)pairs;
         Rgb s = splat(0.0f);
         for (int jm = 0; jm < count; ++jm)
-            s += make_float3(L[3 * jm], L[3 * jm + 1], L[3 * jm + 2]) * a[jm];
+            s += make_float3(L[4 * jm], L[4 * jm + 1], L[4 * jm + 2]) * a[jm];
         out[c] = s;
+#endif
     }
 }
 
@@ -570,10 +600,10 @@ std::vector<Rgb> SkyLight::nodeCoefficients(size_t volume, float3 q) const
     const float3 f = (q - g.origin) * g.invSpacing;
     const int i = std::clamp(int(std::lround(f.x)), 0, g.nx - 1), j = std::clamp(int(std::lround(f.y)), 0, g.ny - 1),
               k = std::clamp(int(std::lround(f.z)), 0, g.nz - 1);
-    const float* L = g.L.data() + ((size_t(k) * g.ny + j) * g.nx + i) * size_t(3 * count());
+    const float* L = g.L.data() + ((size_t(k) * g.ny + j) * g.nx + i) * size_t(g.stride);
     std::vector<Rgb> out;
     for (int jm = 0; jm < count(); ++jm)
-        out.push_back(make_float3(L[3 * jm], L[3 * jm + 1], L[3 * jm + 2]));
+        out.push_back(make_float3(L[4 * jm], L[4 * jm + 1], L[4 * jm + 2]));
     return out;
 }
 

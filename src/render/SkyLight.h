@@ -30,6 +30,7 @@
 
 #include "EnvironmentMap.h"
 
+#include <algorithm>
 #include <memory>
 #include <vector>
 
@@ -80,7 +81,36 @@ public:
     };
     // sum_jm a_jm L^jm at index-space point q of volume v, trilinear between nodes (clamped to
     // the grid). W/(m^2 sr) per unit of sigma_s: the in-scattered radiance per unit phase.
-    Rgb radiance(size_t volume, float3 q, const float* a, Cursor& cursor) const;
+    // Inline: the scalar marches read it at every sample.
+    Rgb radiance(size_t volume, float3 q, const float* a, Cursor& cursor) const
+    {
+        const Grid& g = mGrids[volume];
+        if (g.nx == 0)
+            return splat(0.0f);
+        const float3 f = (q - g.origin) * g.invSpacing;
+        auto split = [](float x, int n, int& i) {
+            if (n < 2) {
+                i = 0;
+                return 0.0f;
+            }
+            x = clamp(x, 0.0f, float(n - 1));
+            i = std::min(int(x), n - 2);
+            return x - float(i);
+        };
+        int i, j, k;
+        const float tx = split(f.x, g.nx, i), ty = split(f.y, g.ny, j), tz = split(f.z, g.nz, k);
+        const long cell = (long(k) * g.ny + j) * g.nx + i;
+        if (cell != cursor.cell) {
+            corners(volume, i, j, k, a, cursor.corner, cursor.cell >= 0 ? cursor.ijk : nullptr);
+            cursor.cell = cell;
+            cursor.ijk[0] = i, cursor.ijk[1] = j, cursor.ijk[2] = k;
+        }
+        const Rgb* c = cursor.corner;
+        const Rgb x00 = c[0] + (c[1] - c[0]) * tx, x10 = c[2] + (c[3] - c[2]) * tx;
+        const Rgb x01 = c[4] + (c[5] - c[4]) * tx, x11 = c[6] + (c[7] - c[6]) * tx;
+        const Rgb y0 = x00 + (x10 - x00) * ty, y1 = x01 + (x11 - x01) * ty;
+        return fmax(y0 + (y1 - y0) * tz, splat(0.0f));
+    }
 
     // The grid of volume v as the eight-ray march reads it (MarchEightRays.cpp): nodes at
     // origin + spacing (i, j, k) in index space, n per axis; and the eight corners of cell
@@ -126,7 +156,10 @@ private:
         float3 origin = splat(0.0f);  // index space of the volume
         float spacing = 1.0f, invSpacing = 1.0f;
         int nx = 0, ny = 0, nz = 0;
-        std::vector<float> L;  // per node count() x RGB, RGB innermost
+        // Per node `stride` floats: coefficient jm's RGB at 4 jm (the fourth float 0), count()
+        // rounded up to even, so that a corner's contraction is whole 8-float vectors.
+        int stride = 0;
+        std::vector<float> L;
     };
     // L_tail on a lat-long table of d: row r at polar angle (r + 0.5) pi / H from +y, column c
     // at azimuth (c + 0.5) 2 pi / W from +x toward +z; RGB innermost. Empty: no tail.

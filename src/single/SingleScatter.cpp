@@ -412,7 +412,10 @@ void marchOneVolume(const RenderContext& ctx, const VolumeData& vol, float3 o, f
 // The commonest case of all, a grey medium (equal RGB extinction) lit by one distant light:
 // marchOneVolume<true, true> with the transmittance, the weights and the sum in scalars (the
 // constant RGB factors sigma_s / rho and L_i p are applied once, after the march).
-template <bool HeldOut>
+// Sky: the sun and skies (SkyLight.h) of marchOneVolume<true, false> (a sun plus a sky is the
+// commonest lighting of a cloud): each sky's grid read at every sample as there, its sum of
+// T w rho times the grid's radiance (sigma_s / rho applied after the march).
+template <bool HeldOut, bool Sky = false>
 void marchGreyKeyLight(const RenderContext& ctx, const VolumeData& vol, const LightEntry& key, float3 o, float3 d,
                        float jitter, float tMax, CameraSample& out, float* perLight)
 {
@@ -425,6 +428,21 @@ void marchGreyKeyLight(const RenderContext& ctx, const VolumeData& vol, const Li
     const StiffVoxels& stiff = ctx.stiff[0];
     const StiffLight stiffKey{size_t(&key - ctx.lights.data()), &cache, true};
     float coveredTo = -1e30f;  // stiffStepStart
+    // Skies: per sky the ray's contraction and cursor (SkyRay), and its sum over samples.
+    thread_local std::vector<SkyRay> skyRays;
+    thread_local std::vector<Rgb> skySums;
+    float3 oi = splat(0.0f), di = splat(0.0f);
+    if constexpr (Sky) {
+        skyRaysOf(ctx, d, vol.medium.phase, skyRays);
+        skySums.assign(skyRays.size(), splat(0.0f));
+        oi = vol.indexFromWorld.point(o), di = vol.indexFromWorld.vector(d);
+    }
+    auto addSky = [&](float t, float weight) {  // weight: int over the step of T rho ds
+        for (size_t s = 0; s < skyRays.size(); ++s) {
+            SkyRay& r = skyRays[s];
+            skySums[s] += r.sky->radiance(0, oi + di * t, r.a, r.cursor) * weight;
+        }
+    };
     auto step = [&](int k, float t, const BrickGrid::Stencil& st) {
         if (stiff.any) {
             if (const int n = stiff.subStepsOf(st.brick)) {
@@ -434,6 +452,10 @@ void marchGreyKeyLight(const RenderContext& ctx, const VolumeData& vol, const Li
                 Rgb Tr = splat(T), l1 = splat(0.0f);
                 const bool go =
                     marchStiffStep(ctx, vol, o, d, ss.ta, ss.tb, ss.n, &stiffKey, 1, Tr, &l1, opacitySum, depthSum);
+                // The sky over the stiff step as marchOneVolume reads it: int T rho ds =
+                // (T_a - T_b) / (sigma_t / rho), at the step's middle.
+                if constexpr (Sky)
+                    addSky(0.5f * (ss.ta + ss.tb), (T - Tr.x) / std::max(kT, 1e-30f));
                 T = Tr.x, L1 += l1.x;
                 return go;
             }
@@ -444,6 +466,8 @@ void marchGreyKeyLight(const RenderContext& ctx, const VolumeData& vol, const Li
         coveredTo = t + dt;
         float stepT, w;
         stepTerms(kT * rho, dt, stepT, w);
+        if constexpr (Sky)
+            addSky(t, T * w * rho);
         const float tauLight = BrickGrid::trilinear<1>(cache.brickData(st.brick) + st.corner, st.tx, st.ty, st.tz);
         L1 += T * w * rho * expNeg(tauLight);    // eq. 31 per step, over sigma_s / rho and L_i p
         const float opacity = T * w * kT * rho;  // stepOpacity
@@ -466,6 +490,15 @@ void marchGreyKeyLight(const RenderContext& ctx, const VolumeData& vol, const Li
     out.L1 += l1;
     float* pl = perLight + 3 * (&key - ctx.lights.data());
     pl[0] += l1.x, pl[1] += l1.y, pl[2] += l1.z;
+    if constexpr (Sky) {
+        for (size_t s = 0; s < skyRays.size(); ++s) {
+            const Rgb c = vol.sigmaS() * skySums[s];
+            out.L1 += c;
+            float* ps = perLight + 3 * skyRays[s].index;
+            ps[0] += c.x, ps[1] += c.y, ps[2] += c.z;
+        }
+        addSkyTailsOneVolume(ctx, vol, o, d, splat(T), HeldOut, out, perLight);
+    }
     if constexpr (!HeldOut)
         out.L0 += T * ctx.backgroundAlong(d);
     out.transmittance = splat(T);
@@ -476,7 +509,7 @@ void marchGreyKeyLight(const RenderContext& ctx, const VolumeData& vol, const Li
 // Which tight loop a scene's camera rays take: one volume without emission whose every used
 // light is baked on its voxels (FastMarch::None otherwise: the general march).
 // `allDistant`, when given, is set where every used light is distant (and one at least).
-enum class FastMarch { None, GreyKeyLight, Grey, OneDistant, Chromatic };
+enum class FastMarch { None, GreyKeyLight, GreyKeySky, Grey, OneDistant, Chromatic };
 FastMarch fastMarchOf(const RenderContext& ctx, const LightEntry** key, bool* allDistant = nullptr)
 {
     const VolumeSet& vs = ctx.volumes;
@@ -495,14 +528,16 @@ FastMarch fastMarchOf(const RenderContext& ctx, const LightEntry** key, bool* al
         used += e.used;  // a sky too: then no OneDistant loop, which reads one light
         distant += e.used && e.light.type == NB_LIGHT_DISTANT;
         skies += e.used && e.sky;
-        if (e.used)
+        if (e.used && !e.sky)
             *key = &e;
     }
     const bool oneDistant = used == 1 && distant == 1;
+    const bool sunAndSkies = distant == 1 && skies > 0 && used == 1 + skies;  // a sun and its skies
     if (allDistant)  // the lanes' case: distant lights and skies, both at infinity
         *allDistant = used > 0 && distant + skies == used;
-    return grey && oneDistant ? FastMarch::GreyKeyLight
-           : grey             ? FastMarch::Grey
+    return grey && oneDistant    ? FastMarch::GreyKeyLight
+           : grey && sunAndSkies ? FastMarch::GreyKeySky
+           : grey                ? FastMarch::Grey
            : oneDistant       ? FastMarch::OneDistant
                               : FastMarch::Chromatic;
 }
@@ -519,6 +554,8 @@ bool marchSingleFast(const RenderContext& ctx, float3 o, float3 d, float jitter,
     if (reach.heldOut) {
         if (fast == FastMarch::GreyKeyLight)
             marchGreyKeyLight<true>(ctx, vol, *key, o, d, jitter, tMax, out, perLight);
+        else if (fast == FastMarch::GreyKeySky)
+            marchGreyKeyLight<true, true>(ctx, vol, *key, o, d, jitter, tMax, out, perLight);
         else if (fast == FastMarch::Grey)
             marchOneVolume<true, false, true>(ctx, vol, o, d, jitter, tMax, out, perLight);
         else if (fast == FastMarch::OneDistant)
@@ -527,6 +564,8 @@ bool marchSingleFast(const RenderContext& ctx, float3 o, float3 d, float jitter,
             marchOneVolume<false, false, true>(ctx, vol, o, d, jitter, tMax, out, perLight);
     } else if (fast == FastMarch::GreyKeyLight)
         marchGreyKeyLight<false>(ctx, vol, *key, o, d, jitter, tMax, out, perLight);
+    else if (fast == FastMarch::GreyKeySky)
+        marchGreyKeyLight<false, true>(ctx, vol, *key, o, d, jitter, tMax, out, perLight);
     else if (fast == FastMarch::Grey)
         marchOneVolume<true, false, false>(ctx, vol, o, d, jitter, tMax, out, perLight);
     else if (fast == FastMarch::OneDistant)
@@ -811,7 +850,7 @@ int eightRayLightsOf(const RenderContext& ctx, const LightEntry** lights)
     const LightEntry* key = nullptr;
     bool allDistant = false;
     const FastMarch fast = fastMarchOf(ctx, &key, &allDistant);
-    if (!allDistant || (fast != FastMarch::GreyKeyLight && fast != FastMarch::Grey))
+    if (!allDistant || (fast != FastMarch::GreyKeyLight && fast != FastMarch::GreyKeySky && fast != FastMarch::Grey))
         return 0;
     if (ctx.stiff[0].any)  // stiff bricks take the one-ray march's sub-steps (marchStiffStep)
         return 0;
@@ -841,6 +880,7 @@ SingleRoute singleRouteOf(const RenderContext& ctx, bool batch)
     const LightEntry* key = nullptr;
     switch (fastMarchOf(ctx, &key)) {
     case FastMarch::GreyKeyLight: return SingleRoute::GreyKeyLight;
+    case FastMarch::GreyKeySky: return SingleRoute::GreyKeySky;
     case FastMarch::Grey: return SingleRoute::Grey;
     case FastMarch::OneDistant: return SingleRoute::OneDistant;
     case FastMarch::Chromatic: return SingleRoute::Chromatic;

@@ -28,7 +28,7 @@ void marchSingleRays(const RenderContext& ctx, int n, const float3* o, const flo
 // The loop a ray that meets the volumes takes: through marchSingle (batch false) or through
 // marchSingleRays with more than one ray (batch true). The lanes may still hand a batch back to
 // the scalar loops (MarchEightRays.h: marches too long for float indices, pools too large).
-enum class SingleRoute { General, GreyKeyLight, Grey, OneDistant, Chromatic, GreyDistantEight };
+enum class SingleRoute { General, GreyKeyLight, GreyKeySky, Grey, OneDistant, Chromatic, GreyDistantEight };
 SingleRoute singleRouteOf(const RenderContext& ctx, bool batch);
 // marchSingle through the general loop, whatever the scene. With one volume, its samples lie on
 // the specialised loops' lattice, t_k = t_in + (k + jitter) dt from the ray's entry into the

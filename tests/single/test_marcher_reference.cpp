@@ -181,6 +181,22 @@ TEST(MarcherReference, GreyKeyLightEqualsTheGeneralMarch)
         checkRoute({"marchGreyKeyLight", cloudScene(true, step), SingleRoute::GreyKeyLight, false}, 3000, 21);
 }
 
+TEST(MarcherReference, GreyKeySkyEqualsTheGeneralMarch)
+{
+    // A sun and a uniform sky (SkyLight.h), one ray at a time (wkb's camera and secondary rays):
+    // marchGreyKeyLight<Sky> reads the sky grid at every sample as the general loop does. Thin:
+    // the general loop takes no stiff sub-steps where a light (the sky) is not baked.
+    for (float step : {0.5f, 1.5f}) {
+        Scene s = cloudScene(true, step, true);
+        Light sky;
+        sky.name = "sky";
+        sky.type = LightType::Environment;
+        sky.radiance = make_float3(0.3f, 0.4f, 0.6f);
+        s.lights.push_back(sky);
+        checkRoute({"marchGreyKeyLight<sky>", s, SingleRoute::GreyKeySky, false}, 3000, 27);
+    }
+}
+
 TEST(MarcherReference, OneVolumeLoopsEqualTheGeneralMarch)
 {
     // marchOneVolume<grey>: a distant key, a distant fill and a point light (its weight per sample).
