@@ -8,6 +8,7 @@
 #include "../single/SingleIntegrator.h"
 #include "../wkb/WkbIntegrator.h"
 
+#include <algorithm>
 #include <chrono>
 #include <stdexcept>
 
@@ -31,7 +32,7 @@ IntegratorEntry wkbEntry()
     e.plan = [](const RenderContext& ctx, RenderPlan& plan) {
         plan.integrator = std::make_shared<const wkb::WkbSetup>(wkb::planWkb(ctx, plan));
     };
-    e.create = [](const RenderContext& ctx, const RenderPlan& plan, const RenderOptions&,
+    e.create = [](const RenderContext& ctx, const RenderPlan& plan, const RenderOptions& options,
                   RenderStats& stats) -> std::unique_ptr<Integrator> {
         std::shared_ptr<const wkb::RadianceGrid> orders3;
         const RenderSettings& rs = ctx.scene->render;
@@ -42,6 +43,12 @@ IntegratorEntry wkbEntry()
             o.paths = rs.wkbOrders3Paths;
             o.maxCells = rs.wkbOrders3Grid;
             o.seed = rs.seed;
+            // Per-light layers where a light's AOV is in the film (setupFilm's rule).
+            const auto& wanted = ctx.scene->output.aovs;
+            o.perLightAovs.assign(ctx.lights.size(), 0);
+            for (size_t i = 0; i < ctx.lights.size(); ++i)
+                o.perLightAovs[i] = !options.outputAovsOnly || wanted.empty() ||
+                                    std::find(wanted.begin(), wanted.end(), ctx.lights[i].aov) != wanted.end();
             orders3 = vrl::traceOrders3(ctx, o);
             stats.addStage("orders 3+ light paths",
                            std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());

@@ -30,9 +30,12 @@ constexpr int kBlurPasses = 1;
 // The deposits' random stream, keyed apart from the light paths'.
 constexpr uint32_t kDepositKey = 0x64657030u;
 
-// Deposits one segment into grid data `out`.
-void deposit(const RenderContext& ctx, const wkb::RadianceGrid& grid, const Vrl& v, float h, NbRng& rng, float* out)
+// Deposits one segment into grid data `out`, in the cells' layer `layer`.
+void deposit(const RenderContext& ctx, const wkb::RadianceGrid& grid, const Vrl& v, int layer, float h, NbRng& rng,
+             float* out)
 {
+    const size_t F = size_t(grid.floatsPerCell());
+    out += size_t(layer) * wkb::RadianceGrid::kFloats;
     double y[wkb::RadianceGrid::kCoeffs];
     shEvaluate(wkb::RadianceGrid::kOrder, v.dir, y);
     const float invV = 1.0f / grid.cellVolume();
@@ -64,7 +67,7 @@ void deposit(const RenderContext& ctx, const wkb::RadianceGrid& grid, const Vrl&
                     r /= q;
             }
         }
-        float* d = out + cell * wkb::RadianceGrid::kFloats;
+        float* d = out + cell * F;
         for (int jm = 0; jm < wkb::RadianceGrid::kCoeffs; ++jm)
             for (int c = 0; c < 3; ++c)
                 d[3 * jm + c] += float(y[jm]) * flux[c] * I[c] * invV;
@@ -78,7 +81,7 @@ void blur(wkb::RadianceGrid& grid, std::vector<float>& scratch)
 {
     const int n[3] = {grid.size(0), grid.size(1), grid.size(2)};
     const size_t stride[3] = {1, size_t(n[0]), size_t(n[0]) * size_t(n[1])};
-    constexpr int F = wkb::RadianceGrid::kFloats;
+    const int F = grid.floatsPerCell();
     std::vector<float>& data = grid.data();
     for (int axis = 0; axis < 3; ++axis) {
         if (n[axis] < 2)
@@ -110,10 +113,38 @@ std::shared_ptr<const wkb::RadianceGrid> traceOrders3(const RenderContext& ctx, 
     const LightPass pass(ctx, ps, medium, 0);  // unbounded: wkb has no depth cap
     if (pass.empty())
         return nullptr;
+    // Layers (RadianceGrid "Layers"): the light pass's light i deposits into layer layerOf[i].
+    const size_t nl = ps.lights.size();
+    std::vector<int> layerOf(nl, 0), layerLight;
+    if (nl == 1) {
+        layerLight = {ps.lightEntry[0]};
+    } else {
+        auto written = [&](size_t i) {
+            const int e = ps.lightEntry[i];
+            return e >= 0 && size_t(e) < options.perLightAovs.size() && options.perLightAovs[size_t(e)] != 0;
+        };
+        bool others = false;
+        for (size_t i = 0; i < nl; ++i)
+            if (written(i)) {
+                layerOf[i] = int(layerLight.size());
+                layerLight.push_back(ps.lightEntry[i]);
+            } else {
+                others = true;
+            }
+        if (layerLight.empty()) {
+            layerLight = {-1};  // no per-light AOV: one layer, every light summed
+        } else if (others) {
+            for (size_t i = 0; i < nl; ++i)
+                if (!written(i))
+                    layerOf[i] = int(layerLight.size());
+            layerLight.push_back(-1);
+        }
+    }
     auto grid = std::make_shared<wkb::RadianceGrid>();
-    grid->init(ctx.volumes.worldBounds(), 0.0f, options.maxCells);
+    grid->init(ctx.volumes.worldBounds(), 0.0f, options.maxCells, int(layerLight.size()));
     if (grid->empty())
         return nullptr;
+    grid->setLayerLights(layerLight);
     // Transmittance steps: at most the finest density voxel (each cell's stretch is split evenly).
     const float h = std::fmax(1e-6f, ctx.volumes.minVoxelSize());
 
@@ -121,7 +152,10 @@ std::shared_ptr<const wkb::RadianceGrid> traceOrders3(const RenderContext& ctx, 
     const int perBatch = int((options.paths + batches - 1) / batches);
     const float scale = 1.0f / float(batches);  // each batch's flux is divided by its own path count
     const size_t floats = grid->data().size();
-    std::vector<std::vector<float>> partial(kPartials, std::vector<float>(floats, 0.0f));
+    // Fewer partial grids with more layers: the partials' memory stays that of kPartials one-layer
+    // grids (a fixed count for a scene: deterministic).
+    const int partials = std::max(2, kPartials / grid->layers());
+    std::vector<std::vector<float>> partial(size_t(partials), std::vector<float>(floats, 0.0f));
     std::vector<Vrl> kept;
     for (long long b = 0; b < batches; ++b) {
         if (ctx.stop.raised())
@@ -134,16 +168,16 @@ std::shared_ptr<const wkb::RadianceGrid> traceOrders3(const RenderContext& ctx, 
                 kept.back().flux = kept.back().flux * scale;
             }
         const size_t n = kept.size();
-        tbb::parallel_for(0, kPartials, [&](int p) {
-            const size_t lo = n * size_t(p) / kPartials, hi = n * size_t(p + 1) / kPartials;
+        tbb::parallel_for(0, partials, [&](int p) {
+            const size_t lo = n * size_t(p) / size_t(partials), hi = n * size_t(p + 1) / size_t(partials);
             for (size_t i = lo; i < hi; ++i) {
                 NbRng rng = nbRngStart(options.seed ^ kDepositKey, uint32_t(i), uint32_t(b));
-                deposit(ctx, *grid, kept[i], h, rng, partial[size_t(p)].data());
+                deposit(ctx, *grid, kept[i], layerOf[size_t(kept[i].light)], h, rng, partial[size_t(p)].data());
             }
         });
     }
     std::vector<float>& data = grid->data();
-    for (int p = 0; p < kPartials; ++p)
+    for (int p = 0; p < partials; ++p)
         for (size_t i = 0; i < floats; ++i)
             data[i] += partial[size_t(p)][i];
     for (int k = 0; k < kBlurPasses; ++k)

@@ -9,6 +9,7 @@
 #include "../wkb/RadianceGrid.h"
 
 #include <memory>
+#include <vector>
 
 namespace nimbus::vrl {
 
@@ -19,10 +20,16 @@ struct Orders3Options {
     // The first segment order deposited: 2 (a segment leaving the second scattering vertex) gives
     // orders 3 and up at the camera. Tests set 1 or 3 to show that a wrong order is caught.
     int firstOrder = 2;
+    // Per RenderContext::lights index: nonzero where that light's AOV is written. Where the scene's
+    // lights that reach a volume are several and some of their AOVs are written, the cache keeps
+    // one layer per such light (and one for the others, if any): RadianceGrid "Layers". Empty or
+    // all zero: one layer, all lights summed.
+    std::vector<char> perLightAovs;
 };
 
-// The grid of ctx's scene, or null where no light reaches a volume. Deterministic for a seed on
-// any thread count: the segments are split into kPartials fixed ranges, each summed in order into
+// The grid of ctx's scene, or null where no light reaches a volume. Where a single light reaches the
+// volumes its one layer is that light's (layerLight 0 = its index). Deterministic for a seed on
+// any thread count: the segments are split into a fixed number of ranges (8 over the layer count, at least 2), each summed in order into
 // its own grid, and the partial grids are added in a fixed order.
 std::shared_ptr<const wkb::RadianceGrid> traceOrders3(const RenderContext& ctx, const Orders3Options& options);
 

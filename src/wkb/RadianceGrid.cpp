@@ -4,10 +4,11 @@
 
 namespace nimbus::wkb {
 
-void RadianceGrid::init(const Bbox& box, float minCell, int maxCells)
+void RadianceGrid::init(const Bbox& box, float minCell, int maxCells, int layers)
 {
     mData.clear();
     mN[0] = mN[1] = mN[2] = 0;
+    mLayers = std::max(1, layers);
     if (box.empty())
         return;
     const float3 e = box.extent();
@@ -22,14 +23,15 @@ void RadianceGrid::init(const Bbox& box, float minCell, int maxCells)
     const float3 full = make_float3(float(mN[0]), float(mN[1]), float(mN[2])) * mCell;
     mBox.lo = box.center() - full * 0.5f;
     mBox.hi = box.center() + full * 0.5f;
-    mData.assign(cellCount() * size_t(kFloats), 0.0f);
+    mData.assign(cellCount() * size_t(floatsPerCell()), 0.0f);
 }
 
-void RadianceGrid::fetch(float3 x, float* out) const
+bool RadianceGrid::fetch(float3 x, float* out) const
 {
-    std::fill(out, out + kFloats, 0.0f);
     if (mData.empty() || !mBox.contains(x))
-        return;
+        return false;
+    const int F = floatsPerCell();
+    std::fill(out, out + F, 0.0f);
     const float3 u = (x - mBox.lo) * (1.0f / mCell) - splat(0.5f);  // cell-centred coordinates
     const float uu[3] = {u.x, u.y, u.z};
     int i0[3], i1[3];
@@ -46,40 +48,54 @@ void RadianceGrid::fetch(float3 x, float* out) const
                         (corner & 4 ? f[2] : 1.0f - f[2]);
         if (!(w > 0.0f))
             continue;
-        const float* c = mData.data() + ((size_t(iz) * size_t(mN[1]) + size_t(iy)) * size_t(mN[0]) + size_t(ix)) * kFloats;
-        for (int k = 0; k < kFloats; ++k)
+        const float* c = mData.data() + ((size_t(iz) * size_t(mN[1]) + size_t(iy)) * size_t(mN[0]) + size_t(ix)) * size_t(F);
+        for (int k = 0; k < F; ++k)
             out[k] += w * c[k];
     }
+    return true;
 }
 
-float3 RadianceGrid::inScatter(float3 x, float3 wo, const double* p) const
+bool RadianceGrid::inScatter(float3 x, float3 wo, const double* p, double (*out)[3]) const
 {
-    float L[kFloats];
-    fetch(x, L);
-    double y[kCoeffs];
+    thread_local std::vector<float> L;
+    L.resize(size_t(floatsPerCell()));
+    if (!fetch(x, L.data()))
+        return false;
+    double y[kCoeffs], f[kCoeffs];
     shEvaluate(kOrder, wo, y);
-    double s[3] = {0, 0, 0};
     for (int j = 0; j <= kOrder; ++j)
-        for (int m = -j; m <= j; ++m) {
-            const int jm = shIndex(j, m);
-            const double f = p[j] * y[jm];
+        for (int m = -j; m <= j; ++m)
+            f[shIndex(j, m)] = p[j] * y[shIndex(j, m)];
+    for (int layer = 0; layer < mLayers; ++layer) {
+        const float* Ll = L.data() + size_t(layer) * kFloats;
+        double s[3] = {0, 0, 0};
+        for (int jm = 0; jm < kCoeffs; ++jm)
             for (int c = 0; c < 3; ++c)
-                s[c] += f * double(L[3 * jm + c]);
-        }
-    return make_float3(float(s[0]), float(s[1]), float(s[2]));
+                s[c] += f[jm] * double(Ll[3 * jm + c]);
+        for (int c = 0; c < 3; ++c)
+            out[layer][c] = s[c];
+    }
+    return true;
 }
 
 float3 marchOrders3(const VolumeSet& volumes, const std::vector<NbPhase>& phases, const RadianceGrid& grid, float3 o,
-                    float3 d, float3 wo, float tFar, float seconds, float jitter, float stepFraction, float stepScale)
+                    float3 d, float3 wo, float tFar, float seconds, float jitter, float stepFraction, float stepScale,
+                    float3* perLayer)
 {
     thread_local std::vector<Span> spans;
+    thread_local std::vector<double> sums;  // [layer][rgb]
+    thread_local std::vector<double> S;     // one step's inScatter, [layer][rgb]
+    const int layers = grid.layers();
+    sums.assign(size_t(3 * layers), 0.0);
+    S.resize(size_t(3 * layers));
     thread_local std::vector<float> weights;
     thread_local std::vector<BrickGrid::Stencil> stencils;
     volumes.spansAt(seconds, o, d, 0.0f, std::min(tFar, 1e30f), stepFraction, spans);
     const size_t nv = volumes.volumes().size();
     weights.assign(nv, 0.0f);
     stencils.resize(nv);
-    double T[3] = {1, 1, 1}, L[3] = {0, 0, 0};
+    double T[3] = {1, 1, 1};
+    auto* S3 = reinterpret_cast<double(*)[3]>(S.data());
     for (const Span& sp : spans) {
         const float len = sp.t1 - sp.t0;
         if (!(len > 0.0f))
@@ -108,12 +124,12 @@ float3 marchOrders3(const VolumeSet& volumes, const std::vector<NbPhase>& phases
                 if (wsum > 0.0) {
                     for (double& pj : p)
                         pj /= wsum;
-                    const float3 S = grid.inScatter(lp, wo, p);
-                    const double s3[3] = {S.x, S.y, S.z};
                     // Not clamped here: the cache's noise makes the truncated sum dip below zero
                     // where the radiance is small, and clamping each step would bias the ray up.
-                    for (int c = 0; c < 3; ++c)
-                        L[c] += T[c] * ss[c] * s3[c] * integral[c];
+                    if (grid.inScatter(lp, wo, p, S3))
+                        for (int layer = 0; layer < layers; ++layer)
+                            for (int c = 0; c < 3; ++c)
+                                sums[size_t(3 * layer + c)] += T[c] * ss[c] * S3[layer][c] * integral[c];
                 }
             }
             for (int c = 0; c < 3; ++c)
@@ -124,8 +140,17 @@ float3 marchOrders3(const VolumeSet& volumes, const std::vector<NbPhase>& phases
         if (std::max(T[0], std::max(T[1], T[2])) < 1e-4)
             break;
     }
-    // Radiance cannot be negative: the ray's sum is clamped (a truncated sum can ring below zero).
-    return make_float3(float(std::max(0.0, L[0])), float(std::max(0.0, L[1])), float(std::max(0.0, L[2])));
+    // Radiance cannot be negative: each layer's sum along the ray is clamped (a truncated sum can
+    // ring below zero), and the total is the clamped layers' sum (so the per-light AOVs add up to it).
+    float3 total = make_float3(0, 0, 0);
+    for (int layer = 0; layer < layers; ++layer) {
+        const double* q = sums.data() + 3 * layer;
+        const float3 v = make_float3(float(std::max(0.0, q[0])), float(std::max(0.0, q[1])), float(std::max(0.0, q[2])));
+        if (perLayer)
+            perLayer[layer] = v;
+        total += v;
+    }
+    return total;
 }
 
 }  // namespace nimbus::wkb

@@ -27,6 +27,13 @@
 //
 // so forward scattering (p_1 > 0) favours radiance travelling toward the camera, y evaluated at wo
 // (tests/compare/test_wkb_orders3.cpp fails with wo flipped to d).
+//
+// Layers. A cell holds `layers` such sets, side by side ([layer][jm][rgb]): each light's own paths
+// where per-light AOVs are written (a light's layer holds its paths' deposits only; the light pass
+// already picks lights by power and divides by that probability, so each layer is an unbiased
+// estimate of its light's part and the layers sum to the one-layer cache), else one layer summing
+// every light. layerLight(k): the RenderContext::lights index whose AOV layer k feeds, or -1 (the
+// lights whose AOVs are not written, summed; or all lights).
 #pragma once
 
 #include "../../kernels/shared/phase.h"
@@ -43,11 +50,20 @@ class RadianceGrid {
 public:
     static constexpr int kOrder = 3;            // SH order j <= 3
     static constexpr int kCoeffs = 16;          // (kOrder + 1)^2
-    static constexpr int kFloats = 3 * kCoeffs;  // per cell: [jm][rgb]
+    static constexpr int kFloats = 3 * kCoeffs;  // per cell and layer: [jm][rgb]
 
     // A grid over `box` with cubic cells no smaller than `minCell` (metres) and at most `maxCells`
-    // cells along the box's longest side.
-    void init(const Bbox& box, float minCell, int maxCells);
+    // cells along the box's longest side, with `layers` layers (at least 1).
+    void init(const Bbox& box, float minCell, int maxCells, int layers = 1);
+
+    int layers() const { return mLayers; }
+    int floatsPerCell() const { return mLayers * kFloats; }  // [layer][jm][rgb]
+    // The light index (RenderContext::lights) of each layer, -1 for a layer of several lights.
+    void setLayerLights(std::vector<int> lights) { mLayerLight = std::move(lights); }
+    int layerLight(int layer) const
+    {
+        return size_t(layer) < mLayerLight.size() ? mLayerLight[size_t(layer)] : -1;
+    }
 
     bool empty() const { return mData.empty(); }
     int size(int axis) const { return mN[axis]; }
@@ -63,19 +79,23 @@ public:
     template <class F>
     void walk(float3 o, float3 d, float t0, float t1, F&& f) const;
 
-    // The kCoeffs L_jm per channel at world point x, trilinear between cell centres (clamped at the
-    // box's edge cells), into out[kFloats] ([jm][rgb]); zero outside the box.
-    void fetch(float3 x, float* out) const;
+    // The kCoeffs L_jm per channel and layer at world point x, trilinear between cell centres
+    // (clamped at the box's edge cells), into out[floatsPerCell()] ([layer][jm][rgb]); false (and
+    // nothing written) outside the box.
+    bool fetch(float3 x, float* out) const;
 
-    // sum_jm p_j L_jm(x) y_jm(wo) per channel (W / (m^2 sr)): the phase-weighted radiance arriving
-    // at x, scattered into wo; p: the phase moments p_0..p_2. Multiply by sigma_s for L_s.
-    float3 inScatter(float3 x, float3 wo, const double* p) const;
+    // sum_jm p_j L_jm(x) y_jm(wo) per channel (W / (m^2 sr)) of each layer into out[layers()]: the
+    // phase-weighted radiance arriving at x, scattered into wo; p: the phase moments p_0..p_kOrder.
+    // Multiply by sigma_s for L_s. False (out untouched) outside the box.
+    bool inScatter(float3 x, float3 wo, const double* p, double (*out)[3]) const;
 
 private:
     Bbox mBox;
     int mN[3] = {0, 0, 0};
+    int mLayers = 1;
     float mCell = 1.0f;
     std::vector<float> mData;
+    std::vector<int> mLayerLight;
 };
 
 // Orders 3 and up along the camera ray o + t d (d unit), t in [0, tFar), from `grid`:
@@ -87,11 +107,12 @@ private:
 // within it, per channel. p_j(t): the sigma_s-weighted mixture of the volumes' phase moments
 // (two-lobe phases included, nbPhaseAddMoments). wo is the direction toward the camera, -d; tests
 // pass others to show that only -d matches the path tracer. The grid is read where the frame's
-// light is (VolumeSet::sampleAt's lightPoint). Stops where T < 1e-4 in every channel; the sum is
-// clamped at 0 per channel.
+// light is (VolumeSet::sampleAt's lightPoint). Stops where T < 1e-4 in every channel; each layer's
+// sum is clamped at 0 per channel. Returns the layers' sum; perLayer (grid.layers() entries, or
+// null) gets each layer's own.
 float3 marchOrders3(const VolumeSet& volumes, const std::vector<NbPhase>& phases, const RadianceGrid& grid, float3 o,
                     float3 d, float3 wo, float tFar, float seconds, float jitter, float stepFraction,
-                    float stepScale);
+                    float stepScale, float3* perLayer = nullptr);
 
 template <class F>
 void RadianceGrid::walk(float3 o, float3 d, float t0, float t1, F&& f) const

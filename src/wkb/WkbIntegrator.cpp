@@ -410,14 +410,19 @@ void WkbIntegrator::march(float3 o, float3 d, NbRng& rng, CameraSample& out, flo
         mOrder2->add(o, d, rng, out, perLight, tFar, seconds);
     if (mOrders3) {
         // The lights' orders 3+ from the traced radiance cache, read toward the camera (-d).
+        // Each layer of the cache is one light's (its AOV gets it) or several lights' (L2plus only).
+        thread_local std::vector<float3> layers;
+        layers.resize(size_t(mOrders3->layers()));
         const float3 L3 = marchOrders3(mCtx->volumes, mPhase, *mOrders3, o, d, -d, tFar, seconds, nbRngNext(&rng),
-                                       mCtx->scene->render.step, float(kFineStepScale));
+                                       mCtx->scene->render.step, float(kFineStepScale), layers.data());
         out.L2plus += L3;
-        // The cache sums every light's paths: a light's own AOV gets them only when it is the one light.
-        if (perLight && mCtx->lights.size() == 1) {
-            perLight[0] += L3.x;
-            perLight[1] += L3.y;
-            perLight[2] += L3.z;
+        for (int k = 0; k < mOrders3->layers(); ++k) {
+            const int li = mOrders3->layerLight(k);
+            if (li >= 0 && perLight) {
+                perLight[3 * li + 0] += layers[size_t(k)].x;
+                perLight[3 * li + 1] += layers[size_t(k)].y;
+                perLight[3 * li + 2] += layers[size_t(k)].z;
+            }
         }
         if (!mKernelSources)
             return;

@@ -9,6 +9,11 @@
 // that must fail the same check: the cache read in the flipped direction (d instead of -d: the
 // Funk-Hecke sign), and a cache missing order 3 (segments from the third scattering vertex on) or
 // counting order 2 twice (from the first).
+//
+// Several lights: the cache keeps one layer per light whose AOV is written, and each light's layer
+// is held against the path tracer's orders 3+ of that light (its light_<name> AOV unbounded minus
+// at max_depth 2) with the same 5% target; the layers must sum to the one-layer cache (the same
+// deposits), and a full render's per-light AOVs must add up to its beauty less L0.
 #include "engine/Renderer.h"
 #include "render/RenderContext.h"
 #include "scene/KernelScene.h"
@@ -122,6 +127,34 @@ Reference pathTracedOrders3(Scene s, int spp)
     return {energy[0] - energy[1], std::sqrt(var)};
 }
 
+// Image means of each layer of `grid` (pixels, 4 x 4 stratified rays each), read toward
+// `flip ? d : -d`; the layers' sum is the last entry.
+std::vector<double> layerMeans(const Scene& s, const RenderContext& ctx, const wkb::RadianceGrid& grid, bool flip)
+{
+    std::vector<NbPhase> phases;
+    for (const auto& v : ctx.volumes.volumes())
+        phases.push_back(v->medium.phase);
+    const NbCamera cam = makeNbCamera(s.camera);
+    const int W = s.camera.width, H = s.camera.height, k = 4;
+    const size_t nl = size_t(grid.layers());
+    std::vector<double> sum(nl + 1, 0.0);
+    std::vector<float3> layer(nl);
+    for (int y = 0; y < H; ++y)
+        for (int x = 0; x < W; ++x)
+            for (int j = 0; j < k * k; ++j) {
+                float3 org, d;
+                nbCameraRay(cam, x + (float(j % k) + 0.5f) / k, y + (float(j / k) + 0.5f) / k, W, H, 0.0f, &org, &d);
+                const float3 L = wkb::marchOrders3(ctx.volumes, phases, grid, org, d, flip ? d : -d, INFINITY, 0.0f,
+                                                   float((j * 7 + 3) % 16) / 16.0f, s.render.step, 2.0f, layer.data());
+                for (size_t l = 0; l < nl; ++l)
+                    sum[l] += (layer[l].x + layer[l].y + layer[l].z) / 3.0;
+                sum[nl] += (L.x + L.y + L.z) / 3.0;
+            }
+    for (double& v : sum)
+        v /= double(W * H * k * k);
+    return sum;
+}
+
 // WKB's orders 3+ (the image mean over pixels, 4 x 4 stratified rays each) from a cache traced
 // with `firstOrder`, read toward `flip ? d : -d`.
 double wkbOrders3(const Scene& s, const RenderContext& ctx, int firstOrder, bool flip)
@@ -135,6 +168,7 @@ double wkbOrders3(const Scene& s, const RenderContext& ctx, int firstOrder, bool
     EXPECT_TRUE(grid);
     if (!grid)
         return 0;
+    EXPECT_EQ(grid->layers(), 1);
     std::vector<NbPhase> phases;
     for (const auto& v : ctx.volumes.volumes())
         phases.push_back(v->medium.phase);
@@ -188,4 +222,153 @@ TEST(WkbOrders3, HeterogeneousCloudMatchesThePathTracer)
 {
     const Scene s = cloudFromTheSide();
     checkScene("cloud from the side", s, true, 1024);
+}
+
+namespace {
+
+// The sphere (albedo 0.95, g 0.3) under a sun from the camera's left and a second distant light
+// from behind the camera, half the sun's irradiance: the two lights' parts differ in size and in
+// where they are. (Both distant: a point light's paths mostly miss a small volume, and its layer
+// would need many more paths than the default to test 5%.)
+Scene twoLights()
+{
+    Scene s = baseScene(make_float3(0.0f, 0.3f, -4.0f), make_float3(1.0f, -0.3f, 0.2f));
+    Light moon;
+    moon.name = "moon";
+    moon.type = LightType::Distant;
+    moon.direction = normalize(make_float3(-0.4f, -0.5f, 1.0f));
+    moon.irradiance = splat(1.5f);
+    s.lights.push_back(moon);
+    Volume v;
+    v.name = "sphere";
+    v.source.type = SourceType::Procedural;
+    v.source.generator = "sphere";
+    v.source.params = {{"radius", 1.0}, {"voxel_size", 0.05}, {"falloff", 0.05}};
+    const float sigmaT = 2.0f, albedo = 0.95f;
+    v.medium.sigma_s = splat(sigmaT * albedo);
+    v.medium.sigma_a = splat(sigmaT * (1 - albedo));
+    v.medium.phase = NbPhase{0.3f, 0, 0, 0};
+    s.volumes.push_back(v);
+    return s;
+}
+
+}  // namespace
+
+TEST(WkbOrders3, PerLightLayersMatchEachLightsPathTracedOrders3)
+{
+    const Scene s = twoLights();
+    // The path tracer's orders 3+ per light: light_<name> unbounded minus at max_depth 2.
+    useTempKernelCache();
+    Scene pt = s;
+    pt.render.method = Method::Pathtrace;
+    pt.render.spp = 4096;
+    double ref[2][2] = {{0, 0}, {0, 0}}, var = 0;  // [depth run][light]
+    for (int k = 0; k < 2; ++k) {
+        pt.render.maxDepth = k == 0 ? 0 : 2;
+        pt.render.seed = 21 + uint32_t(k);
+        const RenderResult r = render(pt);
+        const Aov* v = r.film.find("variance");
+        ASSERT_TRUE(v);
+        const size_t n = size_t(r.film.width * r.film.height);
+        for (int l = 0; l < 2; ++l) {
+            const Aov* a = r.film.find(l == 0 ? "light_sun" : "light_moon");
+            ASSERT_TRUE(a);
+            for (size_t i = 0; i < n; ++i)
+                ref[k][l] += channelMean(*a, i) / double(n);
+        }
+        for (size_t i = 0; i < n; ++i)
+            var += v->pixels[i] / double(n) / double(n);  // the beauty's variance bounds each light's
+    }
+    const double se = std::sqrt(var);
+    const double refOrders3[2] = {ref[0][0] - ref[1][0], ref[0][1] - ref[1][1]};
+
+    const auto ctx = RenderContext::create(s, true);
+    vrl::Orders3Options o;
+    o.paths = s.render.wkbOrders3Paths;
+    o.maxCells = s.render.wkbOrders3Grid;
+    o.seed = 5;
+    const auto summed = vrl::traceOrders3(*ctx, o);
+    o.perLightAovs = {1, 1};
+    const auto perLight = vrl::traceOrders3(*ctx, o);
+    ASSERT_TRUE(summed && perLight);
+    ASSERT_EQ(summed->layers(), 1);
+    EXPECT_EQ(summed->layerLight(0), -1);
+    ASSERT_EQ(perLight->layers(), 2);
+    // The layers hold the same deposits as the one-layer cache, split by light.
+    {
+        const auto& a = summed->data();
+        const auto& b = perLight->data();
+        const size_t F = wkb::RadianceGrid::kFloats;
+        ASSERT_EQ(b.size(), 2 * a.size());
+        double worst = 0, scale = 0;
+        for (size_t c = 0; c < summed->cellCount(); ++c)
+            for (size_t k = 0; k < F; ++k) {
+                const double one = a[c * F + k], two = double(b[c * 2 * F + k]) + double(b[c * 2 * F + F + k]);
+                worst = std::max(worst, std::fabs(one - two));
+                scale = std::max(scale, std::fabs(one));
+            }
+        EXPECT_LT(worst, 1e-4 * scale) << "the layers do not sum to the one-layer cache";
+    }
+    const std::vector<double> m = layerMeans(s, *ctx, *perLight, false);
+    for (int layer = 0; layer < 2; ++layer) {
+        const int li = perLight->layerLight(layer);
+        ASSERT_TRUE(li == 0 || li == 1);
+        const double r = refOrders3[li];
+        ASSERT_GT(r, 0.0);
+        ASSERT_LT(se, 0.2 * kEnergyTarget * r) << "the reference is too noisy to test 5% for light " << li;
+        const double rel = (m[size_t(layer)] - r) / r;
+        // A cache that gave one light the other's (or the sum) is far off: the lights differ by a third or more.
+        const double swapped = (m[size_t(1 - layer)] - r) / r;
+        std::printf("light %d: orders 3+ path tracer %.5f +- %.5f; its layer %+.3f, the other's %+.3f (relative)\n",
+                    li, r, se, rel, swapped);
+        EXPECT_LT(std::fabs(rel), kEnergyTarget) << "light " << li;
+        EXPECT_GT(std::fabs(swapped), kEnergyTarget) << "light " << li << ": the other light's layer passes";
+    }
+}
+
+TEST(WkbOrders3, PerLightAovsAddUpToTheBeautyAndOneLayerWhereNoneIsWritten)
+{
+    Scene s = twoLights();
+    useTempKernelCache();
+    s.render.method = Method::Wkb;
+    s.render.wkbOrders3 = WkbOrders3::Traced;
+    s.render.spp = 1;
+    s.camera.width = s.camera.height = 24;
+    const RenderResult r = render(s);
+    const Aov* beauty = r.film.find("beauty");
+    const Aov* L0 = r.film.find("L0");
+    const Aov* L2 = r.film.find("L2plus");
+    const Aov* sun = r.film.find("light_sun");
+    const Aov* moon = r.film.find("light_moon");
+    ASSERT_TRUE(beauty && L0 && L2 && sun && moon);
+    // No emission: every radiance term past L0 is some light's, so the light AOVs add up to beauty - L0.
+    const size_t n = size_t(r.film.width * r.film.height);
+    double worst = 0, peak = 0, l2 = 0;
+    for (size_t i = 0; i < n; ++i)
+        for (int c = 0; c < 3; ++c) {
+            const double want = double(beauty->pixels[4 * i + size_t(c)]) - double(L0->pixels[3 * i + size_t(c)]);
+            const double got = double(sun->pixels[3 * i + size_t(c)]) + double(moon->pixels[3 * i + size_t(c)]);
+            worst = std::max(worst, std::fabs(want - got));
+            peak = std::max(peak, std::fabs(want));
+            l2 += L2->pixels[3 * i + size_t(c)];
+        }
+    ASSERT_GT(l2, 0.0);
+    EXPECT_LT(worst, 1e-4 * peak) << "the per-light AOVs do not add up to beauty - L0";
+
+    // Only the beauty written (the CLI's film): the cache keeps one summed layer.
+    const auto ctx = RenderContext::create(s, true);
+    vrl::Orders3Options o;
+    o.paths = 4096;
+    o.maxCells = 16;
+    o.perLightAovs = {0, 0};
+    const auto none = vrl::traceOrders3(*ctx, o);
+    ASSERT_TRUE(none);
+    EXPECT_EQ(none->layers(), 1);
+    // One light's AOV written: its layer and one for the other light.
+    o.perLightAovs = {0, 1};
+    const auto one = vrl::traceOrders3(*ctx, o);
+    ASSERT_TRUE(one);
+    ASSERT_EQ(one->layers(), 2);
+    EXPECT_EQ(one->layerLight(0), 1);
+    EXPECT_EQ(one->layerLight(1), -1);
 }
