@@ -77,7 +77,11 @@ void bakeOwnPoints(const DeepShadowMap& map, const Transform& worldFromIndex, In
                 for (int y = 0; y < kB; ++y) {
                     const float3 row = a0 + ty * float(y) + tz * float(z);
                     float* out = values + (z * kS + y) * kS;
-                    if (map.hasPenumbra()) {
+                    // The penumbra's radius grows with depth: where a row's deeper end is under the
+                    // filter's threshold, the row takes the unfiltered lookups (eight at once).
+                    const float zEnd = std::max(row.z, row.z + tx.z * float(kB - 1));
+                    const float rEnd = map.penumbraTexels(map.hasMarchSamples() ? zEnd * map.marchSampleStep() : zEnd);
+                    if (rEnd >= DeepShadowMap::kPenumbraMinTexels) {
                         for (int x = 0; x < kB; ++x) {
                             const float3 q = row + tx * float(x);
                             out[x] = greyTexelDepth(map, q.x, q.y, q.z, cursor);
