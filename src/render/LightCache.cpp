@@ -29,7 +29,8 @@ inline void store(float* values, int n, int channels, Rgb tau)
 float greyTexelDepth(const DeepShadowMap& map, float fx, float fy, float zq, DeepShadowMap::Cursor& cursor)
 {
     auto at = [&](float x, float y) {
-        return map.hasMarchSamples() ? map.greyMarchedDepthTexel(x, y, zq) : map.greyOpticalDepthTexel(x, y, zq, cursor);
+        return map.hasMarchSamples() ? map.greyMarchedDepthTexel(x, y, zq)
+                                     : map.greyOpticalDepthTexel(x, y, zq, cursor);
     };
     const float r = map.penumbraTexels(map.hasMarchSamples() ? zq * map.marchSampleStep() : zq);
     if (!(r >= DeepShadowMap::kPenumbraMinTexels))

@@ -2,17 +2,18 @@
 // average the transmittance over a disc whose radius grows with depth) against the path tracer,
 // which samples the sun's disc exactly (light.h: a cone of directions).
 //
-// The scene: a long absorbing bar (tau 3.6 through its 6 cm) 0.9 m above a thin scattering layer,
-// under a sun straight overhead with a 4 degree disc; the camera looks obliquely at the layer,
-// where the bar's shadow has a penumbra of about (0.85 m x tan 2 deg) = 3 cm on each side of its
-// edges (the map's texels are 1.5 cm). Pixels whose L1 differs between the path tracer and a hard
-// sun (the same scene with angle 0) by more than 4 standard errors are the penumbra.
+// The scene: a long absorbing bar (tau 3.6 through its 6 cm) 1.5 m above a thin scattering layer,
+// under a sun straight overhead with a 5 degree disc; the camera (fov 10) looks obliquely at the
+// edge of the bar's shadow, which has a penumbra of about (1.45 m x tan 2.5 deg) = 6 cm on each
+// side (the map's texels are 1.5 cm, the pixels about 0.6 cm on the layer). Pixels whose L1
+// differs between the path tracer and a hard sun (the same scene with angle 0) by more than 4
+// standard errors are the penumbra.
 //
 // Accepted: single's L1 (filtered map) has the path tracer's energy within 2% over the image (the
 // filter moves light across the edge, it must not create or lose it), and over the penumbra a
 // smaller root-mean-square error against the path tracer than the hard sun's render: the edge is
 // softened towards the exact one. The filter's radius is an approximation (half the depth below
-// the map's plane times the slope: 1.6 cm here against the exact 3 cm), so it is not asserted to
+// the map's plane times the slope: 3.3 cm here against the exact 6 cm), so it is not asserted to
 // reproduce the exact penumbra; docs/single-scattering.md gives the figures.
 #include "engine/Renderer.h"
 
@@ -94,7 +95,8 @@ TEST(SoftSun, FilteredPenumbraKeepsTheEnergyAndSoftensTowardsThePathTracer)
     s.render.method = Method::Single;
     s.render.spp = 16;
     const RenderResult soft = render(s);
-    ASSERT_TRUE(soft.plan.lights.size() == 1 && soft.plan.lights[0].shadowMap) << "the 4 degree sun is not shadow-mapped";
+    ASSERT_TRUE(soft.plan.lights.size() == 1 && soft.plan.lights[0].shadowMap)
+        << "the 5 degree sun is not shadow-mapped";
     const std::vector<double> filtered = l1(soft);
     Scene h = barOverLayer(0.0f);
     h.render.method = Method::Single;
