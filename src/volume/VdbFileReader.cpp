@@ -8,8 +8,10 @@
 #include <openvdb/io/DelayedLoadMetadata.h>
 #include <openvdb/io/File.h>
 #include <openvdb/io/io.h>
+#include <openvdb/points/StreamCompression.h>
 #include <openvdb/openvdb.h>
 
+#include <algorithm>
 #include <stdexcept>
 #include <type_traits>
 
@@ -348,7 +350,8 @@ void VdbFileReader::checkMetadataValue(uint64_t at, uint32_t size, const std::st
 // The delayed-load table OpenVDB writes beside a grid's metadata (io/DelayedLoadMetadata.cc): a
 // leaf count, then a per-leaf mask of int8 and optionally per-leaf sizes of int64, each either raw
 // (a zero word, then count values) or one Blosc block (its byte count, then the block; Blosc's
-// header states the bytes it unpacks to, which OpenVDB reserves). The sizes' word is 0xffffffff
+// header states the bytes it unpacks to, which OpenVDB reserves: the array's, or 128 for a shorter
+// array, which OpenVDB pads before packing). The sizes' word is 0xffffffff
 // where there are none. OpenVDB allocates each count and block before it reads it, and reads on
 // past `size` where the table claims more.
 void VdbFileReader::checkDelayedLoadTable(uint64_t at, uint32_t size, const std::string& entry)
@@ -390,11 +393,14 @@ void VdbFileReader::checkDelayedLoadTable(uint64_t at, uint32_t size, const std:
             return uint32_t(header[i]) | uint32_t(header[i + 1]) << 8 | uint32_t(header[i + 2]) << 16 |
                    uint32_t(header[i + 3]) << 24;
         };
+        // OpenVDB pads an array shorter than 128 bytes to 128 before Blosc packs it
+        // (points/StreamCompression.h, BLOSC_PAD_BYTES).
+        const uint64_t padded = std::max<uint64_t>(unpacked, openvdb::compression::BLOSC_PAD_BYTES);
         const uint32_t claims = headerWord(4), packed = headerWord(12);
-        if (claims != unpacked || packed < 16 || packed > stored)
+        if (claims != padded || packed < 16 || packed > stored)
             throw std::runtime_error(entry + ": its " + field + " is a Blosc block claiming " + bytes(packed) +
                                      " compressed to " + bytes(claims) + " where " + std::to_string(count) +
-                                     " leaves take " + bytes(unpacked) + " (damaged)");
+                                     " leaves take " + bytes(padded) + " (damaged)");
         pos += stored;
     };
     array(word("mask block size"), sizeof(openvdb::io::DelayedLoadMetadata::MaskType), "leaf mask");

@@ -576,6 +576,20 @@ TEST(VdbFileReader, MetadataValuesAreCheckedAsOpenVdbReadsThem)
         openvdb::GridBase::Ptr read = reader.readGrid("density");
         EXPECT_EQ(openvdb::gridPtrCast<FloatGrid>(read)->tree().leafCount(), 3000u);
     }
+    for (int leaves : {1, 50, 110, 200}) {  // tables OpenVDB stores raw, or pads to 128 bytes and packs
+        FloatGrid::Ptr small = floatGrid("density");
+        for (int i = 0; i < leaves; ++i)
+            small->tree().setValueOn(Coord(8 * i, 0, 0), 1.0f);
+        const std::string path = dir / "small.vdb";
+        openvdb::io::File file(path);
+        file.setCompression(openvdb::io::COMPRESS_BLOSC | openvdb::io::COMPRESS_ACTIVE_MASK);
+        file.write({small});
+        file.close();
+        VdbFileReader reader(path);
+        openvdb::GridBase::Ptr read;
+        ASSERT_NO_THROW(read = reader.readGrid("density")) << leaves;
+        EXPECT_EQ(openvdb::gridPtrCast<FloatGrid>(read)->tree().leafCount(), openvdb::Index64(leaves));
+    }
     auto u32 = [&](size_t at) {
         uint32_t v;
         std::memcpy(&v, &data[at], 4);
