@@ -28,6 +28,23 @@ std::string bytes(uint64_t n)
 }
 
 
+// Blosc's header (blosc.h), the 16 bytes at the stream's position: version, flags and type size,
+// then the uncompressed size, the block size and the compressed size, each 32 bits little-endian.
+struct BloscSizes {
+    uint32_t unpacked, packed;
+};
+
+BloscSizes readBloscHeader(std::istream& is)
+{
+    unsigned char header[16];
+    is.read(reinterpret_cast<char*>(header), sizeof header);
+    auto word = [&](int i) {
+        return uint32_t(header[i]) | uint32_t(header[i + 1]) << 8 | uint32_t(header[i + 2]) << 16 |
+               uint32_t(header[i + 3]) << 24;
+    };
+    return {word(4), word(12)};
+}
+
 // The grid types whose trees BlockCheck walks: every type openvdb::initialize() registers but
 // the point grids (their leaves read attribute arrays of their own layout; nimbus reads none).
 using CheckedGridTypes = openvdb::TypeList<openvdb::FloatGrid, openvdb::DoubleGrid, openvdb::Int32Grid,
@@ -200,19 +217,11 @@ private:
         }
         need(uint64_t(stated), "compressed block");
         if (blosc) {
-            // Blosc's header (blosc.h): version, flags and type size, then the uncompressed size,
-            // the block size and the compressed size, each 32 bits little-endian.
             if (stated < 16) {
                 mPos = at;
                 damaged("a Blosc block of " + bytes(uint64_t(stated)) + ", shorter than its header");
             }
-            unsigned char header[16];
-            mIs.read(reinterpret_cast<char*>(header), sizeof header);
-            auto word = [&](int i) {
-                return uint32_t(header[i]) | uint32_t(header[i + 1]) << 8 | uint32_t(header[i + 2]) << 16 |
-                       uint32_t(header[i + 3]) << 24;
-            };
-            const uint32_t unpacked = word(4), packed = word(12);
+            const auto [unpacked, packed] = readBloscHeader(mIs);
             if (unpacked != size || packed < 16 || packed > uint64_t(stated)) {
                 mPos = at;
                 damaged("a Blosc block of " + bytes(uint64_t(stated)) + " claims " + bytes(packed) +
@@ -386,17 +395,11 @@ void VdbFileReader::checkDelayedLoadTable(uint64_t at, uint32_t size, const std:
         if (stored < 16 || stored > end - pos)
             throw std::runtime_error(entry + ": its " + field + " is a Blosc block of " + bytes(stored) + " where " +
                                      bytes(end - pos) + " are left (damaged)");
-        unsigned char header[16];
         mStream.seekg(std::streamoff(pos));
-        mStream.read(reinterpret_cast<char*>(header), sizeof header);
-        auto headerWord = [&](int i) {
-            return uint32_t(header[i]) | uint32_t(header[i + 1]) << 8 | uint32_t(header[i + 2]) << 16 |
-                   uint32_t(header[i + 3]) << 24;
-        };
         // OpenVDB pads an array shorter than 128 bytes to 128 before Blosc packs it
         // (points/StreamCompression.h, BLOSC_PAD_BYTES).
         const uint64_t padded = std::max<uint64_t>(unpacked, openvdb::compression::BLOSC_PAD_BYTES);
-        const uint32_t claims = headerWord(4), packed = headerWord(12);
+        const auto [claims, packed] = readBloscHeader(mStream);
         if (claims != padded || packed < 16 || packed > stored)
             throw std::runtime_error(entry + ": its " + field + " is a Blosc block claiming " + bytes(packed) +
                                      " compressed to " + bytes(claims) + " where " + std::to_string(count) +

@@ -392,6 +392,18 @@ std::string readBytes(const std::string& path)
     return std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
 }
 
+// VdbFileReader's message for the file, or "" where the grid reads.
+std::string readError(const std::string& path, const std::string& grid)
+{
+    try {
+        VdbFileReader reader(path);
+        reader.readGrid(grid);
+    } catch (const std::exception& e) {
+        return e.what();
+    }
+    return "";
+}
+
 }  // namespace
 
 TEST(VdbFileReader, ReadsEveryCompressionAndGridTypeAsOpenVdbDoes)
@@ -533,13 +545,7 @@ TEST(VdbFileReader, DamagedCompressedBlocksAreRefusedBeforeOpenVdbReadsThem)
             std::memcpy(&bad[d.at], &d.value, d.width);
             const std::string path = dir / "bad.vdb";
             writeText(path, bad);
-            std::string message;
-            try {
-                VdbFileReader reader(path);
-                reader.readGrid("density");
-            } catch (const std::exception& e) {
-                message = e.what();
-            }
+            const std::string message = readError(path, "density");
             EXPECT_NE(message.find("grid 'density'"), std::string::npos) << message;
             EXPECT_NE(message.find("block"), std::string::npos) << message;
             EXPECT_NE(message.find("(damaged)"), std::string::npos) << message;
@@ -632,13 +638,7 @@ TEST(VdbFileReader, MetadataValuesAreCheckedAsOpenVdbReadsThem)
         bad.replace(d.at, d.bytes.size(), d.bytes);
         const std::string path = dir / "bad.vdb";
         writeText(path, bad);
-        std::string message;
-        try {
-            VdbFileReader reader(path);
-            reader.readGrid("density");
-        } catch (const std::exception& e) {
-            message = e.what();
-        }
+        const std::string message = readError(path, "density");
         EXPECT_NE(message.find("grid 'density'"), std::string::npos) << message;
         EXPECT_NE(message.find(d.expect), std::string::npos) << message;
         EXPECT_NE(message.find("(damaged)"), std::string::npos) << message;
