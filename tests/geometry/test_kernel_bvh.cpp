@@ -4,6 +4,7 @@
 // build of the traversal and through the same code compiled for the OpenCL device; the flattened
 // tree's invariants; the shared structs' layout as the device compiler sees it; spheres and
 // infinite planes against the host's analytic distances; the flags choosing which rays see what.
+#include "../TestDir.h"
 #include "TorusMesh.h"
 
 #include "../../kernels/shared/light.h"

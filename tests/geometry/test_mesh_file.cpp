@@ -1,6 +1,7 @@
 // MeshFile (Assimp) on OBJ and PLY files written here, and every bad-input case of issue 14:
 // a missing or malformed mesh, a mesh with no triangles, NaN vertices, each one InputError
 // naming the file and the key.
+#include "../TestDir.h"
 #include "../io/TempDir.h"
 #include "TorusMesh.h"
 

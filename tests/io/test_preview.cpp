@@ -1,3 +1,4 @@
+#include "../TestDir.h"
 #include "io/Preview.h"
 
 #include "TempDir.h"
@@ -16,7 +17,7 @@ using namespace nimbus;
 
 namespace {
 
-const std::string kShippedConfig = NIMBUS_TEST_DIR "/../../src/io/ocio/config.ocio";
+const std::string kShippedConfig = std::string(NIMBUS_TEST_DIR) + "/../../src/io/ocio/config.ocio";
 
 // The shipped config explicitly, so a developer's $OCIO does not change what these tests check.
 PreviewOptions shipped(const std::string& view = "", float exposure = 0.0f)

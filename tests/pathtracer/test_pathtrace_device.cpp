@@ -2,6 +2,7 @@
 // chi-square test of HG and two-lobe HG sampling run inside a kernel, and the OpenCL port of the
 // brick grid against BrickGrid. Also the OpenCL plumbing: device selection errors, build
 // errors reported in one line, and the binary cache.
+#include "../TestDir.h"
 #include "PtWorld.h"
 
 #include "../../kernels/shared/brickgrid.h"

@@ -1,6 +1,7 @@
 // Environment maps (kernels/shared/envmap.h, src/render/EnvironmentMap.h): the lat-long
 // orientation, the sampler against its pdf (chi-square, STYLE rule 13), the pdf against the
 // map's luminance times sin(theta), and the loader's errors.
+#include "../TestDir.h"
 #include "render/EnvironmentMap.h"
 
 #include "core/Error.h"

@@ -1,4 +1,5 @@
 // The embedded default scene: valid, what the brief promises, and equal to its documented JSON.
+#include "../TestDir.h"
 #include "SceneCompare.h"
 
 #include "scene/DefaultScene.h"

@@ -1,4 +1,5 @@
 // Reading, writing and round-tripping the JSON scene format (docs/scene-format.md).
+#include "../TestDir.h"
 #include "SceneCompare.h"
 
 #include "core/Error.h"

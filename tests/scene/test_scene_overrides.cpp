@@ -1,4 +1,5 @@
 // The CLI's --set key.path=value, applied before parsing.
+#include "../TestDir.h"
 #include "core/Error.h"
 #include "scene/SceneJson.h"
 
