@@ -115,7 +115,8 @@ void expectFiniteNonNegativeBounded(const Film& film, double bound, const std::s
 
 // A RenderContext built by hand around hand-made volumes (no loader), as RenderContext::create
 // would for delta lights, with the plan's wkb part made by planWkb as the engine's planning pass
-// makes it.
+// makes it. The WkbIntegrator built on it has no traced radiance cache: the scene must say
+// `wkb_orders3` kernel, what these tests check.
 struct HandContext {
     std::unique_ptr<RenderContext> ctx;
     RenderPlan plan;
@@ -126,6 +127,7 @@ struct HandContext {
 
 HandContext handContext(const Scene& scene, std::vector<std::shared_ptr<VolumeData>> vols)
 {
+    EXPECT_EQ(scene.render.wkbOrders3, WkbOrders3::Kernel) << "handContext builds the kernel's orders 3+";
     HandContext hc;
     hc.ctx = std::make_unique<RenderContext>();
     RenderContext* ctx = hc.ctx.get();
@@ -272,6 +274,9 @@ TEST_P(WkbStability, FiniteNonNegativeBounded)
         s.lights.push_back(sun(make_float3(0.3f, -1, 0.2f), 1.0f));
     }
     s.render.wkbKernel = c.kernel == wkb::KernelType::Gaussian ? WkbKernel::Gaussian : WkbKernel::Exact;
+    // The bound is derived for the kernel's L2+ (weights times angular factors times irradiance):
+    // orders 3+ by the kernel, not the traced cache (the default).
+    s.render.wkbOrders3 = WkbOrders3::Kernel;
     RenderResult r = render(s);
     if (c.pointLightInside) {  // E <= I / r_min^2, r_min = half a light voxel (LightVolumes::deltaE)
         double rMin = 0.5 * c.voxel * std::max(1, r.plan.volumes[0].lightVoxelFactor);
@@ -356,6 +361,7 @@ TEST(WkbStability, MillimetreAndKilometreRenderTheMetreImage)
 TEST(WkbStabilityGrid, DensitiesSpanningTwelveDecades)
 {
     Scene s = baseScene(12, 12, make_float3(0.2f, 0.3f, 4), make_float3(0.5f, 0.5f, 0.5f), 40);
+    s.render.wkbOrders3 = WkbOrders3::Kernel;  // the bound below is the kernel's
     s.lights.push_back(sun(make_float3(0.3f, -1, 0.2f), 1.0f));
     Medium m;
     m.sigma_s = splat(0.99f);
@@ -383,6 +389,7 @@ TEST(WkbStabilityGrid, DensitiesSpanningTwelveDecades)
 TEST(WkbStabilityGrid, SingleActiveVoxelAndEmptyGrid)
 {
     Scene s = baseScene(12, 12, make_float3(0.1f, 0.2f, 0.8f), make_float3(0, 0, 0), 60);
+    s.render.wkbOrders3 = WkbOrders3::Kernel;  // the bound below is the kernel's
     s.lights.push_back(sun(make_float3(0.3f, -1, 0.2f), 1.0f));
     Medium m;
     m.sigma_s = splat(50.0f);
@@ -534,6 +541,7 @@ TEST(WkbSources, EnvironmentLightProjectsToSh)
     env.radiance = make_float3(1.0f, 2.0f, 3.0f);
     s.lights.push_back(env);
     s.render.wkbShOrderMax = 1;
+    s.render.wkbOrders3 = WkbOrders3::Kernel;  // the kernel's SH light volume is what is checked
     Medium m;
     m.sigma_s = splat(0.1f);
     m.phase = NbPhase{0.6f, 0, 0, 0};  // p_1 != 0, so that order 1 is worth keeping
@@ -579,6 +587,7 @@ TEST(WkbSources, EmissionFeedsL2plusDeepInsideAMedium)
     const int n = 48;
     const float voxel = 1.0f / n, c = 60.0f, omega = 0.5f, S = 2.0f;  // optical half-width 30
     Scene s = baseScene(4, 4, make_float3(0.5f, 0.5f, 0.5f), make_float3(0.5f, 0.5f, 1.0f), 10);
+    s.render.wkbOrders3 = WkbOrders3::Kernel;  // handContext's (emission keeps the kernel either way)
     Medium m;
     m.sigma_s = splat(omega * c);
     m.sigma_a = splat((1 - omega) * c);
