@@ -36,7 +36,9 @@ IntegratorEntry wkbEntry()
                   RenderStats& stats) -> std::unique_ptr<Integrator> {
         std::shared_ptr<const wkb::RadianceGrid> orders3;
         const RenderSettings& rs = ctx.scene->render;
-        if (rs.wkbOrders3 == WkbOrders3::Traced) {
+        // Not where the plan has no L2+ (an optically thin scene, no volume): nothing would read it.
+        const auto* setup = dynamic_cast<const wkb::WkbSetup*>(plan.integrator.get());
+        if (rs.wkbOrders3 == WkbOrders3::Traced && setup && setup->active) {
             // The traced radiance cache of orders 3+ (docs/wkb.md), from the VRL light pass.
             const auto start = std::chrono::steady_clock::now();
             vrl::Orders3Options o;

@@ -97,8 +97,13 @@ WkbSetup planWkb(const RenderContext& ctx, RenderPlan& plan)
     wp.kernel = setup.kernel == KernelType::Gaussian ? "gaussian phase (e^l - 1) A_j(l)"
                                                      : "exact infinite medium e^{l p_j} - 1";
     wp.source = setup.randomWalk ? "random walk (mean displacement, walk variance)" : "straight line (sec. 6.3.6)";
-    if (setup.tracedOrder2)
+    const bool tracedOrders3 = rs.wkbOrders3 == WkbOrders3::Traced;
+    if (setup.tracedOrder2 && tracedOrders3)
+        wp.kernel += "; order 2 traced, orders 3+ from the traced radiance cache, the kernel for emission";
+    else if (setup.tracedOrder2)
         wp.kernel += "; order 2 traced, the kernel from order 3";
+    else if (tracedOrders3)
+        wp.kernel += "; the kernel for order 2, orders 3+ from the traced radiance cache";
     wp.blurK = setup.blurK;
     wp.lStep = setup.lStep;
     wp.orderCap = setup.orderCap;

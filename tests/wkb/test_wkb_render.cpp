@@ -423,10 +423,44 @@ TEST(WkbRender, ThinSceneSkipsL2plusWithItsBound)
     s.volumes.push_back(
         proceduralVolume("sphere", {{"radius", 1.0}, {"voxel_size", 0.1}}, splat(1e-3f), splat(0.0f), 0.0f));
     s.lights.push_back(sun(make_float3(0, -1, 0), 1.0f));
+    ASSERT_EQ(s.render.wkbOrders3, WkbOrders3::Traced) << "the default";
     RenderResult r = render(s);
     EXPECT_FALSE(r.plan.wkb.l2plus);
     EXPECT_LT(r.plan.wkb.l2plusBound, s.render.tolerance);
     EXPECT_EQ(mean(aov(r.film, "L2plus")), 0.0);
+    // Nor is the traced orders-3+ cache built: nothing would read it.
+    for (const auto& stage : r.stats.stageSeconds)
+        EXPECT_EQ(stage.first.find("orders 3+"), std::string::npos) << stage.first;
+}
+
+// Every pairing of the two traced parts of the lights' L2+ with the kernel (render.wkb_order2 x
+// render.wkb_orders3) counts each order once. Writing K2, K3 for the kernel's order 2 and orders 3+,
+// T2 for traced order 2 and C3 for the cache's orders 3+: (kernel, kernel) = K2 + K3, (traced,
+// kernel) = T2 + K3, (traced, traced) = T2 + C3, (kernel, traced) = K2 + C3, so (kernel, traced) +
+// (traced, kernel) = (kernel, kernel) + (traced, traced) exactly in expectation. The image means
+// differ only by where each march's jitter falls (the four draw their numbers in different
+// orders): held to 1% of L2+. Dropping the kernel's order 2 in (kernel, traced), which the l-march
+// did before the kernel kept its N = 1 term alone there, misses by K2 (printed: 30-40% of L2+).
+TEST(WkbRender, EveryOrder2AndOrders3PairingCountsEachOrderOnce)
+{
+    double L2[2][2];  // [order 2 traced][orders 3+ traced]
+    for (int o2 = 0; o2 < 2; ++o2)
+        for (int o3 = 0; o3 < 2; ++o3) {
+            Scene s = baseScene(32, 24, make_float3(0.4f, 0.3f, 5), make_float3(0, 0, 0), 30);
+            s.volumes.push_back(proceduralVolume("sphere", {{"radius", 1.0}, {"voxel_size", 1.0 / 20}}, splat(3.0f),
+                                                 splat(0.03f), 0.5f));
+            s.lights.push_back(sun(make_float3(0.4f, -1, -0.3f), 2.0f));
+            s.render.spp = 4;
+            s.render.wkbOrder2 = o2 ? WkbOrder2::Traced : WkbOrder2::Kernel;
+            s.render.wkbOrders3 = o3 ? WkbOrders3::Traced : WkbOrders3::Kernel;
+            L2[o2][o3] = mean(aov(render(s).film, "L2plus"));
+        }
+    const double kernel2 = L2[0][0] - L2[1][0];  // K2 - T2, from the kernel's orders 3+
+    std::printf("L2plus means: kernel/kernel %.5f traced/kernel %.5f kernel/traced %.5f traced/traced %.5f; "
+                "K2 - T2 %.5f\n",
+                L2[0][0], L2[1][0], L2[0][1], L2[1][1], kernel2);
+    EXPECT_GT(L2[1][1], 0.0);
+    EXPECT_NEAR(L2[0][1] + L2[1][0], L2[0][0] + L2[1][1], 0.01 * L2[0][0]);
 }
 
 // Energy balance (issue 13, item 6: a closed form, not a one-sided bound): a homogeneous sphere of
