@@ -25,6 +25,7 @@
 #include "../render/RenderContext.h"
 #include "../scene/SceneValidate.h"
 #include "../vrl/Orders3Grid.h"
+#include "../wkb/WkbPlanner.h"
 
 #include "../core/FormatBytes.h"
 
@@ -177,7 +178,8 @@ MemoryPlan estimateMemory(const Scene& scene, const RenderContext& ctx, const Re
     }
     if (plan.wkb.enabled)
         m.items.push_back({"light pyramids", plan.wkb.pyramidBytes});
-    if (plan.wkb.l2plus && r.wkbOrders3 == WkbOrders3::Traced) {  // IntegratorRegistry.cpp builds it then
+    const auto* wkbSetup = dynamic_cast<const wkb::WkbSetup*>(plan.integrator.get());
+    if (wkbSetup && wkbSetup->active && wkbSetup->tracedOrders3) {  // IntegratorRegistry.cpp builds it then
         vrl::Orders3Options o;
         o.paths = r.wkbOrders3Paths;
         o.maxCells = r.wkbOrders3Grid;

@@ -97,7 +97,18 @@ WkbSetup planWkb(const RenderContext& ctx, RenderPlan& plan)
     wp.kernel = setup.kernel == KernelType::Gaussian ? "gaussian phase (e^l - 1) A_j(l)"
                                                      : "exact infinite medium e^{l p_j} - 1";
     wp.source = setup.randomWalk ? "random walk (mean displacement, walk variance)" : "straight line (sec. 6.3.6)";
-    const bool tracedOrders3 = rs.wkbOrders3 == WkbOrders3::Traced;
+    // The traced cache's reach: the optical depth of the densest voxel (VolumeData::voxelSize, the
+    // smallest edge) at the largest extinction of any channel.
+    double depthPerVoxel = 0.0;
+    for (const auto& v : ctx.volumes.volumes())
+        depthPerVoxel = std::max(depthPerVoxel, double(nbMaxComponent(v->sigmaT())) * double(v->density.maxValue()) *
+                                                    double(v->voxelSize));
+    setup.tracedOrders3 = rs.wkbOrders3 == WkbOrders3::Traced && !(depthPerVoxel > kTracedOrders3MaxDepth);
+    if (rs.wkbOrders3 == WkbOrders3::Traced && !setup.tracedOrders3)
+        plan.notes.push_back(fmt("wkb: orders 3+ by the kernel, not traced: optical depth %.3g per voxel, over the "
+                                 "traced cache's %.0f",
+                                 depthPerVoxel, kTracedOrders3MaxDepth));
+    const bool tracedOrders3 = setup.tracedOrders3;
     if (setup.tracedOrder2 && tracedOrders3)
         wp.kernel += "; order 2 traced, orders 3+ from the traced radiance cache, the kernel for emission";
     else if (setup.tracedOrder2)

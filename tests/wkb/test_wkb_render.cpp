@@ -438,6 +438,44 @@ TEST(WkbRender, ThinSceneSkipsL2plusWithItsBound)
         EXPECT_EQ(stage.first.find("orders 3+"), std::string::npos) << stage.first;
 }
 
+// The traced orders-3+ cache (the default) is planned only up to kTracedOrders3MaxDepth of optical
+// depth per voxel: a conservative box at 1e4 per voxel took over 300 s with it (the light paths'
+// collisions), and near the top of the extinction range its flights stop advancing
+// (InputExtremes.ExtinctionAtTheTopOfTheRangeRendersFiniteAndPromptly). Past it the plan says so,
+// no cache is traced and the render is the kernel's, pixel for pixel; under it the cache is traced.
+TEST(WkbRender, TracedOrders3IsPlannedUpToItsDepthPerVoxel)
+{
+    auto boxAt = [](double depthPerVoxel) {
+        Scene s = baseScene(8, 8, make_float3(0.3f, 3, 2.5f), make_float3(0, 0, 0), 40);
+        const double voxel = 1.0 / 16;
+        s.volumes.push_back(proceduralVolume("box", {{"size", 1.0}, {"voxel_size", voxel}},
+                                             splat(float(depthPerVoxel / voxel)), splat(0.0f), 0.6f));
+        s.lights.push_back(sun(make_float3(0.3f, -1, 0.2f), 1.0f));
+        return s;
+    };
+    auto traced = [](const RenderResult& r) {
+        for (const auto& stage : r.stats.stageSeconds)
+            if (stage.first.find("orders 3+") != std::string::npos)
+                return true;
+        return false;
+    };
+    Scene thick = boxAt(1e4);
+    ASSERT_EQ(thick.render.wkbOrders3, WkbOrders3::Traced) << "the default";
+    const RenderResult r = render(thick);
+    EXPECT_FALSE(traced(r));
+    bool noted = false;
+    for (const std::string& n : r.plan.notes)
+        noted = noted || n.find("orders 3+ by the kernel, not traced") != std::string::npos;
+    EXPECT_TRUE(noted) << r.plan.describe();
+    thick.render.wkbOrders3 = WkbOrders3::Kernel;
+    EXPECT_EQ(aov(r.film, "L2plus").pixels, aov(render(thick).film, "L2plus").pixels);
+    EXPECT_GT(mean(aov(r.film, "L2plus")), 0.0);
+
+    ASSERT_LT(0.5, wkb::kTracedOrders3MaxDepth);
+    const RenderResult under = render(boxAt(0.5));
+    EXPECT_TRUE(traced(under));
+}
+
 // Every pairing of the two traced parts of the lights' L2+ with the kernel (render.wkb_order2 x
 // render.wkb_orders3) counts each order once. Writing K2, K3 for the kernel's order 2 and orders 3+,
 // T2 for traced order 2 and C3 for the cache's orders 3+: (kernel, kernel) = K2 + K3, (traced,
