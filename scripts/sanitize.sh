@@ -5,7 +5,7 @@
 # OpenCL-free layers (tests/sanitized). Then runs its ctest: the sanitized unit tests, each
 # harness's replay of its findings and seeds, and each harness's smoke run.
 #
-#   scripts/sanitize.sh [ctest arguments]    e.g. -L sanitized (unit tests only), -R fuzz.vdb
+#   scripts/sanitize.sh [ctest arguments]    e.g. -L '^san_' (unit tests only), -R fuzz.vdb
 #   NIMBUS_JOBS=1                            build and test jobs (default: nproc)
 #   NIMBUS_FUZZ_SMOKE_SECONDS=60             seconds of each harness's smoke run
 #   NIMBUS_SANITIZED_TARGETS="san_core fuzz_vdb ..."

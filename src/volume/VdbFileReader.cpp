@@ -5,10 +5,13 @@
 #include "VdbFileReader.h"
 
 #include <openvdb/io/Compression.h>
+#include <openvdb/io/DelayedLoadMetadata.h>
 #include <openvdb/io/File.h>
 #include <openvdb/io/io.h>
+#include <openvdb/points/StreamCompression.h>
 #include <openvdb/openvdb.h>
 
+#include <algorithm>
 #include <stdexcept>
 #include <type_traits>
 
@@ -24,6 +27,23 @@ std::string bytes(uint64_t n)
     return std::to_string(n) + " bytes";
 }
 
+
+// Blosc's header (blosc.h), the 16 bytes at the stream's position: version, flags and type size,
+// then the uncompressed size, the block size and the compressed size, each 32 bits little-endian.
+struct BloscSizes {
+    uint32_t unpacked, packed;
+};
+
+BloscSizes readBloscHeader(std::istream& is)
+{
+    unsigned char header[16];
+    is.read(reinterpret_cast<char*>(header), sizeof header);
+    auto word = [&](int i) {
+        return uint32_t(header[i]) | uint32_t(header[i + 1]) << 8 | uint32_t(header[i + 2]) << 16 |
+               uint32_t(header[i + 3]) << 24;
+    };
+    return {word(4), word(12)};
+}
 
 // The grid types whose trees BlockCheck walks: every type openvdb::initialize() registers but
 // the point grids (their leaves read attribute arrays of their own layout; nimbus reads none).
@@ -197,19 +217,11 @@ private:
         }
         need(uint64_t(stated), "compressed block");
         if (blosc) {
-            // Blosc's header (blosc.h): version, flags and type size, then the uncompressed size,
-            // the block size and the compressed size, each 32 bits little-endian.
             if (stated < 16) {
                 mPos = at;
                 damaged("a Blosc block of " + bytes(uint64_t(stated)) + ", shorter than its header");
             }
-            unsigned char header[16];
-            mIs.read(reinterpret_cast<char*>(header), sizeof header);
-            auto word = [&](int i) {
-                return uint32_t(header[i]) | uint32_t(header[i + 1]) << 8 | uint32_t(header[i + 2]) << 16 |
-                       uint32_t(header[i + 3]) << 24;
-            };
-            const uint32_t unpacked = word(4), packed = word(12);
+            const auto [unpacked, packed] = readBloscHeader(mIs);
             if (unpacked != size || packed < 16 || packed > uint64_t(stated)) {
                 mPos = at;
                 damaged("a Blosc block of " + bytes(uint64_t(stated)) + " claims " + bytes(packed) +
@@ -323,6 +335,83 @@ const openvdb::io::GridDescriptor* VdbFileReader::find(const std::string& name) 
     return nullptr;
 }
 
+// OpenVDB reads a metadata value by its type, not by the size word before it (MetaMap::readMeta,
+// Metadata.h): a registered fixed-size type reads its own size whatever the word says, a string
+// or an unknown type the word's bytes, and the delayed-load table (io/DelayedLoadMetadata.cc)
+// walks counts of its own and allocates them first. Each must agree with the `size` bytes at
+// `at`, or the reads after it fall out of step with the checks here (a fuzzed 'int32' of 12
+// bytes made OpenVDB take a name's characters for a 1.8 GB string length).
+void VdbFileReader::checkMetadataValue(uint64_t at, uint32_t size, const std::string& type,
+                                       const std::string& entry)
+{
+    if (type == openvdb::io::DelayedLoadMetadata::staticTypeName()) {
+        checkDelayedLoadTable(at, size, entry);
+        return;
+    }
+    if (!openvdb::Metadata::isRegisteredType(type) || type == openvdb::StringMetadata::staticTypeName())
+        return;  // read as the word says
+    const uint32_t holds = openvdb::Metadata::createMetadata(type)->size();
+    if (size != holds)
+        throw std::runtime_error(entry + " claims " + bytes(size) + "; the type holds " + bytes(holds) +
+                                 " (damaged)");
+}
+
+// The delayed-load table OpenVDB writes beside a grid's metadata (io/DelayedLoadMetadata.cc): a
+// leaf count, then a per-leaf mask of int8 and optionally per-leaf sizes of int64, each either raw
+// (a zero word, then count values) or one Blosc block (its byte count, then the block; Blosc's
+// header states the bytes it unpacks to, which OpenVDB reserves: the array's, or 128 for a shorter
+// array, which OpenVDB pads before packing). The sizes' word is 0xffffffff
+// where there are none. OpenVDB allocates each count and block before it reads it, and reads on
+// past `size` where the table claims more.
+void VdbFileReader::checkDelayedLoadTable(uint64_t at, uint32_t size, const std::string& entry)
+{
+    if (size == 0)
+        return;  // an empty table: OpenVDB reads nothing
+    uint64_t pos = at;
+    const uint64_t end = at + size;
+    auto word = [&](const char* field) {
+        if (pos + 4 > end)
+            throw std::runtime_error(entry + ": its " + field + " lies beyond its " + bytes(size) + " (damaged)");
+        uint32_t value = 0;
+        mStream.seekg(std::streamoff(pos));
+        mStream.read(reinterpret_cast<char*>(&value), sizeof value);
+        pos += 4;
+        return value;
+    };
+    const uint32_t count = word("leaf count");
+    // Each leaf of the tree is at least its 64-byte value mask in the file.
+    if (uint64_t(count) * 64 > mFileSize)
+        throw std::runtime_error(entry + " claims " + std::to_string(count) + " leaves, more than the " +
+                                 bytes(mFileSize) + " file can hold (damaged)");
+    auto array = [&](uint32_t stored, uint64_t valueSize, const char* field) {
+        const uint64_t unpacked = uint64_t(count) * valueSize;
+        if (stored == 0) {  // raw
+            if (unpacked > end - pos)
+                throw std::runtime_error(entry + ": its " + field + " (" + bytes(unpacked) + ") runs past its " +
+                                         bytes(size) + " (damaged)");
+            pos += unpacked;
+            return;
+        }
+        if (stored < 16 || stored > end - pos)
+            throw std::runtime_error(entry + ": its " + field + " is a Blosc block of " + bytes(stored) + " where " +
+                                     bytes(end - pos) + " are left (damaged)");
+        mStream.seekg(std::streamoff(pos));
+        // OpenVDB pads an array shorter than 128 bytes to 128 before Blosc packs it
+        // (points/StreamCompression.h, BLOSC_PAD_BYTES).
+        const uint64_t padded = std::max<uint64_t>(unpacked, openvdb::compression::BLOSC_PAD_BYTES);
+        const auto [claims, packed] = readBloscHeader(mStream);
+        if (claims != padded || packed < 16 || packed > stored)
+            throw std::runtime_error(entry + ": its " + field + " is a Blosc block claiming " + bytes(packed) +
+                                     " compressed to " + bytes(claims) + " where " + std::to_string(count) +
+                                     " leaves take " + bytes(padded) + " (damaged)");
+        pos += stored;
+    };
+    array(word("mask block size"), sizeof(openvdb::io::DelayedLoadMetadata::MaskType), "leaf mask");
+    const uint32_t sizes = word("size block size");
+    if (sizes != 0xffffffffu)
+        array(sizes, sizeof(openvdb::io::DelayedLoadMetadata::CompressedSizeType), "leaf sizes");
+}
+
 // The metadata OpenVDB reads from `begin` (a grid's, after its compression word, when gd is
 // given; the file's otherwise) and a grid's transform type: each length is checked against the
 // bytes before `end`, where OpenVDB would allocate it first and find the file too short after.
@@ -349,6 +438,17 @@ void VdbFileReader::checkLengths(uint64_t begin, uint64_t end, const openvdb::io
                                      bytes(end - pos) + " are left (truncated or damaged)");
         pos += length;
     };
+    auto text = [&](const char* field) {
+        const uint32_t length = word(field);
+        if (uint64_t(length) > end - pos)
+            throw std::runtime_error(what + " claims a " + bytes(length) + " " + field + " where " +
+                                     bytes(end - pos) + " are left (truncated or damaged)");
+        std::string value(length, '\0');
+        mStream.seekg(std::streamoff(pos));
+        mStream.read(value.data(), std::streamsize(length));
+        pos += length;
+        return value;
+    };
     if (gd)
         word("compression flags");
     const uint32_t entries = word("metadata count");
@@ -356,9 +456,15 @@ void VdbFileReader::checkLengths(uint64_t begin, uint64_t end, const openvdb::io
         throw std::runtime_error(what + " claims " + std::to_string(entries) + " metadata entries, more than its " +
                                  bytes(end - pos) + " can hold (truncated or damaged)");
     for (uint32_t i = 0; i < entries; ++i) {
-        skip("metadata name");
-        skip("metadata type name");
-        skip("metadata value");
+        const std::string name = text("metadata name");
+        const std::string type = text("metadata type name");
+        const uint32_t size = word("metadata value size");
+        if (uint64_t(size) > end - pos)
+            throw std::runtime_error(what + " claims a " + bytes(size) + " metadata value where " + bytes(end - pos) +
+                                     " are left (truncated or damaged)");
+        const std::string entry = what + ": its metadata '" + name + "' of type '" + type + "'";
+        checkMetadataValue(pos, size, type, entry);
+        pos += size;
     }
     if (gd)
         skip("transform type name");

@@ -10,7 +10,9 @@
 // masks from the file (a leaf 64 bytes for ~2 KiB of memory, an internal node 1-8 KiB for 33-262
 // KiB), a bound of about 32x the file size. The lengths that OpenVDB allocates before reading
 // (metadata strings and blobs, up to 4 GiB each) are checked against the bytes left in the file
-// first, and a grid's offsets must lie inside the file.
+// first, each metadata value against what OpenVDB reads for its type (a fixed-size type ignores
+// its size word; the delayed-load table has counts of its own), and a grid's offsets must lie
+// inside the file.
 //
 // Every compressed block of a grid's tree is checked against what its node holds and the bytes
 // left before OpenVDB reads it (BlockCheck in the .cpp): OpenVDB 10's bloscFromStream writes an
@@ -52,6 +54,8 @@ private:
     const openvdb::io::GridDescriptor* find(const std::string& name) const;
     openvdb::GridBase::Ptr readGrid(const openvdb::io::GridDescriptor& gd, int depth);
     void checkLengths(uint64_t begin, uint64_t end, const openvdb::io::GridDescriptor* gd);
+    void checkMetadataValue(uint64_t at, uint32_t size, const std::string& type, const std::string& entry);
+    void checkDelayedLoadTable(uint64_t at, uint32_t size, const std::string& entry);
     std::pair<uint64_t, uint64_t> checkGrid(const openvdb::io::GridDescriptor& gd);
 };
 

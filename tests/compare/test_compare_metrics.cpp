@@ -1,5 +1,7 @@
 // The error metrics and the time-to-error interpolation of `nimbus compare`.
 #include "compare/Compare.h"
+#include "compare/ReferenceCache.h"
+#include "scene/DefaultScene.h"
 
 #include <gtest/gtest.h>
 
@@ -51,4 +53,23 @@ TEST(CompareMetrics, PathtracerTimeToErrorInterpolatesAndExtrapolatesAsOneOverT)
     EXPECT_NEAR(ptTimeToError(rows, 0.05), 2.0, 1e-9);
     EXPECT_NEAR(ptTimeToError(rows, 0.0025), 40.0, 1e-9);
     EXPECT_NEAR(ptTimeToError(rows, 0.2), 0.5, 1e-9);
+}
+
+// The reference is the path tracer's: keys only WKB or vrl read must not key a new reference
+// (comparing WKB's models on one scene shares one), keys the path tracer reads must.
+TEST(CompareReferenceCache, KeyedByWhatThePathTracerReads)
+{
+    const Scene base = defaultScene();
+    const std::string path = referenceCachePath(base, "/tmp/c");
+    Scene wkb = base;
+    wkb.render.wkbOrders3 = wkb.render.wkbOrders3 == WkbOrders3::Kernel ? WkbOrders3::Traced : WkbOrders3::Kernel;
+    wkb.render.wkbKernel = WkbKernel::Gaussian;
+    wkb.render.vrlPaths = 3;
+    EXPECT_EQ(referenceCachePath(wkb, "/tmp/c"), path);
+    Scene medium = base;
+    medium.volumes.at(0).medium.sigma_s = splat(0.5f);
+    EXPECT_NE(referenceCachePath(medium, "/tmp/c"), path);
+    Scene limit = base;
+    limit.render.timeLimit = 7.0;
+    EXPECT_NE(referenceCachePath(limit, "/tmp/c"), path);
 }

@@ -392,6 +392,18 @@ std::string readBytes(const std::string& path)
     return std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
 }
 
+// VdbFileReader's message for the file, or "" where the grid reads.
+std::string readError(const std::string& path, const std::string& grid)
+{
+    try {
+        VdbFileReader reader(path);
+        reader.readGrid(grid);
+    } catch (const std::exception& e) {
+        return e.what();
+    }
+    return "";
+}
+
 }  // namespace
 
 TEST(VdbFileReader, ReadsEveryCompressionAndGridTypeAsOpenVdbDoes)
@@ -533,13 +545,7 @@ TEST(VdbFileReader, DamagedCompressedBlocksAreRefusedBeforeOpenVdbReadsThem)
             std::memcpy(&bad[d.at], &d.value, d.width);
             const std::string path = dir / "bad.vdb";
             writeText(path, bad);
-            std::string message;
-            try {
-                VdbFileReader reader(path);
-                reader.readGrid("density");
-            } catch (const std::exception& e) {
-                message = e.what();
-            }
+            const std::string message = readError(path, "density");
             EXPECT_NE(message.find("grid 'density'"), std::string::npos) << message;
             EXPECT_NE(message.find("block"), std::string::npos) << message;
             EXPECT_NE(message.find("(damaged)"), std::string::npos) << message;
@@ -549,5 +555,95 @@ TEST(VdbFileReader, DamagedCompressedBlocksAreRefusedBeforeOpenVdbReadsThem)
             EXPECT_NE(input.find(path), std::string::npos) << input;
             EXPECT_EQ(input.find('\n'), std::string::npos) << input;
         }
+    }
+}
+
+// Issue 18, item 5: OpenVDB reads a metadata value by its type, not by the size word before it
+// (a fixed-size type reads its own size; the delayed-load table walks counts of its own and
+// allocates them first). A fuzzed file whose 'file_bbox_max' said type 'int32' with 12 bytes
+// passed the length checks, then OpenVDB read 4 bytes and took a name's characters for a 1.8 GB
+// string length. VdbFileReader now walks each value as OpenVDB reads it.
+TEST(VdbFileReader, MetadataValuesAreCheckedAsOpenVdbReadsThem)
+{
+    openvdb::initialize();
+    ScratchDir dir;
+    FloatGrid::Ptr grid = floatGrid("density");
+    for (int i = 0; i < 3000; ++i)  // 3000 leaves: a delayed-load table Blosc compresses
+        grid->tree().setValueOn(Coord(8 * (i % 50), 8 * (i / 50), 0), 1.0f);
+    const std::string good = dir / "good.vdb";
+    {
+        openvdb::io::File file(good);
+        file.setCompression(openvdb::io::COMPRESS_BLOSC | openvdb::io::COMPRESS_ACTIVE_MASK);
+        file.write({grid});
+    }
+    const std::string data = readBytes(good);
+    {
+        VdbFileReader reader(good);
+        openvdb::GridBase::Ptr read = reader.readGrid("density");
+        EXPECT_EQ(openvdb::gridPtrCast<FloatGrid>(read)->tree().leafCount(), 3000u);
+    }
+    for (int leaves : {1, 50, 110, 200}) {  // tables OpenVDB stores raw, or pads to 128 bytes and packs
+        FloatGrid::Ptr small = floatGrid("density");
+        for (int i = 0; i < leaves; ++i)
+            small->tree().setValueOn(Coord(8 * i, 0, 0), 1.0f);
+        const std::string path = dir / "small.vdb";
+        openvdb::io::File file(path);
+        file.setCompression(openvdb::io::COMPRESS_BLOSC | openvdb::io::COMPRESS_ACTIVE_MASK);
+        file.write({small});
+        file.close();
+        VdbFileReader reader(path);
+        openvdb::GridBase::Ptr read;
+        ASSERT_NO_THROW(read = reader.readGrid("density")) << leaves;
+        EXPECT_EQ(openvdb::gridPtrCast<FloatGrid>(read)->tree().leafCount(), openvdb::Index64(leaves));
+    }
+    auto u32 = [&](size_t at) {
+        uint32_t v;
+        std::memcpy(&v, &data[at], 4);
+        return v;
+    };
+    // The table: its type name, its size word, then a leaf count, the mask's Blosc block and the
+    // leaf sizes' Blosc block (Blosc's header: the unpacked size at byte 4).
+    const size_t type = data.find("__delayedload");
+    ASSERT_NE(type, std::string::npos);
+    const size_t table = type + 13 + 4;
+    ASSERT_EQ(u32(table), 3000u);
+    const size_t mask = table + 4;
+    ASSERT_GT(u32(mask), 16u);  // compressed
+    ASSERT_EQ(u32(mask + 4 + 4), 3000u);
+    const size_t sizes = mask + 4 + u32(mask);
+    ASSERT_GT(u32(sizes), 16u);
+    ASSERT_NE(u32(sizes), 0xffffffffu);
+    ASSERT_EQ(u32(sizes + 4 + 4), 3000u * 8);
+    const size_t bboxType = data.find("vec3i", data.find("file_bbox_max"));
+    ASSERT_NE(bboxType, std::string::npos);
+    struct Damage {
+        const char* name;
+        size_t at;
+        std::string bytes;
+        const char* expect;
+    };
+    auto word = [](uint32_t v) { return std::string(reinterpret_cast<const char*>(&v), 4); };
+    const std::vector<Damage> damages = {
+        {"the fuzz finding: a vec3i renamed int32", bboxType, "int32",
+         "its metadata 'file_bbox_max' of type 'int32' claims 12 bytes; the type holds 4 bytes"},
+        {"a leaf count of 2^32 - 1", table, word(0xffffffffu), "4294967295 leaves, more than"},
+        {"one leaf more than the mask holds", table, word(3001), "leaf mask is a Blosc block"},
+        {"the mask's block past the table", mask, word(1u << 20), "leaf mask is a Blosc block of 1048576 bytes"},
+        {"the sizes unpacking to 1 GiB", sizes + 8, word(1u << 30), "leaf sizes is a Blosc block"},
+        {"a raw mask past the table", mask, word(0), "leaf mask (3000 bytes) runs past"},
+    };
+    for (const Damage& d : damages) {
+        SCOPED_TRACE(d.name);
+        std::string bad = data;
+        bad.replace(d.at, d.bytes.size(), d.bytes);
+        const std::string path = dir / "bad.vdb";
+        writeText(path, bad);
+        const std::string message = readError(path, "density");
+        EXPECT_NE(message.find("grid 'density'"), std::string::npos) << message;
+        EXPECT_NE(message.find(d.expect), std::string::npos) << message;
+        EXPECT_NE(message.find("(damaged)"), std::string::npos) << message;
+        const std::string input = inputError(vdbScene(path));
+        EXPECT_NE(input.find("volumes[0].source.grids.density"), std::string::npos) << input;
+        EXPECT_EQ(input.find('\n'), std::string::npos) << input;
     }
 }
