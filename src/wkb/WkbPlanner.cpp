@@ -103,8 +103,18 @@ WkbSetup planWkb(const RenderContext& ctx, RenderPlan& plan)
     for (const auto& v : ctx.volumes.volumes())
         depthPerVoxel = std::max(depthPerVoxel, double(nbMaxComponent(v->sigmaT())) * double(v->density.maxValue()) *
                                                     double(v->voxelSize));
-    setup.tracedOrders3 = rs.wkbOrders3 == WkbOrders3::Traced && !(depthPerVoxel > kTracedOrders3MaxDepth);
-    if (rs.wkbOrders3 == WkbOrders3::Traced && !setup.tracedOrders3)
+    // Nor where a volume moves by its transform within the shutter: there the cache and its read
+    // disagree (cli_transform_blur's transform = velocity blur check failed with it, strip z up to
+    // 7.8; velocity blur, a moving camera and moving lights pass with it).
+    bool transformMoves = false;
+    for (const Volume& v : ctx.scene->volumes)
+        transformMoves = transformMoves || v.shutterMotion.animated();
+    setup.tracedOrders3 =
+        rs.wkbOrders3 == WkbOrders3::Traced && !(depthPerVoxel > kTracedOrders3MaxDepth) && !transformMoves;
+    if (rs.wkbOrders3 == WkbOrders3::Traced && transformMoves)
+        plan.notes.push_back("wkb: orders 3+ by the kernel, not traced: a volume moves by its transform within the "
+                             "shutter, which the traced cache does not follow");
+    else if (rs.wkbOrders3 == WkbOrders3::Traced && !setup.tracedOrders3)
         plan.notes.push_back(fmt("wkb: orders 3+ by the kernel, not traced: optical depth %.3g per voxel, over the "
                                  "traced cache's %.0f",
                                  depthPerVoxel, kTracedOrders3MaxDepth));

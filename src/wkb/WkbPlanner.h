@@ -56,8 +56,9 @@ struct WkbSetup : IntegratorPlan {
     // kernel then drops its N = 1 term for them (docs/wkb.md "Order 2, traced").
     bool tracedOrder2 = true;
     // Orders 3+ of the light sources from the traced radiance cache (render.wkb_orders3 "traced"),
-    // unless the medium is too thick per voxel for its light paths (kTracedOrders3MaxDepth): the
-    // engine then builds no cache and the kernel keeps them (docs/wkb.md "Orders 3 and up, traced").
+    // unless the medium is too thick per voxel for its light paths (kTracedOrders3MaxDepth) or
+    // a volume moves by its transform within the shutter: the engine then builds no cache and the kernel keeps
+    // them (docs/wkb.md "Orders 3 and up, traced").
     bool tracedOrders3 = false;
     float blurK = 24.0f, lStep = 0.25f, tolerance = 0.002f;
     int orderCap = 128;
