@@ -36,7 +36,10 @@ IntegratorEntry wkbEntry()
                   RenderStats& stats) -> std::unique_ptr<Integrator> {
         std::shared_ptr<const wkb::RadianceGrid> orders3;
         const RenderSettings& rs = ctx.scene->render;
-        if (rs.wkbOrders3 == WkbOrders3::Traced) {
+        // As planned (WkbSetup::tracedOrders3: not too thick per voxel), and not where the plan has
+        // no L2+ (an optically thin scene, no volume): nothing would read it.
+        const auto* setup = dynamic_cast<const wkb::WkbSetup*>(plan.integrator.get());
+        if (setup && setup->tracedOrders3 && setup->active) {
             // The traced radiance cache of orders 3+ (docs/wkb.md), from the VRL light pass.
             const auto start = std::chrono::steady_clock::now();
             vrl::Orders3Options o;

@@ -9,6 +9,7 @@
 // - sky grids: per volume n^3 nodes x 4 (J+1)^2 floats ((J+1)^2 rounded up to even), n =
 //   light_volume_resolution or 32 and J = wkb_sh_order_max (SkyLight.h);
 // - light pyramids: the WKB plan's own estimate (WkbPlanner.cpp);
+// - WKB's traced orders-3+ cache: its grid and partial grids while filled (Orders3Grid.cpp);
 // - camera-ray batches: per worker at most kBatchRays rays (TileDriver.cpp) of kRayBytes plus
 //   three floats per light;
 // - path tracer: the kernel scene's host arrays and their device copies (on a CPU device both
@@ -23,6 +24,8 @@
 #include "../render/FilmLayout.h"
 #include "../render/RenderContext.h"
 #include "../scene/SceneValidate.h"
+#include "../vrl/Orders3Grid.h"
+#include "../wkb/WkbPlanner.h"
 
 #include "../core/FormatBytes.h"
 
@@ -175,6 +178,13 @@ MemoryPlan estimateMemory(const Scene& scene, const RenderContext& ctx, const Re
     }
     if (plan.wkb.enabled)
         m.items.push_back({"light pyramids", plan.wkb.pyramidBytes});
+    const auto* wkbSetup = dynamic_cast<const wkb::WkbSetup*>(plan.integrator.get());
+    if (wkbSetup && wkbSetup->active && wkbSetup->tracedOrders3) {  // IntegratorRegistry.cpp builds it then
+        vrl::Orders3Options o;
+        o.paths = r.wkbOrders3Paths;
+        o.maxCells = r.wkbOrders3Grid;
+        m.items.push_back({"orders-3+ radiance cache, while filled", vrl::orders3FillBytes(ctx, o)});
+    }
     if (r.method != Method::Pathtrace) {  // single and wkb march camera rays in batches
         const size_t workers = size_t(r.threads > 0 ? r.threads : tbb::info::default_concurrency());
         m.items.push_back({"camera-ray batches",

@@ -231,7 +231,7 @@ struct RenderSettings {
     WkbSource wkbSource = WkbSource::RandomWalk;
     WkbOrder2 wkbOrder2 = WkbOrder2::Traced;  // order 2 of L2+ (docs/wkb.md "Order 2, traced")
     int wkbOrder2Samples = 4;                 // traced order-2 samples per camera ray
-    WkbOrders3 wkbOrders3 = WkbOrders3::Kernel;  // orders 3+ of the lights' L2+ (docs/wkb.md)
+    WkbOrders3 wkbOrders3 = WkbOrders3::Traced;  // orders 3+ of the lights' L2+ (docs/wkb.md)
     int wkbOrders3Paths = 65536;                 // traced: light paths of the radiance cache
     int wkbOrders3Grid = 48;                     // traced: cache cells along the volumes' longest side
     float wkbBlurK = 24.0f;         // K in the blur width s sqrt(K mu l), Tessendorf eq. 79

@@ -104,6 +104,17 @@ void blur(wkb::RadianceGrid& grid, std::vector<float>& scratch)
 
 }  // namespace
 
+size_t orders3FillBytes(const RenderContext& ctx, const Orders3Options& options)
+{
+    if (ctx.volumes.empty() || options.paths <= 0)
+        return 0;
+    const size_t cells = wkb::RadianceGrid::cellCountFor(ctx.volumes.worldBounds(), 0.0f, options.maxCells);
+    size_t worst = 0;  // over the layer counts traceOrders3 can choose: the grid plus its partials
+    for (int layers = 1; layers <= std::max(1, int(ctx.lights.size())); ++layers)
+        worst = std::max(worst, size_t(layers) * size_t(1 + std::max(2, kPartials / layers)));
+    return cells * size_t(wkb::RadianceGrid::kFloats) * sizeof(float) * worst;
+}
+
 std::shared_ptr<const wkb::RadianceGrid> traceOrders3(const RenderContext& ctx, const Orders3Options& options)
 {
     if (ctx.volumes.empty() || options.paths <= 0)

@@ -33,4 +33,9 @@ struct Orders3Options {
 // its own grid, and the partial grids are added in a fixed order.
 std::shared_ptr<const wkb::RadianceGrid> traceOrders3(const RenderContext& ctx, const Orders3Options& options);
 
+// The most memory traceOrders3 holds in grids while it fills ctx's cache (bytes): the cache and its
+// partial grids, for the layer count (at most one per light of ctx) that needs the most. The
+// batch's light-path segments (8192 paths) are not counted: their number follows the medium.
+size_t orders3FillBytes(const RenderContext& ctx, const Orders3Options& options);
+
 }  // namespace nimbus::vrl

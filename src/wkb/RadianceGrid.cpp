@@ -9,21 +9,35 @@ void RadianceGrid::init(const Bbox& box, float minCell, int maxCells, int layers
     mData.clear();
     mN[0] = mN[1] = mN[2] = 0;
     mLayers = std::max(1, layers);
-    if (box.empty())
+    if (!cells(box, minCell, maxCells, mCell, mN))
         return;
-    const float3 e = box.extent();
-    const float longest = std::fmax(e.x, std::fmax(e.y, e.z));
-    if (!(longest > 0.0f))
-        return;
-    mCell = std::fmax(minCell, longest / float(std::max(1, maxCells)));
-    mN[0] = std::max(1, int(std::ceil(e.x / mCell)));
-    mN[1] = std::max(1, int(std::ceil(e.y / mCell)));
-    mN[2] = std::max(1, int(std::ceil(e.z / mCell)));
     // Centre the whole cells on the box.
     const float3 full = make_float3(float(mN[0]), float(mN[1]), float(mN[2])) * mCell;
     mBox.lo = box.center() - full * 0.5f;
     mBox.hi = box.center() + full * 0.5f;
     mData.assign(cellCount() * size_t(floatsPerCell()), 0.0f);
+}
+
+bool RadianceGrid::cells(const Bbox& box, float minCell, int maxCells, float& cell, int n[3])
+{
+    if (box.empty())
+        return false;
+    const float3 e = box.extent();
+    const float longest = std::fmax(e.x, std::fmax(e.y, e.z));
+    if (!(longest > 0.0f))
+        return false;
+    cell = std::fmax(minCell, longest / float(std::max(1, maxCells)));
+    n[0] = std::max(1, int(std::ceil(e.x / cell)));
+    n[1] = std::max(1, int(std::ceil(e.y / cell)));
+    n[2] = std::max(1, int(std::ceil(e.z / cell)));
+    return true;
+}
+
+size_t RadianceGrid::cellCountFor(const Bbox& box, float minCell, int maxCells)
+{
+    float cell = 0.0f;
+    int n[3] = {0, 0, 0};
+    return cells(box, minCell, maxCells, cell, n) ? size_t(n[0]) * size_t(n[1]) * size_t(n[2]) : 0;
 }
 
 bool RadianceGrid::fetch(float3 x, float* out) const

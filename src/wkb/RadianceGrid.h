@@ -55,6 +55,8 @@ public:
     // A grid over `box` with cubic cells no smaller than `minCell` (metres) and at most `maxCells`
     // cells along the box's longest side, with `layers` layers (at least 1).
     void init(const Bbox& box, float minCell, int maxCells, int layers = 1);
+    // The cells init(box, minCell, maxCells) makes, without making them (0 for an empty box).
+    static size_t cellCountFor(const Bbox& box, float minCell, int maxCells);
 
     int layers() const { return mLayers; }
     int floatsPerCell() const { return mLayers * kFloats; }  // [layer][jm][rgb]
@@ -90,6 +92,8 @@ public:
     bool inScatter(float3 x, float3 wo, const double* p, double (*out)[3]) const;
 
 private:
+    // The cell size and counts of init's grid; false for an empty box.
+    static bool cells(const Bbox& box, float minCell, int maxCells, float& cell, int n[3]);
     Bbox mBox;
     int mN[3] = {0, 0, 0};
     int mLayers = 1;

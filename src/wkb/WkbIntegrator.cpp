@@ -77,7 +77,7 @@ struct WkbIntegrator::Scratch {
     std::vector<float> phaseWeights;
     std::vector<double> pieceW, nodeW;  // per volume scattering weight: of the pending piece (1/m), of the node
     std::vector<float> channels;
-    std::vector<double> coef, coef3, pj, shY, sums;
+    std::vector<double> coef, coefLights, pj, shY, sums;
     Piece pending;
     bool hasPending = false;
     double muLast = kMuMax;
@@ -111,7 +111,8 @@ WkbIntegrator::WkbIntegrator(const RenderContext& ctx, const RenderPlan& plan, R
     for (const SourcePlan& sp : mSetup.sources)
         if (sp.mode == SourceMode::Sh)
             mMaxShOrder = std::max(mMaxShOrder, sp.order);
-    if (mOrders3) {
+    if (mOrders3 && mOrder2) {
+        // Both of the lights' parts the kernel would give are traced: it is left with emission.
         mKernelSources = false;
         for (const SourcePlan& sp : mSetup.sources)
             mKernelSources = mKernelSources || (sp.emission && sp.mode != SourceMode::Skip);
@@ -312,22 +313,26 @@ void WkbIntegrator::evaluateNode(Scratch& sc, float3 o, float3 d, const TableEnt
         }
     }
 
-    // With order 2 traced (TracedOrder2), the lights' kernel drops its N = 1 term, the one further
-    // scattering: e^{-l} l p_j against the weight's e^{-l}(e^l - 1), so R_j -> R_j - l p_j / (e^l - 1)
+    // The kernel's N = 1 term, the one further scattering (the lights' order 2): e^{-l} l p_j
+    // against the weight's e^{-l}(e^l - 1), so R_j's share of it is l p_j / (e^l - 1)
     // (AngularKernel.h). For the Gaussian kernel the p_j of that term is the Gaussian phase's own,
-    // e^{-mu j(j+1)/2} = A_j(0), so that orders 3+ vanish as l -> 0 in both kernels. Emission's
-    // sources keep every order (TracedOrder2 follows the lights' L1 only).
-    if (mOrder2) {
-        sc.coef3.resize(sc.coef.size());
+    // e^{-mu j(j+1)/2} = A_j(0), so that orders 3+ vanish as l -> 0 in both kernels. With order 2
+    // traced (TracedOrder2) the lights' kernel drops that term (R_j -> R_j - l p_j / (e^l - 1): orders
+    // 3+); with orders 3+ traced (the radiance cache) and order 2 by the kernel it keeps that term
+    // alone. Emission's sources keep every order (both traced parts follow the lights only).
+    const bool splitLights = (mOrder2 != nullptr) != (mOrders3 != nullptr);
+    if (splitLights) {
+        sc.coefLights.resize(sc.coef.size());
         for (int c = 0; c < 3; ++c) {
             const double l = m.l[c];
             const double share = l < 1e-12 ? 1.0 - 0.5 * l : l / std::expm1(l);  // l / (e^l - 1)
             const double* k = sc.coef.data() + size_t(c) * (J + 1);
-            double* k3 = sc.coef3.data() + size_t(c) * (J + 1);
+            double* kl = sc.coefLights.data() + size_t(c) * (J + 1);
             for (int j = 0; j <= J; ++j) {
                 const double pFirst =
                     mSetup.kernel == KernelType::Gaussian ? std::exp(-0.5 * mu * j * (j + 1)) : sc.pj[j];
-                k3[j] = k[j] - sc.pj[j] * share * pFirst;
+                const double order2 = sc.pj[j] * share * pFirst;
+                kl[j] = mOrder2 ? k[j] - order2 : order2;
             }
         }
     }
@@ -364,9 +369,9 @@ void WkbIntegrator::evaluateNode(Scratch& sc, float3 o, float3 d, const TableEnt
 
     for (size_t si = 0; si < mSetup.sources.size(); ++si) {
         const SourcePlan& sp = mSetup.sources[si];
-        if (sp.mode == SourceMode::Skip || (mOrders3 && !sp.emission))
-            continue;  // traced orders 3+ (marchOrders3) replace the lights' kernel
-        const std::vector<double>& coef = mOrder2 && !sp.emission ? sc.coef3 : sc.coef;
+        if (sp.mode == SourceMode::Skip || (mOrders3 && mOrder2 && !sp.emission))
+            continue;  // traced order 2 and orders 3+ (marchOrders3) replace the lights' kernel
+        const std::vector<double>& coef = splitLights && !sp.emission ? sc.coefLights : sc.coef;
         double S[3] = {0, 0, 0};
         if (sp.mode == SourceMode::Delta) {
             // Addition theorem: sum_m Y_jm(n) Y*_jm(N) = (2j+1)/(4 pi) P_j(n . N).

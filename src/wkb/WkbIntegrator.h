@@ -36,7 +36,8 @@ public:
     // by planWkb in the planning pass); sizes and stage times go to stats.
     // orders3: with render.wkb_orders3 "traced", the radiance cache of the lights' orders 3 and up
     // (vrl::traceOrders3, built by the engine above this layer); it then replaces the kernel's
-    // orders 3+ of every light (emission keeps the kernel). Null: the kernel's.
+    // orders 3+ of every light (emission keeps the kernel; with render.wkb_order2 "kernel" the
+    // lights' kernel keeps its order-2 term alone). Null: the kernel's.
     WkbIntegrator(const RenderContext& ctx, const RenderPlan& plan, RenderStats& stats,
                   std::shared_ptr<const RadianceGrid> orders3 = nullptr);
 
@@ -79,7 +80,7 @@ private:
     std::unique_ptr<TracedOrder2> mOrder2;  // set with setup().tracedOrder2
     std::unique_ptr<EmissionScatter> mEmission;  // emission's L1, as single's
     std::shared_ptr<const RadianceGrid> mOrders3;  // traced orders 3+ of the lights, or null
-    bool mKernelSources = true;  // some source the l-march still evaluates (with mOrders3: emission)
+    bool mKernelSources = true;  // some source the l-march still evaluates (with both traced: emission)
     PlacementModel mModel = PlacementModel::Straight;
     float mMinLightVoxel = 1.0f;
     std::vector<Rgb> mSigmaS, mSigmaA;  // per volume, 1/m at density 1 (density scale included)

@@ -97,8 +97,34 @@ WkbSetup planWkb(const RenderContext& ctx, RenderPlan& plan)
     wp.kernel = setup.kernel == KernelType::Gaussian ? "gaussian phase (e^l - 1) A_j(l)"
                                                      : "exact infinite medium e^{l p_j} - 1";
     wp.source = setup.randomWalk ? "random walk (mean displacement, walk variance)" : "straight line (sec. 6.3.6)";
-    if (setup.tracedOrder2)
+    // The traced cache's reach: the optical depth of the densest voxel (VolumeData::voxelSize, the
+    // smallest edge) at the largest extinction of any channel.
+    double depthPerVoxel = 0.0;
+    for (const auto& v : ctx.volumes.volumes())
+        depthPerVoxel = std::max(depthPerVoxel, double(nbMaxComponent(v->sigmaT())) * double(v->density.maxValue()) *
+                                                    double(v->voxelSize));
+    // Nor where a volume moves by its transform within the shutter: there the cache and its read
+    // disagree (cli_transform_blur's transform = velocity blur check failed with it, strip z up to
+    // 7.8; velocity blur, a moving camera and moving lights pass with it).
+    bool transformMoves = false;
+    for (const Volume& v : ctx.scene->volumes)
+        transformMoves = transformMoves || v.shutterMotion.animated();
+    setup.tracedOrders3 =
+        rs.wkbOrders3 == WkbOrders3::Traced && !(depthPerVoxel > kTracedOrders3MaxDepth) && !transformMoves;
+    if (rs.wkbOrders3 == WkbOrders3::Traced && transformMoves)
+        plan.notes.push_back("wkb: orders 3+ by the kernel, not traced: a volume moves by its transform within the "
+                             "shutter, which the traced cache does not follow");
+    else if (rs.wkbOrders3 == WkbOrders3::Traced && !setup.tracedOrders3)
+        plan.notes.push_back(fmt("wkb: orders 3+ by the kernel, not traced: optical depth %.3g per voxel, over the "
+                                 "traced cache's %.0f",
+                                 depthPerVoxel, kTracedOrders3MaxDepth));
+    const bool tracedOrders3 = setup.tracedOrders3;
+    if (setup.tracedOrder2 && tracedOrders3)
+        wp.kernel += "; order 2 traced, orders 3+ from the traced radiance cache, the kernel for emission";
+    else if (setup.tracedOrder2)
         wp.kernel += "; order 2 traced, the kernel from order 3";
+    else if (tracedOrders3)
+        wp.kernel += "; the kernel for order 2, orders 3+ from the traced radiance cache";
     wp.blurK = setup.blurK;
     wp.lStep = setup.lStep;
     wp.orderCap = setup.orderCap;

@@ -372,3 +372,25 @@ TEST(WkbOrders3, PerLightAovsAddUpToTheBeautyAndOneLayerWhereNoneIsWritten)
     EXPECT_EQ(one->layerLight(0), 1);
     EXPECT_EQ(one->layerLight(1), -1);
 }
+
+// The memory estimate's model of the cache while it is filled (vrl::orders3FillBytes, the
+// "orders-3+ radiance cache" item of `nimbus info`) against the grids traceOrders3 allocates: the
+// cache (its own data) and max(2, 8 / layers) partial grids of the same size (docs/wkb.md
+// "Per-light AOVs"); with two lights the worst layer count is 2 (2 + 4 x 2 one-layer grids, over
+// 1 + 8 for one layer).
+TEST(WkbOrders3, FillMemoryModelIsTheGridsItAllocates)
+{
+    Scene s = twoLights();
+    useTempKernelCache();
+    const auto ctx = RenderContext::create(s, true);
+    vrl::Orders3Options o;
+    o.paths = 4096;
+    o.maxCells = 20;
+    o.perLightAovs = {1, 1};
+    const auto grid = vrl::traceOrders3(*ctx, o);
+    ASSERT_TRUE(grid);
+    ASSERT_EQ(grid->layers(), 2);
+    EXPECT_EQ(wkb::RadianceGrid::cellCountFor(ctx->volumes.worldBounds(), 0.0f, o.maxCells), grid->cellCount());
+    const size_t gridBytes = grid->data().size() * sizeof(float);
+    EXPECT_EQ(vrl::orders3FillBytes(*ctx, o), gridBytes * (1 + 4));
+}
