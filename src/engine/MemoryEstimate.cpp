@@ -203,16 +203,48 @@ MemoryPlan estimateMemory(const Scene& scene, const RenderContext& ctx, const Re
     return m;
 }
 
+namespace {
+
+// The scene key that sizes an item of estimateMemory's (by the names it gives them), for the
+// advice of the error; nullptr where no one key does.
+const char* keySizing(const std::string& item)
+{
+    static const std::pair<const char*, const char*> keys[] = {
+        {"film", "camera.resolution"},
+        {"deep film (at most)", "output.deep_samples"},
+        {"deep shadow maps", "render.shadow_map_resolution"},
+        {"sky grids", "render.light_volume_resolution"},
+        {"orders-3+ radiance cache, while filled", "render.wkb_orders3_grid"},
+        {"kernel buffers", "camera.resolution"},
+    };
+    for (const auto& [name, key] : keys)
+        if (item == name)
+            return key;
+    return nullptr;
+}
+
+}  // namespace
+
 void checkMemoryLimit(const Scene& scene, const MemoryPlan& m)
 {
     if (m.estimateBytes <= m.limitBytes)
         return;
     char limit[64];
     std::snprintf(limit, sizeof limit, "%.4g", double(m.limitBytes));
+    // The largest part, and the key that sizes it, where one does: the setting to change first.
+    std::string largest;
+    if (auto it = std::max_element(m.items.begin(), m.items.end(),
+                                   [](const auto& a, const auto& b) { return a.bytes < b.bytes; });
+        it != m.items.end() && it->bytes > m.limitBytes / 2) {
+        largest = "; its largest part, the " + it->name + ", " + formatBytes(it->bytes);
+        if (const char* key = keySizing(it->name))
+            largest += std::string(", follows ") + key;
+    }
     throwSceneError(scene.sourcePath, "render.memory_limit",
                     "this render needs an estimated " + formatBytes(m.estimateBytes) + " (`nimbus info` lists it), over the " +
                         (m.limitDefault ? "default limit of " : "limit of ") + formatBytes(m.limitBytes) + " (" + limit +
-                        " bytes); raise render.memory_limit (bytes) or lower the resolution, spp or volume detail");
+                        " bytes)" + largest +
+                        "; raise render.memory_limit (bytes) or lower the resolution, spp or volume detail");
 }
 
 }  // namespace nimbus

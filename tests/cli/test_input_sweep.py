@@ -26,7 +26,8 @@ fails when the docs' tables or `nimbus default-scene` gain a numeric key this li
 
 Keys with no upper end whose value is an amount of work (`render.spp`, `render.light_samples`)
 are swept up to 4096, not to 2^31: there a huge value is a long render, not a wrong one; its
-memory is item 5's estimate.
+memory is item 5's estimate. So is `render.wkb_orders3_paths`, swept to 2^20 light paths (a few
+CPU seconds here) of its documented 2^26 (minutes: the traced orders-3+ cache's light pass).
 
     test_input_sweep.py NIMBUS_BINARY [-k NAME]     (NIMBUS_SWEEP_JOBS: parallel cases, default 2)
 """
@@ -214,7 +215,7 @@ def keys():
             ("tolerance", 0, 0.5, True, False, False), ("shadow_step", 0, 100, True, False, False),
             ("light_samples", 1, 4096, False, False, True), ("emission_samples", 1, 1024, False, False, True),
             ("wkb_order2_samples", 1, 1024, False, False, True), ("wkb_blur_k", 0, 1000, True, False, False),
-            ("wkb_orders3_paths", 1, 1 << 26, False, False, True), ("wkb_orders3_grid", 2, 512, False, False, True),
+            ("wkb_orders3_paths", 1, 1 << 20, False, False, True), ("wkb_orders3_grid", 2, 512, False, False, True),
             ("wkb_l_step", 0, 10, True, False, False), ("wkb_order_max", 0, 4096, False, False, True),
             ("wkb_sh_order_max", 0, 8, False, False, True), ("light_volume_resolution", 4, 4096, False, False, True),
             ("wkb_memory_budget", 0, 100, True, False, False), ("memory_limit", 0, None, False, False, False),
