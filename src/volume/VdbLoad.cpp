@@ -78,6 +78,8 @@ struct RoleGrids {
 // A file's transform that is singular, non-finite or otherwise unusable is bad input (exit 2):
 // OpenVDB throws ArithmeticError only when the map is first inverted, deep inside the build,
 // which used to surface as a render failure (issue 18, failure 8).
+constexpr double kMinVoxelAxis = 1e-30, kMaxVoxelAxis = 1e30;  // m, as the procedural voxel_size's range
+
 void checkGridTransform(const GridBase& grid, const std::string& what)
 {
     try {
@@ -88,6 +90,18 @@ void checkGridTransform(const GridBase& grid, const std::string& what)
                     throw InputError(what + " has a non-finite transform");
         if (!(std::fabs(m.getMat3().det()) > 0.0))
             throw InputError(what + " has a singular transform (a zero voxel size?)");
+        // nimbus places voxels in float: each index axis's length in metres must be a normal
+        // float with room for the products of a march (a fuzzed file had 3.1e175).
+        for (int axis = 0; axis < 3; ++axis) {
+            const openvdb::Vec3d row = m.getMat3().row(axis);  // OpenVDB's Mat4: rows are the index axes
+            const double length = std::hypot(row.x(), row.y(), row.z());
+            if (!(length >= kMinVoxelAxis && length <= kMaxVoxelAxis)) {
+                char text[32];
+                std::snprintf(text, sizeof text, "%g", length);
+                throw InputError(what + " has a transform whose index axis " + std::to_string(axis) + " is " + text +
+                                 " m long, outside [1e-30, 1e30] (damaged?)");
+            }
+        }
     } catch (const openvdb::Exception& e) {
         throw InputError(what + " has an invalid transform: " + e.what());
     }
@@ -357,10 +371,15 @@ std::shared_ptr<VolumeData> buildVolume(const Scene& scene, size_t index, const 
 
     FloatGrid::Ptr density = openvdb::gridPtrCast<FloatGrid>(grids.front().second);
     for (size_t i = 1; i < grids.size(); ++i) {
-        if (auto f = openvdb::gridPtrCast<FloatGrid>(grids[i].second))
-            grids[i].second = resampleTo<FloatGrid>(f, density->transformPtr());
-        else if (auto v = openvdb::gridPtrCast<Vec3SGrid>(grids[i].second))
-            grids[i].second = resampleTo<Vec3SGrid>(v, density->transformPtr());
+        try {
+            if (auto f = openvdb::gridPtrCast<FloatGrid>(grids[i].second))
+                grids[i].second = resampleTo<FloatGrid>(f, density->transformPtr());
+            else if (auto v = openvdb::gridPtrCast<Vec3SGrid>(grids[i].second))
+                grids[i].second = resampleTo<Vec3SGrid>(v, density->transformPtr());
+        } catch (const openvdb::Exception& e) {  // OpenVDB's GridTransformer decomposes the pair's transforms
+            throw InputError(where.key(".source.grids." + grids[i].first) +
+                             ": cannot be resampled onto the density grid's voxels (" + e.what() + ")");
+        }
     }
 
     Vec3SGrid::Ptr emission;

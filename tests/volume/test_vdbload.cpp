@@ -647,3 +647,28 @@ TEST(VdbFileReader, MetadataValuesAreCheckedAsOpenVdbReadsThem)
         EXPECT_EQ(input.find('\n'), std::string::npos) << input;
     }
 }
+
+// fuzz_vdb (10^6 run, 2026-12-03): a density grid whose affine map stretched one index axis to
+// 3.1e175 m (finite, non-singular) passed the transform check, then OpenVDB's resampling of the
+// file's second grid onto it threw ArithmeticError (exit 1). An axis outside [1e-30, 1e30] m is
+// bad input; a resampling OpenVDB refuses is too.
+TEST(VdbLoad, TransformAxesBeyondFloatAreAnInputError)
+{
+    ScratchDir dir;
+    for (double length : {3.1e175, 1e31}) {  // (OpenVDB will not write a map nearly singular)
+        const std::string path = dir / "axis.vdb";
+        FloatGrid::Ptr grid = FloatGrid::create(0.0f);
+        grid->setName("density");
+        openvdb::Mat4d m = openvdb::Mat4d::identity();
+        m.setRow(0, openvdb::Vec4d(0.1, 0.05, 0, 0));
+        m.setRow(1, openvdb::Vec4d(0, length, 0, 0));
+        m.setRow(2, openvdb::Vec4d(0, 0, 0.1, 0));
+        grid->setTransform(openvdb::math::Transform::createLinearTransform(m));
+        grid->tree().setValue(Coord(0, 0, 0), 1.0f);
+        writeVdb(path, {grid});
+        const std::string message = inputError(vdbScene(path));
+        EXPECT_NE(message.find("volumes[0].source.grids.density"), std::string::npos) << length << ": " << message;
+        EXPECT_NE(message.find("index axis 1"), std::string::npos) << message;
+        EXPECT_EQ(message.find('\n'), std::string::npos) << message;
+    }
+}
