@@ -1,5 +1,7 @@
 #include "ScatterPoints.h"
 
+#include "../render/StiffVoxels.h"
+
 #include <algorithm>
 #include <cmath>
 
@@ -13,6 +15,14 @@ constexpr float kStepScale = 2.0f;
 // The march stops where every channel's transmittance is under this: what lies beyond can add at
 // most this fraction of what is gathered.
 constexpr float kMinTransmittance = 1e-4f;
+// A step is split into sub-steps of at most kSubStepDepth optical depth (StiffVoxels.h, as the
+// camera march's stiff sub-steps), each with its own coefficients, at most kMaxSplit of them. A
+// step's constant coefficients spread its points over the step as if the medium were uniform
+// there; where a step is optically thick that misplaces them within the first mean free path
+// (a voxelised surface: a one-voxel ramp of optical depth 12 put the points' L1 of a lit box at
+// 3x the march's, tests/single/test_scatter_source.cpp), where the light they gather changes
+// fastest.
+constexpr int kMaxSplit = 64;
 
 float channel(Rgb v, int c)
 {
@@ -37,6 +47,10 @@ bool ScatterPointSampler::march(const RenderContext& ctx, float3 o, float3 d, fl
     if (mSpans.empty())
         return false;
     const float jitter = nbRngNext(&rng);
+    // One still volume with stiff bricks (StiffVoxels.h): there a brick's densest voxel bounds a
+    // step's optical depth, which a probe in the thin end of a ramp would miss.
+    const StiffVoxels* stiff = ctx.stiff.size() == 1 && ctx.stiff[0].any && !ctx.moving() ? &ctx.stiff[0] : nullptr;
+    const float stiffStep = stiff ? ctx.scene->render.step * vs.volumes()[0]->voxelSize : 1.0f;  // its camera step
     float T[3] = {1.0f, 1.0f, 1.0f};
     bool opaque = false;
     for (const Span& span : mSpans) {
@@ -52,28 +66,44 @@ bool ScatterPointSampler::march(const RenderContext& ctx, float3 o, float3 d, fl
             if (unsigned(k) % kStopPollInterval == kStopPollInterval - 1 && ctx.stop.raised())
                 return false;
             const float t = span.t0 + float(k) * dt;
-            const MediumSample m = vs.sampleAt(seconds, o + d * (t + jitter * dt));
-            Step st;
-            st.t = t;
-            st.dt = dt;
-            double w = 0.0;
-            for (int c = 0; c < 3; ++c) {
-                st.T[c] = T[c];
-                st.b[c] = channel(m.sigma_s, c);
-                st.c[c] = std::max(channel(m.sigma_t, c), st.b[c]);
-                w += double(T[c]) * st.b[c] * expIntegral(st.c[c], dt);
-                T[c] *= std::exp(-st.c[c] * dt);
+            const float3 probe = o + d * (t + jitter * dt);
+            float share;
+            BrickGrid::Stencil stencil;
+            float3 lightPoint;
+            MediumSample m = stiff ? vs.sampleAt(seconds, probe, &share, &stencil, &lightPoint)
+                                   : vs.sampleAt(seconds, probe);
+            float split = std::ceil(nbMaxComponent(fmax(m.sigma_t, m.sigma_s)) * dt / kSubStepDepth);
+            if (stiff)  // subStepsOf: sub-steps of kSubStepDepth in a camera step of stiffStep
+                split = std::max(split, std::ceil(float(stiff->subStepsOf(stencil.brick)) * dt / stiffStep));
+            const int splits = int(std::clamp(split, 1.0f, float(kMaxSplit)));
+            const float subDt = dt / float(splits);
+            for (int j = 0; j < splits && !opaque; ++j) {
+                const float tj = t + float(j) * subDt;
+                if (splits > 1)
+                    m = vs.sampleAt(seconds, o + d * (tj + jitter * subDt));
+                Step st;
+                st.t = tj;
+                st.dt = subDt;
+                double w = 0.0;
+                for (int c = 0; c < 3; ++c) {
+                    st.T[c] = T[c];
+                    st.b[c] = channel(m.sigma_s, c);
+                    st.c[c] = std::max(channel(m.sigma_t, c), st.b[c]);
+                    w += double(T[c]) * st.b[c] * expIntegral(st.c[c], subDt);
+                    T[c] *= std::exp(-st.c[c] * subDt);
+                }
+                if (w > 0.0) {
+                    mTotal += w / 3.0;
+                    st.cumulative = mTotal;
+                    mSteps.push_back(st);
+                }
+                opaque = std::max(T[0], std::max(T[1], T[2])) < kMinTransmittance;
             }
-            if (w > 0.0) {
-                mTotal += w / 3.0;
-                st.cumulative = mTotal;
-                mSteps.push_back(st);
-            }
-            opaque = std::max(T[0], std::max(T[1], T[2])) < kMinTransmittance;
         }
         if (opaque)
             break;
     }
+    mEndT = make_float3(T[0], T[1], T[2]);
     return mTotal > 0.0;
 }
 
@@ -99,7 +129,8 @@ ScatterPoint ScatterPointSampler::draw(float3 o, float3 d, int k, int K, NbRng& 
     }
     const double pdf = stepProbability * double(offsetPdf);
     for (int c = 0; c < 3; ++c) {
-        p.W[c] = pdf > 0.0 ? double(st.T[c]) * std::exp(-double(st.c[c]) * u) * st.b[c] / pdf : 0.0;
+        p.T[c] = double(st.T[c]) * std::exp(-double(st.c[c]) * u);
+        p.W[c] = pdf > 0.0 ? p.T[c] * st.b[c] / pdf : 0.0;
         p.b[c] = st.b[c];
         p.c[c] = st.c[c];
     }

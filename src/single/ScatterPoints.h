@@ -22,6 +22,7 @@ namespace nimbus {
 struct ScatterPoint {
     float3 x;
     double W[3];         // T_c(s) b_c(s) / pdf(s), 1 (dimensionless weight of the gathered radiance)
+    double T[3];         // T_c(s), the transmittance from the ray's origin to x
     double b[3], c[3];   // the medium there, 1/m
 };
 
@@ -33,6 +34,9 @@ public:
     bool march(const RenderContext& ctx, float3 o, float3 d, float tFar, NbRng& rng, float seconds = 0.0f);
     // Draw k of K (stratified), after a successful march.
     ScatterPoint draw(float3 o, float3 d, int k, int K, NbRng& rng) const;
+    // The transmittance from o to where the march ended (the ray's end, tFar, or under 1e-4 in
+    // every channel, where it stopped).
+    Rgb transmittance() const { return mEndT; }
 
 private:
     struct Step {
@@ -44,6 +48,7 @@ private:
     std::vector<Step> mSteps;
     std::vector<Span> mSpans;
     double mTotal = 0.0;
+    Rgb mEndT = make_float3(1.0f, 1.0f, 1.0f);
 };
 
 // The phase function of the medium mixture at a point: the volumes weighted by their share of b.

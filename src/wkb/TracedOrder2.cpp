@@ -1,7 +1,7 @@
 #include "TracedOrder2.h"
 
 #include "../single/ScatterPoints.h"
-#include "../single/SingleScatter.h"
+#include "../single/ScatterSource.h"
 
 #include <algorithm>
 #include <cmath>
@@ -63,21 +63,32 @@ void TracedOrder2::sample(const ScatterPoint& p, float3 d, PhaseMix& phase, NbRn
         return;
     const double dirWeight = f / dirPdf;
 
-    // L1 arriving at x from w': single's march along x + t w', stopped at a shadow caster.
+    // L1 arriving at x from w' (the integral of T b S along x + t w', ScatterSource.h): one point y
+    // of that ray drawn by T b, and single scattering's source there toward x. The ray stops at a
+    // shadow caster, which also hides the sky behind it.
     float tSecondary = INFINITY;
     if (const EmbreeScene* casters = ctx.shadowCasters())
         tSecondary = casters->shadowHit(x, w, 0.0f, INFINITY);
+    thread_local ScatterPointSampler along;
+    if (!along.march(ctx, x, w, tSecondary, rng, seconds))
+        return;
+    const ScatterPoint y = along.draw(x, w, 0, 1, rng);
+    // T(y, end), the sky tail's share; none where a caster hides the sky or, as single's march
+    // has it, where the ray's transmittance falls under render.tolerance.
+    Rgb behind = splat(0.0f);
+    if (const Rgb T = along.transmittance(); !(tSecondary < INFINITY) && nbMaxComponent(T) >= ctx.scene->render.tolerance) {
+        behind = make_float3(y.T[0] > 0.0 ? float(T.x / y.T[0]) : 0.0f, y.T[1] > 0.0 ? float(T.y / y.T[1]) : 0.0f,
+                             y.T[2] > 0.0 ? float(T.z / y.T[2]) : 0.0f);
+    }
     const size_t stride = 3 * ctx.lights.size();
     secondaryPerLight.assign(stride, 0.0f);
-    CameraSample secondary;
-    marchSingle(ctx, x, w, rng, secondary, secondaryPerLight.data(), tSecondary, seconds);
-    const Rgb L1 = secondary.L1;
-    if (!std::isfinite(L1.x + L1.y + L1.z))
+    const Rgb S = singleScatterSource(ctx, y.x, w, behind, rng, secondaryPerLight.data(), seconds);
+    if (!std::isfinite(S.x + S.y + S.z))
         return;
     double scale[3];
     for (int c = 0; c < 3; ++c)
-        scale[c] = p.W[c] * dirWeight / mSamples;
-    out.L2plus += make_float3(float(scale[0] * L1.x), float(scale[1] * L1.y), float(scale[2] * L1.z));
+        scale[c] = p.W[c] * dirWeight * y.W[c] / mSamples;
+    out.L2plus += make_float3(float(scale[0] * S.x), float(scale[1] * S.y), float(scale[2] * S.z));
     if (perLight)
         for (size_t i = 0; i < stride; ++i)
             perLight[i] += float(scale[i % 3] * secondaryPerLight[i]);

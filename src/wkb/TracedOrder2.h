@@ -12,9 +12,11 @@
 // with probability proportional to T(0,s) b(s) (ScatterPoints.h: one march, stratified draws), w'
 // by one-sample multiple importance sampling between the phase lobe about d and, for each light
 // with a position or direction, the phase lobe about the direction toward that light (where
-// forward-scattered L1 is brightest), then marchSingle along x + t w'. The estimate is
-// unbiased for the piecewise-constant medium of the march (the quadrature every march here uses),
-// and the straight-line reduction's error at order 2 (no boundary, no curvature) is gone.
+// forward-scattered L1 is brightest); then L1(x, w'), the integral of T b S along x + t w' (S the
+// source of single scattering at a point, ScatterSource.h), by one point of that ray drawn by T b
+// (a second ScatterPointSampler march). The estimate is unbiased for the piecewise-constant medium
+// of the marches (the quadrature every march here uses), and the straight-line reduction's error
+// at order 2 (no boundary, no curvature) is gone.
 #pragma once
 
 #include "../render/CameraSample.h"
