@@ -8,6 +8,12 @@
 
 namespace nimbus::wkb {
 
+namespace {
+// Points drawn (stratified) along each secondary direction: the march along it costs more than
+// reading the source at a point, so a second point halves the t integral's variance for little.
+constexpr int kPointsAlong = 2;
+}  // namespace
+
 TracedOrder2::TracedOrder2(const RenderContext& ctx)
     : mCtx(&ctx), mSamples(std::max(1, ctx.scene->render.wkbOrder2Samples)), mPhases(PhaseMix::phasesOf(ctx))
 {
@@ -63,7 +69,7 @@ void TracedOrder2::sample(const ScatterPoint& p, float3 d, PhaseMix& phase, NbRn
         return;
     const double dirWeight = f / dirPdf;
 
-    // L1 arriving at x from w' (the integral of T b S along x + t w', ScatterSource.h): one point y
+    // L1 arriving at x from w' (the integral of T b S along x + t w', ScatterSource.h): points y
     // of that ray drawn by T b, and single scattering's source there toward x. The ray stops at a
     // shadow caster, which also hides the sky behind it.
     float tSecondary = INFINITY;
@@ -72,26 +78,31 @@ void TracedOrder2::sample(const ScatterPoint& p, float3 d, PhaseMix& phase, NbRn
     thread_local ScatterPointSampler along;
     if (!along.march(ctx, x, w, tSecondary, rng, seconds))
         return;
-    const ScatterPoint y = along.draw(x, w, 0, 1, rng);
-    // T(y, end), the sky tail's share; none where a caster hides the sky or, as single's march
-    // has it, where the ray's transmittance falls under render.tolerance.
-    Rgb behind = splat(0.0f);
-    if (const Rgb T = along.transmittance(); !(tSecondary < INFINITY) && nbMaxComponent(T) >= ctx.scene->render.tolerance) {
-        behind = make_float3(y.T[0] > 0.0 ? float(T.x / y.T[0]) : 0.0f, y.T[1] > 0.0 ? float(T.y / y.T[1]) : 0.0f,
-                             y.T[2] > 0.0 ? float(T.z / y.T[2]) : 0.0f);
-    }
+    const Rgb Tend = along.transmittance();
+    const bool tail = !(tSecondary < INFINITY) && nbMaxComponent(Tend) >= ctx.scene->render.tolerance;
     const size_t stride = 3 * ctx.lights.size();
-    secondaryPerLight.assign(stride, 0.0f);
-    const Rgb S = singleScatterSource(ctx, y.x, w, behind, rng, secondaryPerLight.data(), seconds);
-    if (!std::isfinite(S.x + S.y + S.z))
-        return;
-    double scale[3];
-    for (int c = 0; c < 3; ++c)
-        scale[c] = p.W[c] * dirWeight * y.W[c] / mSamples;
-    out.L2plus += make_float3(float(scale[0] * S.x), float(scale[1] * S.y), float(scale[2] * S.z));
-    if (perLight)
-        for (size_t i = 0; i < stride; ++i)
-            perLight[i] += float(scale[i % 3] * secondaryPerLight[i]);
+    const int K = kPointsAlong;
+    for (int k = 0; k < K; ++k) {
+        const ScatterPoint y = along.draw(x, w, k, K, rng);
+        // T(y, end), the sky tail's share; none where a caster hides the sky or, as single's
+        // march has it, where the ray's transmittance falls under render.tolerance.
+        Rgb behind = splat(0.0f);
+        if (tail)
+            behind = make_float3(y.T[0] > 0.0 ? float(Tend.x / y.T[0]) : 0.0f,
+                                 y.T[1] > 0.0 ? float(Tend.y / y.T[1]) : 0.0f,
+                                 y.T[2] > 0.0 ? float(Tend.z / y.T[2]) : 0.0f);
+        secondaryPerLight.assign(stride, 0.0f);
+        const Rgb S = singleScatterSource(ctx, y.x, w, behind, rng, secondaryPerLight.data(), seconds);
+        if (!std::isfinite(S.x + S.y + S.z))
+            continue;
+        double scale[3];
+        for (int c = 0; c < 3; ++c)
+            scale[c] = p.W[c] * dirWeight * y.W[c] / (double(mSamples) * K);
+        out.L2plus += make_float3(float(scale[0] * S.x), float(scale[1] * S.y), float(scale[2] * S.z));
+        if (perLight)
+            for (size_t i = 0; i < stride; ++i)
+                perLight[i] += float(scale[i % 3] * secondaryPerLight[i]);
+    }
 }
 
 }  // namespace nimbus::wkb
