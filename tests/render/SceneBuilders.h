@@ -46,6 +46,27 @@ inline Light distantLight(const std::string& name, float3 direction, Rgb irradia
     return l;
 }
 
+// A point light: position, radiant intensity in W/sr.
+inline Light pointLight(const std::string& name, float3 position, Rgb intensity)
+{
+    Light l;
+    l.name = name;
+    l.type = LightType::Point;
+    l.position = position;
+    l.intensity = intensity;
+    return l;
+}
+
+// A uniform environment light (a sky): radiance in W/(m^2 sr).
+inline Light uniformSky(const std::string& name, Rgb radiance)
+{
+    Light l;
+    l.name = name;
+    l.type = LightType::Environment;
+    l.radiance = radiance;
+    return l;
+}
+
 // Analytic tests compare pixels with closed forms along their rays: a one-pixel box keeps every
 // sample inside its pixel (the filters themselves: tests/engine/test_pixel_filter.cpp).
 inline Scene emptyScene(int w, int h)

@@ -38,17 +38,8 @@ Scene litScene(Volume volume)
     s.render.method = Method::Single;
     s.volumes.push_back(std::move(volume));
     s.lights.push_back(distantLight("sun", make_float3(-0.64f, -0.77f, -0.2f), splat(3.0f)));
-    Light lamp;
-    lamp.name = "lamp";
-    lamp.type = LightType::Point;
-    lamp.position = make_float3(1.6f, 0.9f, 1.2f);
-    lamp.intensity = splat(2.0f);
-    s.lights.push_back(lamp);
-    Light sky;
-    sky.name = "sky";
-    sky.type = LightType::Environment;
-    sky.radiance = make_float3(0.1f, 0.15f, 0.3f);
-    s.lights.push_back(sky);
+    s.lights.push_back(pointLight("lamp", make_float3(1.6f, 0.9f, 1.2f), splat(2.0f)));
+    s.lights.push_back(uniformSky("sky", make_float3(0.1f, 0.15f, 0.3f)));
     return s;
 }
 
