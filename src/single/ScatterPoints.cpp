@@ -12,9 +12,6 @@ namespace {
 // The march's step, in multiples of the span's L1 step: a point only needs T b to the accuracy of
 // a quadrature, and the weight is exact for the medium the march sees.
 constexpr float kStepScale = 2.0f;
-// The march stops where every channel's transmittance is under this: what lies beyond can add at
-// most this fraction of what is gathered.
-constexpr float kMinTransmittance = 1e-4f;
 // A step is split into sub-steps of at most kSubStepDepth optical depth (StiffVoxels.h, as the
 // camera march's stiff sub-steps), each with its own coefficients, at most kMaxSplit of them. A
 // step's constant coefficients spread its points over the step as if the medium were uniform
@@ -51,6 +48,9 @@ bool ScatterPointSampler::march(const RenderContext& ctx, float3 o, float3 d, fl
     // step's optical depth, which a probe in the thin end of a ramp would miss.
     const StiffVoxels* stiff = ctx.stiff.size() == 1 && ctx.stiff[0].any && !ctx.moving() ? &ctx.stiff[0] : nullptr;
     const float stiffStep = stiff ? ctx.scene->render.step * vs.volumes()[0]->voxelSize : 1.0f;  // its camera step
+    // The march stops where every channel's transmittance is under render.tolerance, as the camera
+    // march does: what lies beyond can add at most that fraction of what is gathered.
+    const float cutoff = ctx.scene->render.tolerance;
     float T[3] = {1.0f, 1.0f, 1.0f};
     bool opaque = false;
     for (const Span& span : mSpans) {
@@ -81,23 +81,34 @@ bool ScatterPointSampler::march(const RenderContext& ctx, float3 o, float3 d, fl
                 const float tj = t + float(j) * subDt;
                 if (splits > 1)
                     m = vs.sampleAt(seconds, o + d * (tj + jitter * subDt));
+                if (!(nbMaxComponent(m.sigma_t) > 0.0f))
+                    continue;  // no medium here: nothing to draw, nothing attenuated
                 Step st;
                 st.t = tj;
                 st.dt = subDt;
-                double w = 0.0;
                 for (int c = 0; c < 3; ++c) {
                     st.T[c] = T[c];
                     st.b[c] = channel(m.sigma_s, c);
                     st.c[c] = std::max(channel(m.sigma_t, c), st.b[c]);
-                    w += double(T[c]) * st.b[c] * expIntegral(st.c[c], subDt);
-                    T[c] *= std::exp(-st.c[c] * subDt);
+                }
+                double w;
+                if (st.c[1] == st.c[0] && st.c[2] == st.c[0] && T[1] == T[0] && T[2] == T[0]) {  // grey
+                    const float decay = std::exp(-st.c[0] * subDt);
+                    w = double(T[0]) * (double(st.b[0]) + st.b[1] + st.b[2]) * expIntegral(st.c[0], subDt);
+                    T[0] *= decay, T[1] = T[2] = T[0];
+                } else {
+                    w = 0.0;
+                    for (int c = 0; c < 3; ++c) {
+                        w += double(T[c]) * st.b[c] * expIntegral(st.c[c], subDt);
+                        T[c] *= std::exp(-st.c[c] * subDt);
+                    }
                 }
                 if (w > 0.0) {
                     mTotal += w / 3.0;
                     st.cumulative = mTotal;
                     mSteps.push_back(st);
                 }
-                opaque = std::max(T[0], std::max(T[1], T[2])) < kMinTransmittance;
+                opaque = std::max(T[0], std::max(T[1], T[2])) < cutoff;
             }
         }
         if (opaque)
