@@ -5,7 +5,7 @@
 //
 // march() walks the ray's spans in steps of constant coefficients (twice the L1 step, at least
 // half a voxel, split where a step is thicker than half an optical depth), integrating T b exactly
-// in each, until the transmittance is under render.tolerance, and keeps the table; draw() then picks a step by
+// in each, until the transmittance is under 1e-4, and keeps the table; draw() then picks a step by
 // its weight (stratified over the ray's K draws) and the offset inside it by e^{-c u} (c the
 // channels' mean), and returns each channel's weight T_c(s) b_c / pdf(s). The estimate of
 // int T b f ds by W f(x) is unbiased for the march's piecewise-constant medium.
@@ -35,7 +35,7 @@ public:
     bool march(const RenderContext& ctx, float3 o, float3 d, float tFar, NbRng& rng, float seconds = 0.0f);
     // Draw k of K (stratified), after a successful march.
     ScatterPoint draw(float3 o, float3 d, int k, int K, NbRng& rng) const;
-    // The transmittance from o to where the march ended (the ray's end, tFar, or under render.tolerance in
+    // The transmittance from o to where the march ended (the ray's end, tFar, or under 1e-4 in
     // every channel, where it stopped).
     Rgb transmittance() const { return mEndT; }
 
