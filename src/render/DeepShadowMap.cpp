@@ -30,6 +30,7 @@ DeepShadowMap DeepShadowMap::build(const NbLight& light, const VolumeSet& volume
     m.mTolerance = settings.tolerance;
     m.mStepFraction = settings.stepFraction;
     m.mGrey = true;
+    m.mStop = settings.stop;
     for (auto& v : volumes.volumes()) {
         const Rgb k = v->sigmaT();
         m.mGrey = m.mGrey && k.x == k.y && k.y == k.z;
@@ -76,6 +77,7 @@ DeepShadowMap DeepShadowMap::build(const NbLight& light, const VolumeSet& volume
         std::vector<std::vector<Vertex>> rowRaw(byRow ? size_t(res) : 0);
         std::vector<int> toMarch;
         for (size_t row = r.begin(); row != r.end(); ++row) {
+            throwIfStopped(settings.stop);  // before the row and, below, after its marches
             int face = int(row / res), iy = int(row % res);
             auto meets = [&](int ix) {
                 return texelMeetsBricks.empty() || texelMeetsBricks[row * size_t(res) + size_t(ix)];
@@ -86,6 +88,7 @@ DeepShadowMap DeepShadowMap::build(const NbLight& light, const VolumeSet& volume
                     if (meets(ix))
                         toMarch.push_back(ix);
                 m.marchTexelRow(volumes, face, iy, toMarch, rowRaw);
+                throwIfStopped(settings.stop);
             }
             for (int ix = 0; ix < res; ++ix) {
                 const size_t t = row * size_t(res) + size_t(ix);
@@ -104,6 +107,7 @@ DeepShadowMap DeepShadowMap::build(const NbLight& light, const VolumeSet& volume
                     m.finishTexel(rowRaw[size_t(ix)], texel, samples, where, zStop);
                 } else {
                     m.buildTexel(volumes, face, ix, iy, texel, samples, where, zStop);
+                    throwIfStopped(settings.stop);
                 }
                 rows[row].insert(rows[row].end(), texel.begin(), texel.end());
                 rowCounts[row].push_back(uint32_t(texel.size()));
@@ -157,6 +161,7 @@ DeepShadowMap DeepShadowMap::build(const NbLight& light, const VolumeSet& volume
         }
     });
     m.mOffsets[texels] = uint32_t(rowStart.back());
+    m.mStop = nullptr;  // the flag is the render's; the map may outlive it (ShadowMapCache)
     m.mBuildSeconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     return m;
 }
@@ -192,9 +197,13 @@ std::vector<char> DeepShadowMap::texelsMeetingBricks(const VolumeSet& volumes) c
     return meets;
 }
 
-void DeepShadowMap::marchRay(const VolumeSet& volumes, float3 o, float3 d, float stepFraction, std::vector<Vertex>& raw)
+void DeepShadowMap::marchRay(const VolumeSet& volumes, float3 o, float3 d, float stepFraction, std::vector<Vertex>& raw,
+                             const StopFlag* stop)
 {
     raw.clear();
+    // Polled every kStopPollInterval samples: a texel ray is 1 / shadow_step samples per voxel.
+    unsigned polled = 0;
+    auto goOn = [&] { return ++polled % kStopPollInterval != 0 || !stopRaised(stop); };
     float tau[3] = {0, 0, 0};
     if (volumes.volumes().size() == 1 && volumes.volumes()[0]->density.channels() == 1) {
         // One volume: walk its occupied bricks in index space (BrickWalk.h), midpoint rule on
@@ -216,7 +225,7 @@ void DeepShadowMap::marchRay(const VolumeSet& volumes, float3 o, float3 d, float
                     BrickGrid::trilinear<1>(density.brickData(st.brick) + st.corner, st.tx, st.ty, st.tz), 0.0f);
                 tau[0] += kT.x * rho * dt, tau[1] += kT.y * rho * dt, tau[2] += kT.z * rho * dt;
                 raw.push_back({t + 0.5f * dt, {tau[0], tau[1], tau[2]}});
-                return true;
+                return goOn();
             },
             Lattice::FromOrigin);
         return;
@@ -232,6 +241,8 @@ void DeepShadowMap::marchRay(const VolumeSet& volumes, float3 o, float3 d, float
             Rgb c = volumes.sample(o + d * (s.t0 + (k + 0.5f) * dt)).sigma_t;
             tau[0] += c.x * dt, tau[1] += c.y * dt, tau[2] += c.z * dt;
             raw.push_back({s.t0 + (k + 1) * dt, {tau[0], tau[1], tau[2]}});
+            if (!goOn())
+                return;
         }
     }
 }
@@ -242,7 +253,7 @@ void DeepShadowMap::buildTexel(const VolumeSet& volumes, int face, int ix, int i
     float3 o, d;
     texelRay(face, (ix + 0.5f) / mRes, (iy + 0.5f) / mRes, o, d);
     thread_local std::vector<Vertex> raw;
-    marchRay(volumes, o, d, mStepFraction, raw);
+    marchRay(volumes, o, d, mStepFraction, raw, mStop);
     finishTexel(raw, out, samples, where, zStop);
 }
 
@@ -285,15 +296,19 @@ void DeepShadowMap::marchTexelRow(const VolumeSet& volumes, int face, int iy, co
             texelRay(face, (ix + 0.5f) / mRes, (iy + 0.5f) / mRes, o[i], d);
             out[i] = &raw[size_t(ix)];
         }
-        if (!marchEightParallelRays(vol, o, n, d, dt, out))
+        if (!marchEightParallelRays(vol, o, n, d, dt, out, mStop))
             for (int i = 0; i < n; ++i)
-                marchRay(volumes, o[i], d, mStepFraction, *out[i]);
+                marchRay(volumes, o[i], d, mStepFraction, *out[i], mStop);
+        if (stopRaised(mStop))
+            return;  // the caller throws
     }
 #else
     for (int ix : columns) {
         float3 o, d;
         texelRay(face, (ix + 0.5f) / mRes, (iy + 0.5f) / mRes, o, d);
-        marchRay(volumes, o, d, mStepFraction, raw[size_t(ix)]);
+        marchRay(volumes, o, d, mStepFraction, raw[size_t(ix)], mStop);
+        if (stopRaised(mStop))
+            return;  // the caller throws
     }
 #endif
 }

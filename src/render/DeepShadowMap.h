@@ -20,6 +20,7 @@
 #include "../../kernels/shared/light.h"
 #include "../core/BulkAllocator.h"
 #include "../geometry/EmbreeScene.h"
+#include "RenderControl.h"
 #include "VolumeSet.h"
 
 #include <algorithm>
@@ -45,6 +46,9 @@ public:
         // Opaque surfaces that stop the texel rays (docs/geometry.md): behind the first one a
         // texel's optical depth jumps by kOpaqueDepth. Null: none (the map is as without geometry).
         const EmbreeScene* shadowCasters = nullptr;
+        // The render's stop flag (RenderControl.h; null: none): the build polls it inside the
+        // texel marches and throws Cancelled once it is raised.
+        const StopFlag* stop = nullptr;
     };
 
     // The optical depth added behind a shadow caster: e^-200 is 0 in float, and the camera
@@ -170,7 +174,9 @@ public:
     };
     // The uncompressed march along a light ray: a vertex at the start of every span and at the
     // end of every step (midpoint rule), optical depth accumulated from the ray origin.
-    static void marchRay(const VolumeSet& volumes, float3 o, float3 d, float stepFraction, std::vector<Vertex>& raw);
+    // A raised `stop` ends the march early (what it leaves is to be discarded).
+    static void marchRay(const VolumeSet& volumes, float3 o, float3 d, float stepFraction, std::vector<Vertex>& raw,
+                         const StopFlag* stop = nullptr);
     // Greedy piecewise-linear compression of `raw` whose transmittance T' stays within
     // |T' - T| <= tolerance * max(T, kRelativeFloor) of raw's at every raw vertex (and so
     // everywhere between them, both being linear in between).
@@ -230,6 +236,7 @@ private:
     bool mGrey = false;  // every volume's extinction is equal in R, G and B
     float mSampleDz = 0.0f, mInvSampleDz = 0.0f;
     float mPenumbraTexelsPerMetre = 0.0f;  // slope / 2 x texels per metre (penumbraTexels)
+    const StopFlag* mStop = nullptr;       // while it is built: Settings::stop
     // The kept march samples, every row's end to end after two zeros (where texels whose ray
     // meets nothing point), each texel's run padded with a 0 before and a copy after; per texel
     // (structure of arrays, for gathers): lo, the padding 0's index; hi, the last sample's;

@@ -118,7 +118,7 @@ void bakeOwnPoints(const DeepShadowMap& map, const Transform& worldFromIndex, In
 
 }  // namespace
 
-LightCache LightCache::bake(const DeepShadowMap& map, const VolumeSet& volumes)
+LightCache LightCache::bake(const DeepShadowMap& map, const VolumeSet& volumes, const StopFlag* stop)
 {
     auto start = std::chrono::steady_clock::now();
     LightCache cache;
@@ -135,12 +135,15 @@ LightCache LightCache::bake(const DeepShadowMap& map, const VolumeSet& volumes)
         // brick's own point where that brick is allocated, copied; else looked up here.
         tbb::parallel_for(tbb::blocked_range<size_t>(0, g.brickCount(), 4), [&](const tbb::blocked_range<size_t>& r) {
             DeepShadowMap::Cursor cursor;
-            for (size_t b = r.begin(); b != r.end(); ++b)
+            for (size_t b = r.begin(); b != r.end(); ++b) {
+                throwIfStopped(stop);
                 bakeOwnPoints(map, worldFromIndex, g.brickOrigin(b), channels, g.brickValues(b), cursor);
+            }
         });
         tbb::parallel_for(tbb::blocked_range<size_t>(0, g.brickCount(), 4), [&](const tbb::blocked_range<size_t>& r) {
             DeepShadowMap::Cursor cursor;
             for (size_t b = r.begin(); b != r.end(); ++b) {
+                throwIfStopped(stop);
                 float* values = g.brickValues(b);
                 const Int3 o = g.brickOrigin(b);
                 // The apron by neighbour: n = (dx, dy, dz) != 0 supplies local x = 8 where

@@ -20,7 +20,8 @@ namespace nimbus {
 
 class LightCache {
 public:
-    static LightCache bake(const DeepShadowMap& map, const VolumeSet& volumes);
+    // stop: the render's (RenderControl.h), polled per brick; a raised one throws Cancelled.
+    static LightCache bake(const DeepShadowMap& map, const VolumeSet& volumes, const StopFlag* stop = nullptr);
 
     // Transmittance from the light at the point whose per-volume stencils are given
     // (VolumeSet::sample fills them): the first volume holding the point answers.

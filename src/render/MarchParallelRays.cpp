@@ -10,7 +10,7 @@ namespace nimbus {
 #if NIMBUS_EIGHT_TEXEL_MARCH
 
 bool marchEightParallelRays(const VolumeData& vol, const float3* o, int n, float3 d, float dt,
-                            std::vector<DeepShadowMap::Vertex>* const* raw)
+                            std::vector<DeepShadowMap::Vertex>* const* raw, const StopFlag* stop)
 {
     const BrickGrid& density = vol.density;
     if (!lanes::gatherable(density) || !(dt > 0.0f))
@@ -64,6 +64,8 @@ bool marchEightParallelRays(const VolumeData& vol, const float3* o, int n, float
     const float* rhoPool = density.pool().data();
     __m256 tau = zero;
     for (size_t s = 0; s < steps; ++s) {
+        if (s % kStopPollInterval == kStopPollInterval - 1 && stopRaised(stop))
+            return true;  // a stopped render: the build throws Cancelled and drops the rows
         const float kf = float(kLo + int(s));
         const float t = 0.0f + (kf + 0.5f) * dt;  // walkOccupiedBricks' t_k, tStart 0, jitter 1/2
         const __m256 tk = _mm256_set1_ps(t), K = _mm256_set1_ps(kf);

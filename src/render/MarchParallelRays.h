@@ -28,8 +28,9 @@ namespace nimbus {
 // through one volume of grey extinction, at the step dt (metres) of the shared lattice: *raw[i]
 // receives ray i's vertices. False, with nothing written, where the pools are too large for
 // 32-bit gathers or a march too long for float sample indices: march those one by one.
+// A raised `stop` ends the march early (true, the vertices to be discarded).
 bool marchEightParallelRays(const VolumeData& vol, const float3* o, int n, float3 d, float dt,
-                            std::vector<DeepShadowMap::Vertex>* const* raw);
+                            std::vector<DeepShadowMap::Vertex>* const* raw, const StopFlag* stop = nullptr);
 #endif
 
 }  // namespace nimbus

@@ -79,6 +79,7 @@ void RenderContext::buildShadowMaps(const RenderPlan& plan, RenderStats& stats, 
     s.stepFraction = s0.render.shadowStep;
     s.keepMarchSamples = true;  // for the bake below, then released
     s.shadowCasters = shadowCasters();
+    s.stop = &stop;  // the builds below throw Cancelled once the render is stopped
     stats.lights.resize(lights.size());
     for (size_t i = 0; i < lights.size(); ++i) {
         if (!plan.lights[i].shadowMap)
@@ -96,7 +97,7 @@ void RenderContext::buildShadowMaps(const RenderPlan& plan, RenderStats& stats, 
                               ? std::sqrt(std::max(0.0f, 1.0f - nl.p0 * nl.p0)) / nl.p0
                               : 0.0f;
         lights[i].shadowMap = DeepShadowMap::build(lights[i].light, volumes, s);
-        lights[i].cache = LightCache::bake(*lights[i].shadowMap, volumes);
+        lights[i].cache = LightCache::bake(*lights[i].shadowMap, volumes, &stop);
         ls.marchSampleBytes = lights[i].shadowMap->marchSampleBytes();
         lights[i].shadowMap->releaseMarchSamples();
         ls.resolution = lights[i].shadowMap->resolution();
@@ -124,7 +125,8 @@ void RenderContext::buildShadowMaps(const RenderPlan& plan, RenderStats& stats, 
             stats.lights[i].skyBytes = lights[i].sky->memoryBytes();
             continue;
         }
-        lights[i].sky = SkyLight::build(volumes, shadowCasters(), lights[i].map.get(), nbLoad3(lights[i].light.color), ss);
+        lights[i].sky =
+            SkyLight::build(volumes, shadowCasters(), lights[i].map.get(), nbLoad3(lights[i].light.color), ss, &stop);
         stats.lights[i].skyBytes = lights[i].sky->memoryBytes();
         stats.lights[i].skySeconds = lights[i].sky->buildSeconds();
     }
@@ -173,7 +175,7 @@ Rgb RenderContext::incident(size_t i, float3 p, float u0, float u1, float3& wi, 
     if (const EmbreeScene* casters = shadowCasters())
         if (casters->occluded(q, s.wi, 0.0f, tMax))
             return splat(0.0f);
-    Rgb tau = volumes.opticalDepth(q, s.wi, 0.0f, tMax, scene->render.shadowStep);
+    Rgb tau = volumes.opticalDepth(q, s.wi, 0.0f, tMax, scene->render.shadowStep, &stop);
     return s.weight * exp(-tau);
 }
 

@@ -5,7 +5,11 @@
 // Cancel within a second (issue 18, item 3): progress is reported per tile, but a tile can take
 // minutes (render.step = 1e-9 voxels, spp in the thousands), so the long loops inside a tile (every
 // march's samples, the WKB l-march's nodes) poll a StopFlag as well and end early once it is
-// raised; the driver then throws Cancelled and discards what they left.
+// raised; the driver then throws Cancelled and discards what they left. The stages before the
+// tiles (deep shadow maps and their bakes, sky grids, WKB light volumes, the traced orders-3+
+// cache) poll the same flag inside their loops and light-ray marches, whose length grows with
+// render.shadow_step, the resolutions and the voxel count, and throw Cancelled themselves
+// (throwIfStopped), so a cancel never waits for a whole stage either.
 #pragma once
 
 #include <atomic>
@@ -42,6 +46,16 @@ private:
     mutable std::atomic<bool> mRaised{false};
     const std::atomic<bool>* mExternal = nullptr;
 };
+
+// Whether `stop` (null: a build nobody can stop, a test's or a tool's) is raised.
+inline bool stopRaised(const StopFlag* stop) { return stop && stop->raised(); }
+// Ends a stage before the tiles once its render is stopped: what it built is discarded with it.
+// Inside a TBB loop the exception ends the loop's other tasks and reaches the caller.
+inline void throwIfStopped(const StopFlag* stop)
+{
+    if (stopRaised(stop))
+        throw Cancelled();
+}
 
 struct RenderControl {
     // Called (possibly from worker threads) with the fraction done, in [0, 1]; return false to

@@ -155,8 +155,8 @@ struct CoarseDensity {
         return lerp(lerp(c00, c10, ty), lerp(c01, c11, ty), tz);
     }
     // Optical depth (RGB) from world point p along unit world direction w out of the grid, by
-    // the midpoint rule at `step` nodes.
-    Rgb opticalDepth(float3 p, float3 w, float step) const
+    // the midpoint rule at `step` nodes. A raised `stop` ends it early (the build then throws).
+    Rgb opticalDepth(float3 p, float3 w, float step, const StopFlag* stop) const
     {
         if (nx < 2 || ny < 2 || nz < 2)
             return splat(0.0f);
@@ -186,6 +186,8 @@ struct CoarseDensity {
             float3 f = f0 + df * (t0 + (float(s) + 0.5f) * h);
             f = make_float3(clamp(f.x, 0.0f, hi[0]), clamp(f.y, 0.0f, hi[1]), clamp(f.z, 0.0f, hi[2]));
             tau += sample(f);
+            if (unsigned(s) % kStopPollInterval == kStopPollInterval - 1 && stopRaised(stop))
+                break;
         }
         return sigmaT * float(tau * h);
     }
@@ -194,7 +196,7 @@ struct CoarseDensity {
 }  // namespace
 
 SkyLight SkyLight::build(const VolumeSet& volumes, const EmbreeScene* casters, const EnvironmentMap* map, Rgb colour,
-                         const Settings& settings)
+                         const Settings& settings, const StopFlag* stop)
 {
     const auto t0 = std::chrono::steady_clock::now();
     SkyLight sky;
@@ -292,7 +294,8 @@ SkyLight SkyLight::build(const VolumeSet& volumes, const EmbreeScene* casters, c
         c.rho.assign(size_t(g.nx) * size_t(g.ny) * size_t(g.nz), 0.0f);
         tbb::parallel_for(tbb::blocked_range<int>(0, g.nz), [&](const tbb::blocked_range<int>& r) {
             for (int k = r.begin(); k != r.end(); ++k)
-                for (int j = 0; j < g.ny; ++j)
+                for (int j = 0; j < g.ny; ++j) {
+                    throwIfStopped(stop);
                     for (int i = 0; i < g.nx; ++i) {
                         const float3 q = g.origin + make_float3(float(i), float(j), float(k)) * g.spacing;
                         float sum = 0.0f;
@@ -300,6 +303,7 @@ SkyLight SkyLight::build(const VolumeSet& volumes, const EmbreeScene* casters, c
                             sum += std::max(0.0f, vol.density.sample(q + octant(s) * g.spacing));
                         c.rho[(size_t(k) * g.ny + j) * g.nx + i] = sum / 8.0f;
                     }
+                }
         });
         sky.mGrids.push_back(std::move(g));
     }
@@ -310,7 +314,7 @@ SkyLight SkyLight::build(const VolumeSet& volumes, const EmbreeScene* casters, c
             return splat(0.0f);
         Rgb tau = splat(0.0f);
         for (const CoarseDensity& c : coarse)
-            tau += c.opticalDepth(p, w, settings.shadowStep);
+            tau += c.opticalDepth(p, w, settings.shadowStep, stop);
         return exp(-tau);
     };
 
@@ -353,6 +357,7 @@ SkyLight SkyLight::build(const VolumeSet& volumes, const EmbreeScene* casters, c
                 const int ia = va > 0 ? n[a] - 1 - step : step, up = ia + int(va);
                 const bool inside = up >= 0 && up < n[a];
                 for (int id = 0; id < n[d]; ++id) {
+                    throwIfStopped(stop);
                     const int jd = id + od;
                     const bool rowsInside = jd >= 0 && jd + 1 < n[d];
                     const size_t row = size_t(ia) * sa + size_t(id) * sd;
@@ -421,6 +426,7 @@ SkyLight SkyLight::build(const VolumeSet& volumes, const EmbreeScene* casters, c
             for (int k = r.begin(); k != r.end(); ++k)
                 for (int j = 0; j < g.ny; ++j)
                     for (int i = 0; i < g.nx; ++i) {
+                        throwIfStopped(stop);  // a node: 128 sky cells' shadow rays
                         const float3 q = g.origin + make_float3(float(i), float(j), float(k)) * g.spacing;
                         bool near = false;
                         for (int pz = 0; pz < probes && !near; ++pz)

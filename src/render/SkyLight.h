@@ -29,6 +29,7 @@
 #pragma once
 
 #include "EnvironmentMap.h"
+#include "RenderControl.h"
 
 #include <algorithm>
 #include <memory>
@@ -58,9 +59,11 @@ public:
         float shadowStep = 1.0f;  // shadow-ray step in node spacings (render.shadow_step)
     };
 
-    // The sky's radiance is colour * map(w) (map null: uniform, colour alone).
+    // The sky's radiance is colour * map(w) (map null: uniform, colour alone). stop: the render's
+    // (RenderControl.h), polled per row of nodes and inside the shadow rays; a raised one throws
+    // Cancelled.
     static SkyLight build(const VolumeSet& volumes, const EmbreeScene* casters, const EnvironmentMap* map, Rgb colour,
-                          const Settings& settings);
+                          const Settings& settings, const StopFlag* stop = nullptr);
 
     int order() const { return mOrder; }
     int count() const { return (mOrder + 1) * (mOrder + 1); }

@@ -426,17 +426,21 @@ float3 VolumeSet::lightPointAt(float seconds, float3 p) const
     return lightPoint;
 }
 
-Rgb VolumeSet::opticalDepth(float3 o, float3 d, float t0, float t1, float stepFraction) const
+Rgb VolumeSet::opticalDepth(float3 o, float3 d, float t0, float t1, float stepFraction, const StopFlag* stop) const
 {
     thread_local std::vector<Span> spanList;
     spans(o, d, t0, t1, stepFraction, spanList);
     Rgb tau = splat(0.0f);
+    unsigned polled = 0;
     for (const Span& s : spanList) {
         float len = s.t1 - s.t0;
         int n = std::max(1, int(std::ceil(len / s.step)));
         float dt = len / float(n);
-        for (int k = 0; k < n; ++k)
+        for (int k = 0; k < n; ++k) {
             tau += sample(o + d * (s.t0 + (k + 0.5f) * dt)).sigma_t * dt;
+            if (++polled % kStopPollInterval == 0 && stopRaised(stop))
+                return tau;
+        }
     }
     return tau;
 }

@@ -7,6 +7,7 @@
 
 #include "../../kernels/shared/motion.h"
 #include "../volume/VolumeData.h"
+#include "RenderControl.h"
 
 #include <memory>
 #include <vector>
@@ -109,7 +110,9 @@ public:
 
     // Optical depth (RGB) along the segment o + t d, t in [t0, t1], by midpoint marching at
     // `stepFraction` voxels over the non-empty spans. Used by shadow maps and shadow rays.
-    Rgb opticalDepth(float3 o, float3 d, float t0, float t1, float stepFraction) const;
+    // A raised `stop` (RenderControl.h) ends the march early, its value then to be discarded:
+    // a ray is 1 / stepFraction samples per voxel, and the caller's own poll may be far away.
+    Rgb opticalDepth(float3 o, float3 d, float t0, float t1, float stepFraction, const StopFlag* stop = nullptr) const;
 
 private:
     // Per-volume constants of the hot loop: the index-from-world matrix in float (the double

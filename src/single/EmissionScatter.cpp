@@ -6,12 +6,13 @@
 namespace nimbus {
 
 Rgb emittedRadiance(const VolumeSet& vs, float3 x, float3 u, float stepFraction, const EmbreeScene* casters,
-                    float seconds)
+                    float seconds, const StopFlag* stop)
 {
     thread_local std::vector<Span> spans;
     const float tMax = casters ? std::min(1e30f, casters->shadowHit(x, u, 0.0f, INFINITY)) : 1e30f;
     vs.spansAt(seconds, x, u, 0.0f, tMax, stepFraction, spans);
     Rgb L = splat(0.0f), T = splat(1.0f);
+    unsigned polled = 0;
     for (const Span& s : spans) {
         float len = s.t1 - s.t0;
         int n = std::max(1, int(std::ceil(len / s.step)));
@@ -23,7 +24,7 @@ Rgb emittedRadiance(const VolumeSet& vs, float3 x, float3 u, float stepFraction,
                                 m.sigma_t.z > 0 ? -std::expm1(-m.sigma_t.z * dt) / m.sigma_t.z : dt);
             L += T * w * m.emission;
             T = T * exp(-m.sigma_t * dt);
-            if (nbMaxComponent(T) < 1e-4f)
+            if (nbMaxComponent(T) < 1e-4f || (++polled % kStopPollInterval == 0 && stopRaised(stop)))
                 return L;
         }
     }
@@ -54,7 +55,7 @@ void EmissionScatter::add(float3 o, float3 d, NbRng& rng, CameraSample& out, flo
         phase.at(ctx.volumes, p.x, seconds);
         // w' by the phase function about d: p(w' . d) / pdf = 1.
         const float3 w = phase.sample(d, nbRngNext(&rng), nbRngNext(&rng), nbRngNext(&rng));
-        const Rgb Le = emittedRadiance(ctx.volumes, p.x, w, stepFraction, casters, seconds);
+        const Rgb Le = emittedRadiance(ctx.volumes, p.x, w, stepFraction, casters, seconds, &ctx.stop);
         if (!std::isfinite(Le.x + Le.y + Le.z))
             continue;
         sum += make_float3(float(p.W[0] * Le.x), float(p.W[1] * Le.y), float(p.W[2] * Le.z));

@@ -22,9 +22,10 @@ namespace nimbus {
 // Emitted radiance arriving at x from direction u (travelling along -u), W/(m^2 sr): the integral
 // of T * emission along x + t u (eq. 26's source term), midpoint steps of `stepFraction` voxels, up
 // to the first shadow caster.
-// seconds: the shutter time at which moving volumes are read (VolumeSet::sampleAt).
+// seconds: the shutter time at which moving volumes are read (VolumeSet::sampleAt). A raised
+// `stop` (RenderControl.h) ends the march early, its value then to be discarded.
 Rgb emittedRadiance(const VolumeSet& vs, float3 x, float3 u, float stepFraction, const EmbreeScene* casters,
-                    float seconds = 0.0f);
+                    float seconds = 0.0f, const StopFlag* stop = nullptr);
 
 class EmissionScatter {
 public:

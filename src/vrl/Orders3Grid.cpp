@@ -76,8 +76,8 @@ void deposit(const RenderContext& ctx, const wkb::RadianceGrid& grid, const Vrl&
 }
 
 // One pass of the separable [1 2 1] / 4 filter along each axis (edges clamped), in place;
-// scratch: a buffer of the grid's size.
-void blur(wkb::RadianceGrid& grid, std::vector<float>& scratch)
+// scratch: a buffer of the grid's size. stop: polled per slice (up to 512^2 cells each).
+void blur(wkb::RadianceGrid& grid, std::vector<float>& scratch, const StopFlag& stop)
 {
     const int n[3] = {grid.size(0), grid.size(1), grid.size(2)};
     const size_t stride[3] = {1, size_t(n[0]), size_t(n[0]) * size_t(n[1])};
@@ -88,6 +88,7 @@ void blur(wkb::RadianceGrid& grid, std::vector<float>& scratch)
             continue;
         scratch = data;
         tbb::parallel_for(0, n[2], [&](int z) {
+            throwIfStopped(&stop);
             for (int y = 0; y < n[1]; ++y)
                 for (int x = 0; x < n[0]; ++x) {
                     const int c[3] = {x, y, z};
@@ -169,9 +170,11 @@ std::shared_ptr<const wkb::RadianceGrid> traceOrders3(const RenderContext& ctx, 
     std::vector<std::vector<float>> partial(size_t(partials), std::vector<float>(floats, 0.0f));
     std::vector<Vrl> kept;
     for (long long b = 0; b < batches; ++b) {
-        if (ctx.stop.raised())
-            break;
+        // A stopped render (RenderControl.h): the paths end early, the deposits stop within a few
+        // hundred segments, and the grid is dropped with the render.
+        throwIfStopped(&ctx.stop);
         std::vector<Vrl> all = pass.trace(options.seed, uint32_t(b), perBatch);
+        throwIfStopped(&ctx.stop);
         kept.clear();
         for (const Vrl& v : all)
             if (v.order >= options.firstOrder) {
@@ -182,17 +185,20 @@ std::shared_ptr<const wkb::RadianceGrid> traceOrders3(const RenderContext& ctx, 
         tbb::parallel_for(0, partials, [&](int p) {
             const size_t lo = n * size_t(p) / size_t(partials), hi = n * size_t(p + 1) / size_t(partials);
             for (size_t i = lo; i < hi; ++i) {
+                if ((i - lo) % kStopPollInterval == kStopPollInterval - 1)
+                    throwIfStopped(&ctx.stop);
                 NbRng rng = nbRngStart(options.seed ^ kDepositKey, uint32_t(i), uint32_t(b));
                 deposit(ctx, *grid, kept[i], layerOf[size_t(kept[i].light)], h, rng, partial[size_t(p)].data());
             }
         });
     }
+    throwIfStopped(&ctx.stop);
     std::vector<float>& data = grid->data();
     for (int p = 0; p < partials; ++p)
         for (size_t i = 0; i < floats; ++i)
             data[i] += partial[size_t(p)][i];
     for (int k = 0; k < kBlurPasses; ++k)
-        blur(*grid, partial[0]);
+        blur(*grid, partial[0], ctx.stop);
     return grid;
 }
 

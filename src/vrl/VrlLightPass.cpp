@@ -46,7 +46,7 @@ float area(const NbLight& l)
 }  // namespace
 
 LightPass::LightPass(const RenderContext& ctx, const PathtraceScene& ps, const VrlMedium& medium, int maxDepth)
-    : mPs(&ps), mMedium(&medium), mMaxDepth(maxDepth)
+    : mPs(&ps), mMedium(&medium), mStop(&ctx.stop), mMaxDepth(maxDepth)
 {
     const Bbox& b = ctx.volumes.movingBounds();  // with velocity blur, all the shutter sweeps
     mCentre = b.empty() ? make_float3(0, 0, 0) : b.center();
@@ -175,6 +175,8 @@ void LightPass::tracePath(uint32_t seed, uint32_t iteration, int path, int paths
     float3 w = make_float3(1, 1, 1);
     NbPhase phase = mDefaultPhase;
     for (int order = 0; order <= maxOrder; ++order) {
+        if (order % kStopPollInterval == kStopPollInterval - 1 && mStop->raised())
+            return;
         if (ps.shadowCasters)
             tEnd = std::fmin(tEnd, nbGeomTrace(ps.geometry.nodes.data(), ps.geometry.prims.data(), ps.geometry.scene, x,
                                                dir, 0.0f, NB_INF, NB_GEOM_SHADOWS, 0));
@@ -215,7 +217,10 @@ std::vector<Vrl> LightPass::trace(uint32_t seed, uint32_t iteration, int paths) 
     std::vector<std::vector<Vrl>> perPath(size_t(std::max(0, paths)));
     if (mCdf.empty())
         return {};
-    tbb::parallel_for(0, paths, [&](int p) { tracePath(seed, iteration, p, paths, perPath[size_t(p)]); });
+    tbb::parallel_for(0, paths, [&](int p) {
+        if (!mStop->raised())
+            tracePath(seed, iteration, p, paths, perPath[size_t(p)]);
+    });
     std::vector<Vrl> out;
     for (const std::vector<Vrl>& v : perPath)
         out.insert(out.end(), v.begin(), v.end());

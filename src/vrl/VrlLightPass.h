@@ -53,7 +53,9 @@ public:
     LightPass(const RenderContext& ctx, const PathtraceScene& ps, const VrlMedium& medium, int maxDepth);
 
     // The VRLs of `paths` light paths of one iteration, in path order (any thread count gives
-    // the same list). seed: scene.render.seed.
+    // the same list). seed: scene.render.seed. Once the render is stopped (the context's
+    // StopFlag, RenderControl.h) the paths end early: a thick medium's paths can take millions
+    // of events; the caller sees the flag and discards the list.
     std::vector<Vrl> trace(uint32_t seed, uint32_t iteration, int paths) const;
 
     bool empty() const { return mCdf.empty(); }
@@ -66,6 +68,7 @@ private:
 
     const PathtraceScene* mPs;
     const VrlMedium* mMedium;
+    const StopFlag* mStop;  // the render's
     int mMaxDepth;
     std::vector<double> mCdf;   // by power, normalised
     std::vector<double> mProb;  // P_light

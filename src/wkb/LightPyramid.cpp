@@ -97,12 +97,13 @@ float LightPyramid::sigmaOfLevel(float k)
     return float(std::sqrt((std::pow(4.0, double(k)) - 1.0) / 3.0));
 }
 
-void LightPyramid::buildLevels(float maxSigma, int maxLevels)
+void LightPyramid::buildLevels(float maxSigma, int maxLevels, const StopFlag* stop)
 {
     if (mLevels.empty())
         return;
     for (int k = 1; k < maxLevels && sigmaOfLevel(float(k - 1)) < maxSigma && !mLevels.back().empty(); ++k)
-        buildLevel(k);
+        buildLevel(k, stop);
+    throwIfStopped(stop);
     for (BrickGrid& g : mLevels)
         g.updateMajorants();
 }
@@ -137,7 +138,7 @@ size_t LightPyramid::levelBytes(const std::vector<Int3>& bricks, int channels)
            slots * (sizeof(int32_t) + sizeof(float));
 }
 
-void LightPyramid::buildLevel(int k)
+void LightPyramid::buildLevel(int k, const StopFlag* stop)
 {
     const BrickGrid& fine = mLevels[k - 1];
     std::vector<Int3> fineBricks;
@@ -157,6 +158,7 @@ void LightPyramid::buildLevel(int k)
         std::vector<float> px(size_t(kRegion) * kRegion * S * C);
         std::vector<float> py(size_t(kRegion) * S * S * C);
         for (size_t bi = r.begin(); bi != r.end(); ++bi) {
+            throwIfStopped(stop);
             const Int3 cb = bricks[bi];
             const int x0 = 2 * B * cb.x - 2, y0 = 2 * B * cb.y - 2, z0 = 2 * B * cb.z - 2;
             // Gather the finer level's region (zero where nothing is allocated).

@@ -17,6 +17,7 @@
 // is a weighted average of the source either way.
 #pragma once
 
+#include "../render/RenderControl.h"
 #include "../volume/BrickGrid.h"
 
 #include <vector>
@@ -35,8 +36,9 @@ public:
     float* level0Values(size_t i) { return mLevel0[i].values; }
 
     // Builds levels 1.. (TBB-parallel over bricks) until sigma_k exceeds `maxSigma` level-0
-    // voxels or `maxLevels` levels exist. Then updates every level's majorants.
-    void buildLevels(float maxSigma, int maxLevels);
+    // voxels or `maxLevels` levels exist. Then updates every level's majorants. stop: the
+    // render's (RenderControl.h), polled per brick; a raised one throws Cancelled.
+    void buildLevels(float maxSigma, int maxLevels, const StopFlag* stop = nullptr);
 
     int levels() const { return int(mLevels.size()); }
     const BrickGrid& level(int k) const { return mLevels[k]; }
@@ -64,7 +66,7 @@ private:
         Int3 coord;
         float* values;
     };
-    void buildLevel(int k);
+    void buildLevel(int k, const StopFlag* stop);
 
     int mChannels = 0;
     std::vector<BrickGrid> mLevels;

@@ -103,6 +103,7 @@ void LightVolumes::build(const RenderContext& ctx, const WkbSetup& setup, Render
     dsm.tolerance = ctx.scene->render.tolerance;
     dsm.stepFraction = ctx.scene->render.shadowStep;
     dsm.shadowCasters = ctx.shadowCasters();
+    dsm.stop = &ctx.stop;  // the builds here throw Cancelled once the render is stopped
     for (size_t i = 0; i < setup.sources.size(); ++i) {
         const SourcePlan& sp = setup.sources[i];
         if (sp.mode != SourceMode::Delta)
@@ -133,7 +134,7 @@ void LightVolumes::build(const RenderContext& ctx, const WkbSetup& setup, Render
     size_t total = 0;
     stats.volumes.resize(setup.volumes.size());
     for (size_t v = 0; v < setup.volumes.size(); ++v) {
-        mPyramids[v].buildLevels(setup.volumes[v].maxSigma, LightPyramid::kMaxLevels);
+        mPyramids[v].buildLevels(setup.volumes[v].maxSigma, LightPyramid::kMaxLevels, &ctx.stop);
         stats.volumes[v].mipLevels = mPyramids[v].levels();
         stats.volumes[v].pyramidBytes = mPyramids[v].memoryBytes();
         total += stats.volumes[v].pyramidBytes;
@@ -166,6 +167,8 @@ void LightVolumes::fillLevel0(const RenderContext& ctx, const WkbSetup& setup, s
             for (int z = 0; z < kS; ++z)
                 for (int yy = 0; yy < kS; ++yy)
                     for (int x = 0; x < kS; ++x) {
+                        // Per voxel (up to 128 shadow rays each), and inside the rays below.
+                        throwIfStopped(&ctx.stop);
                         float* o = out + (size_t((z * kS + yy) * kS + x)) * C;
                         const int qi = b.x * BrickGrid::kBrick + x, qj = b.y * BrickGrid::kBrick + yy,
                                   qk = b.z * BrickGrid::kBrick + z;
@@ -224,7 +227,9 @@ void LightVolumes::fillLevel0(const RenderContext& ctx, const WkbSetup& setup, s
                                     float3 travel;  // the direction the light propagates, n'
                                     if (sp.emission) {
                                         float3 u = nbSampleSphereUniform(u0, u1);
-                                        L = emittedRadiance(ctx.volumes, wc, u, shadowStep, casters) * (4.0f * NB_PI);
+                                        L = emittedRadiance(ctx.volumes, wc, u, shadowStep, casters, 0.0f,
+                                                            &ctx.stop) *
+                                            (4.0f * NB_PI);
                                         travel = -u;
                                     } else {
                                         NbLightSample ls = nbLightSample(sp.light, wc, u0, u1);
@@ -235,8 +240,8 @@ void LightVolumes::fillLevel0(const RenderContext& ctx, const WkbSetup& setup, s
                                         if (casters &&
                                             casters->occluded(wc, ls.wi, 0.0f, std::min(ls.distance, 1e30f)))
                                             continue;  // a shadow caster between the voxel and the light
-                                        Rgb tau = ctx.volumes.opticalDepth(wc, ls.wi, 0.0f,
-                                                                           std::min(ls.distance, 1e30f), shadowStep);
+                                        Rgb tau = ctx.volumes.opticalDepth(
+                                            wc, ls.wi, 0.0f, std::min(ls.distance, 1e30f), shadowStep, &ctx.stop);
                                         L = ls.weight * exp(-tau);  // L_i / pdf
                                         travel = -ls.wi;
                                     }

@@ -356,6 +356,81 @@ static void testCancelWithinASecond(void)
         }
 }
 
+/* The same within a second while the render is still in a stage before the tiles (issue 18,
+ * item 3): each scene below makes one stage take far longer than a second (tens of seconds to
+ * minutes; the figures are in docs/robustness.md), so a stage that polled the cancel only at its
+ * end, or only between stages, fails here. At 0.5 s the render is checked to be running with no
+ * tile done (progress 0), so the cancel lands inside the stage. Every scene is the test sphere
+ * (40 voxels across) at 16x12 pixels, one sample, two threads. */
+static const char* kBall =
+    "{\"name\": \"ball\", \"source\": {\"type\": \"procedural\", \"generator\": \"sphere\", \"radius\": 1.0,"
+    " \"voxel_size\": 0.05}, \"medium\": {\"sigma_s\": [2, 2.2, 2.4]}";
+static const struct {
+    const char* stage;
+    const char* method;
+    const char* lights;
+    const char* volumes; /* beside the ball */
+    const char* render;  /* render keys beside method, spp and threads */
+} kSlowStages[] = {
+    /* A point light's deep shadow map (a perspective map, 256^2 texels): each texel ray marches
+     * ~4 * 10^5 samples at a shadow step of 10^-4 voxels. */
+    {"deep shadow map", "single", "{\"type\": \"point\", \"position\": [0, 3, 0], \"intensity\": 10}", "",
+     "\"shadow_step\": 1e-4"},
+    /* An environment light's sky grid (32 nodes across, 128 sky cells a node): with two volumes
+     * its shadow rays are marched, here at 10^-2 node spacings a step (two minutes). */
+    {"sky grid", "single", "{\"type\": \"environment\", \"radiance\": [0.2, 0.2, 0.3]}",
+     ", {\"name\": \"ball2\", \"source\": {\"type\": \"procedural\", \"generator\": \"sphere\", \"radius\":"
+     " 0.5, \"voxel_size\": 0.05}, \"transform\": {\"translate\": [1.8, 0, 0]}, \"medium\": {\"sigma_s\": 1}}",
+     "\"shadow_step\": 1e-2"},
+    /* wkb's light volumes of a sphere light (an SH source): shadow rays from every light-grid
+     * voxel, at 10^-5 voxels a step. The orders-3+ cache is left out (the kernel carries them). */
+    {"light volumes", "wkb", "{\"type\": \"sphere\", \"position\": [0, 2.5, 0], \"radius\": 0.3, \"radiance\": 5}",
+     "", "\"shadow_step\": 1e-5, \"wkb_orders3\": \"kernel\""},
+    /* wkb's traced orders-3+ cache at its most light paths (2^26; 65536 take ~0.4 s). */
+    {"orders-3 cache", "wkb", "{\"type\": \"distant\", \"direction\": [0.5, -1, -0.3], \"irradiance\": 3}", "",
+     "\"wkb_orders3_paths\": 67108864"},
+};
+
+static void testCancelBeforeTheTiles(void)
+{
+    size_t c;
+    int release;
+    for (c = 0; c < sizeof kSlowStages / sizeof kSlowStages[0]; ++c)
+        for (release = 0; release < 2; ++release) {
+            char json[2048];
+            NimbusScene scene;
+            NimbusSession session;
+            NimbusSessionState state;
+            float progress = -1;
+            double asked;
+            snprintf(json, sizeof json,
+                     "{\"camera\": {\"from\": [0, 0, 4], \"to\": [0, 0, 0], \"fov\": 35, \"resolution\": [16, 12]},"
+                     " \"lights\": [%s], \"volumes\": [%s}%s],"
+                     " \"render\": {\"method\": \"%s\", \"spp\": 1, \"threads\": 2, %s}}",
+                     kSlowStages[c].lights, kBall, kSlowStages[c].volumes, kSlowStages[c].method,
+                     kSlowStages[c].render);
+            OK(nimbus_scene_load_json(json, NULL, &scene));
+            OK(nimbus_session_create(scene, &session));
+            OK(nimbus_session_start(session));
+            sleepMs(500);
+            OK(nimbus_session_state(session, &state, &progress));
+            CHECK(state == NIMBUS_SESSION_RUNNING); /* still running ... */
+            CHECK(progress == 0.0f);                /* ... and no tile done: inside the stage */
+            asked = now();
+            if (release) {
+                OK(nimbus_release(session));
+            } else {
+                OK(nimbus_session_cancel(session));
+                CHECK_STATUS(nimbus_session_wait(session, 10.0), NIMBUS_ERROR_CANCELLED);
+                OK(nimbus_release(session));
+            }
+            printf("cancel within a second: %s (%s), %s returned %.3f s after the cancel\n", kSlowStages[c].stage,
+                   kSlowStages[c].method, release ? "release" : "cancel + wait", now() - asked);
+            CHECK(now() - asked < 1.0);
+            OK(nimbus_release(scene));
+        }
+}
+
 /* Releasing a scene while a session renders it is safe: the session holds the scene. */
 static void testReleaseSceneWhileRendering(void)
 {
@@ -387,5 +462,6 @@ void testMisuse(const TestPaths* paths)
     testNotCommitted();
     testBusyAndCancel();
     testCancelWithinASecond();
+    testCancelBeforeTheTiles();
     testReleaseSceneWhileRendering();
 }
