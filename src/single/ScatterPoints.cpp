@@ -9,11 +9,6 @@ namespace nimbus {
 
 namespace {
 
-// The march stops where every channel's transmittance is under this: what lies beyond can add at
-// most this fraction of what is gathered (tighter than render.tolerance, the camera march's: the
-// points of emission's L1 deep in a medium are then within 1e-4 of omega S / c,
-// EmissionScatter.DeepInsideAMediumIsOmegaSOverC).
-constexpr float kMinTransmittance = 1e-4f;
 
 // The march's step, in multiples of the span's L1 step: a point only needs T b to the accuracy of
 // a quadrature, and the weight is exact for the medium the march sees.
@@ -41,7 +36,8 @@ float expIntegral(float c, float dt)
 
 }  // namespace
 
-bool ScatterPointSampler::march(const RenderContext& ctx, float3 o, float3 d, float tFar, NbRng& rng, float seconds)
+bool ScatterPointSampler::march(const RenderContext& ctx, float3 o, float3 d, float tFar, NbRng& rng, float seconds,
+                                float minTransmittance)
 {
     const VolumeSet& vs = ctx.volumes;
     mSteps.clear();
@@ -54,7 +50,6 @@ bool ScatterPointSampler::march(const RenderContext& ctx, float3 o, float3 d, fl
     // step's optical depth, which a probe in the thin end of a ramp would miss.
     const StiffVoxels* stiff = ctx.stiff.size() == 1 && ctx.stiff[0].any && !ctx.moving() ? &ctx.stiff[0] : nullptr;
     const float stiffStep = stiff ? ctx.scene->render.step * vs.volumes()[0]->voxelSize : 1.0f;  // its camera step
-    // The march stops where every channel's transmittance is under kMinTransmittance.
     float T[3] = {1.0f, 1.0f, 1.0f};
     bool opaque = false;
     for (const Span& span : mSpans) {
@@ -112,7 +107,7 @@ bool ScatterPointSampler::march(const RenderContext& ctx, float3 o, float3 d, fl
                     st.cumulative = mTotal;
                     mSteps.push_back(st);
                 }
-                opaque = std::max(T[0], std::max(T[1], T[2])) < kMinTransmittance;
+                opaque = std::max(T[0], std::max(T[1], T[2])) < minTransmittance;
             }
         }
         if (opaque)

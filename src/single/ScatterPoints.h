@@ -29,13 +29,21 @@ struct ScatterPoint {
 
 class ScatterPointSampler {
 public:
-    // Marches o + s d (d unit), s in [0, tFar); false if the ray meets no scattering medium or the
-    // render was stopped. Draws one number from rng.
+    // The march stops where every channel's transmittance is under this by default: what lies
+    // beyond can add at most this fraction of what is gathered (tighter than render.tolerance, the
+    // camera march's: the points of emission's L1 deep in a medium are then within 1e-4 of
+    // omega S / c, EmissionScatter.DeepInsideAMediumIsOmegaSOverC).
+    static constexpr float kMinTransmittance = 1e-4f;
+
+    // Marches o + s d (d unit), s in [0, tFar), until the transmittance is under minTransmittance
+    // in every channel; false if the ray meets no scattering medium or the render was stopped.
+    // Draws one number from rng.
     // seconds: the ray's shutter time, at which moving volumes are read (VolumeSet::sampleAt).
-    bool march(const RenderContext& ctx, float3 o, float3 d, float tFar, NbRng& rng, float seconds = 0.0f);
+    bool march(const RenderContext& ctx, float3 o, float3 d, float tFar, NbRng& rng, float seconds = 0.0f,
+               float minTransmittance = kMinTransmittance);
     // Draw k of K (stratified), after a successful march.
     ScatterPoint draw(float3 o, float3 d, int k, int K, NbRng& rng) const;
-    // The transmittance from o to where the march ended (the ray's end, tFar, or under 1e-4 in
+    // The transmittance from o to where the march ended (the ray's end, tFar, or under the cut-off in
     // every channel, where it stopped).
     Rgb transmittance() const { return mEndT; }
 

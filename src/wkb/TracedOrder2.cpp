@@ -76,7 +76,8 @@ void TracedOrder2::sample(const ScatterPoint& p, float3 d, PhaseMix& phase, NbRn
     if (const EmbreeScene* casters = ctx.shadowCasters())
         tSecondary = casters->shadowHit(x, w, 0.0f, INFINITY);
     thread_local ScatterPointSampler along;
-    if (!along.march(ctx, x, w, tSecondary, rng, seconds))
+    // Stopped at render.tolerance, as single's march along it was.
+    if (!along.march(ctx, x, w, tSecondary, rng, seconds, ctx.scene->render.tolerance))
         return;
     const Rgb Tend = along.transmittance();
     const bool tail = !(tSecondary < INFINITY) && nbMaxComponent(Tend) >= ctx.scene->render.tolerance;
