@@ -5,6 +5,8 @@
 // lookups in ShadowMapLookup.cpp and ShadowMapMarchSamples.h.
 #include "DeepShadowMap.h"
 
+#include "../core/StepCount.h"
+
 #include "BrickWalk.h"
 #include "MarchParallelRays.h"
 
@@ -235,7 +237,7 @@ void DeepShadowMap::marchRay(const VolumeSet& volumes, float3 o, float3 d, float
     for (const Span& s : spanList) {
         raw.push_back({s.t0, {tau[0], tau[1], tau[2]}});
         float len = s.t1 - s.t0;
-        int n = std::max(1, int(std::ceil(len / s.step)));
+        int n = stepCount(len, s.step);
         float dt = len / float(n);
         for (int k = 0; k < n; ++k) {
             Rgb c = volumes.sample(o + d * (s.t0 + (k + 0.5f) * dt)).sigma_t;

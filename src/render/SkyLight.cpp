@@ -1,5 +1,7 @@
 #include "SkyLight.h"
 
+#include "../core/StepCount.h"
+
 #include "../geometry/EmbreeScene.h"
 #include "SphericalHarmonics.h"
 #include "VolumeSet.h"
@@ -179,7 +181,7 @@ struct CoarseDensity {
         if (!(t1 > t0))
             return splat(0.0f);
         const float dt = step / length(df);  // metres per step
-        const int n = std::max(1, int(std::ceil((t1 - t0) / dt)));
+        const int n = stepCount(t1 - t0, dt);
         const float h = (t1 - t0) / float(n);
         double tau = 0.0;
         for (int s = 0; s < n; ++s) {

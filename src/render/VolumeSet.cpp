@@ -1,5 +1,7 @@
 #include "VolumeSet.h"
 
+#include "../core/StepCount.h"
+
 #include "BrickWalk.h"
 
 #include "../scene/Scene.h"
@@ -434,7 +436,7 @@ Rgb VolumeSet::opticalDepth(float3 o, float3 d, float t0, float t1, float stepFr
     unsigned polled = 0;
     for (const Span& s : spanList) {
         float len = s.t1 - s.t0;
-        int n = std::max(1, int(std::ceil(len / s.step)));
+        int n = stepCount(len, s.step);
         float dt = len / float(n);
         for (int k = 0; k < n; ++k) {
             tau += sample(o + d * (s.t0 + (k + 0.5f) * dt)).sigma_t * dt;

@@ -1,5 +1,7 @@
 #include "EmissionScatter.h"
 
+#include "../core/StepCount.h"
+
 #include <algorithm>
 #include <cmath>
 
@@ -15,7 +17,7 @@ Rgb emittedRadiance(const VolumeSet& vs, float3 x, float3 u, float stepFraction,
     unsigned polled = 0;
     for (const Span& s : spans) {
         float len = s.t1 - s.t0;
-        int n = std::max(1, int(std::ceil(len / s.step)));
+        int n = stepCount(len, s.step);
         float dt = len / float(n);
         for (int k = 0; k < n; ++k) {
             MediumSample m = vs.sampleAt(seconds, x + u * (s.t0 + (k + 0.5f) * dt));

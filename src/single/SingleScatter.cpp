@@ -5,6 +5,7 @@
 #include "SkyTail.h"
 
 #include "../core/ExpNeg.h"
+#include "../core/StepCount.h"
 
 #include <algorithm>
 #include <cmath>
@@ -668,7 +669,7 @@ bool marchSingleFast(const RenderContext& ctx, float3 o, float3 d, float jitter,
     unsigned polled = 0;  // samples since the march began, for the stop poll (stoppable above)
     for (const Span& span : spanList) {
         float len = span.t1 - span.t0;
-        int n = std::max(1, int(std::ceil(len / span.step)));
+        int n = stepCount(len, span.step);
         float dt = len / float(n), t0 = span.t0;
         int k = 0;
         if (latticeStart) {  // as walkOccupiedBricks (BrickWalk.h) places them

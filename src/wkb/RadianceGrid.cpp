@@ -1,5 +1,7 @@
 #include "RadianceGrid.h"
 
+#include "../core/StepCount.h"
+
 #include "../render/SphericalHarmonics.h"
 
 namespace nimbus::wkb {
@@ -114,7 +116,7 @@ float3 marchOrders3(const VolumeSet& volumes, const std::vector<NbPhase>& phases
         const float len = sp.t1 - sp.t0;
         if (!(len > 0.0f))
             continue;
-        const int n = std::max(1, int(std::ceil(len / (stepScale * sp.step))));
+        const int n = stepCount(len, stepScale * sp.step);
         const float dt = len / float(n);
         for (int k = 0; k < n; ++k) {
             const float3 x = o + d * (sp.t0 + (float(k) + jitter) * dt);

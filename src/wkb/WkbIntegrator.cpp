@@ -1,5 +1,7 @@
 #include "WkbIntegrator.h"
 
+#include "../core/StepCount.h"
+
 #include "LegendreSeries.h"
 #include "../render/SphericalHarmonics.h"
 
@@ -158,7 +160,7 @@ bool WkbIntegrator::nextPiece(Cursor& cur, Scratch& sc, float3 o, float3 d, doub
             cur.coarse = true;
         if (!cur.coarse) {
             if (cur.fineN == 0) {
-                cur.fineN = std::max(1, int(std::ceil((t1 - t0) / (kFineStepScale * span.step))));
+                cur.fineN = stepCount(t1 - t0, kFineStepScale * span.step);
                 cur.fineDt = (t1 - t0) / cur.fineN;
                 cur.fineK = std::min(cur.fineN - 1, std::max(0, int(std::floor((s - t0) / cur.fineDt))));
             }
