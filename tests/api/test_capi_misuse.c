@@ -316,6 +316,23 @@ static void testBusyAndCancel(void)
     OK(nimbus_release(scene));
 }
 
+/* Stops a running session by cancel + wait (release 0) or by release alone (release 1), and
+ * checks that the call returned within a second; prints the seconds. The session is released. */
+static void stopWithinASecond(NimbusSession session, int release, const char* what, const char* how)
+{
+    const double asked = now();
+    if (release) {
+        OK(nimbus_release(session));
+    } else {
+        OK(nimbus_session_cancel(session));
+        CHECK_STATUS(nimbus_session_wait(session, 10.0), NIMBUS_ERROR_CANCELLED);
+        OK(nimbus_release(session));
+    }
+    printf("cancel within a second: %s%s%s%s, %s returned %.3f s after the cancel\n", what, *how ? " (" : "", how,
+           *how ? ")" : "", release ? "release" : "cancel + wait", now() - asked);
+    CHECK(now() - asked < 1.0);
+}
+
 /* Cancel within a second (issue 18, item 3), in single and wkb, on a render slow inside a tile:
  * at render.step = 1e-5 voxels one tile row of the sphere (16 pixels x 4 samples) marches about
  * 10^8 samples, seconds of work, so a cancel polled only between tiles or tile rows would take
@@ -332,7 +349,6 @@ static void testCancelWithinASecond(void)
             NimbusSession session;
             NimbusSessionState state;
             float progress = 0;
-            double asked;
             OK(nimbus_set_string(scene, "render.method", methods[m]));
             OK(nimbus_set_float(scene, "render.step", 1e-5));
             OK(nimbus_commit(scene));
@@ -341,17 +357,7 @@ static void testCancelWithinASecond(void)
             sleepMs(500);
             OK(nimbus_session_state(session, &state, &progress));
             CHECK(state == NIMBUS_SESSION_RUNNING); /* still running: the cancel below lands mid-render */
-            asked = now();
-            if (release) {
-                OK(nimbus_release(session));
-            } else {
-                OK(nimbus_session_cancel(session));
-                CHECK_STATUS(nimbus_session_wait(session, 10.0), NIMBUS_ERROR_CANCELLED);
-                OK(nimbus_release(session));
-            }
-            printf("cancel within a second: %s, %s returned %.3f s after the cancel\n", methods[m],
-                   release ? "release" : "cancel + wait", now() - asked);
-            CHECK(now() - asked < 1.0);
+            stopWithinASecond(session, release, methods[m], "");
             OK(nimbus_release(scene));
         }
 }
@@ -402,7 +408,6 @@ static void testCancelBeforeTheTiles(void)
             NimbusSession session;
             NimbusSessionState state;
             float progress = -1;
-            double asked;
             snprintf(json, sizeof json,
                      "{\"camera\": {\"from\": [0, 0, 4], \"to\": [0, 0, 0], \"fov\": 35, \"resolution\": [16, 12]},"
                      " \"lights\": [%s], \"volumes\": [%s}%s],"
@@ -416,17 +421,7 @@ static void testCancelBeforeTheTiles(void)
             OK(nimbus_session_state(session, &state, &progress));
             CHECK(state == NIMBUS_SESSION_RUNNING); /* still running ... */
             CHECK(progress == 0.0f);                /* ... and no tile done: inside the stage */
-            asked = now();
-            if (release) {
-                OK(nimbus_release(session));
-            } else {
-                OK(nimbus_session_cancel(session));
-                CHECK_STATUS(nimbus_session_wait(session, 10.0), NIMBUS_ERROR_CANCELLED);
-                OK(nimbus_release(session));
-            }
-            printf("cancel within a second: %s (%s), %s returned %.3f s after the cancel\n", kSlowStages[c].stage,
-                   kSlowStages[c].method, release ? "release" : "cancel + wait", now() - asked);
-            CHECK(now() - asked < 1.0);
+            stopWithinASecond(session, release, kSlowStages[c].stage, kSlowStages[c].method);
             OK(nimbus_release(scene));
         }
 }
