@@ -5,7 +5,11 @@
 // - deep shadow maps: per face, resolution^2 texels (an orthographic map's resolution capped as
 //   ShadowMapProjection.cpp caps it) x kShadowMapTexelBytes (compressed vertices
 //   and offsets, DeepShadowMap.h) plus the bake on the voxels, one float per density voxel
-//   (LightCache.h: the density grids' brick pool again);
+//   (LightCache.h: the density grids' brick pool again); while a map is built, its uncompressed
+//   marches (DeepShadowMap::marchRay, 16 bytes a vertex, one a step of render.shadow_step voxels
+//   along at most the volumes' diagonal, twice that for the vectors' spare capacity): per worker
+//   one texel ray, or a whole row of them where an orthographic map over one grey volume marches
+//   its rows together; the largest map's, as the maps are built one after another;
 // - sky grids: per volume n^3 nodes x 4 (J+1)^2 floats ((J+1)^2 rounded up to even), n =
 //   light_volume_resolution or 32 and J = wkb_sh_order_max (SkyLight.h);
 // - light pyramids: the WKB plan's own estimate (WkbPlanner.cpp);
@@ -146,6 +150,17 @@ MemoryPlan estimateMemory(const Scene& scene, const RenderContext& ctx, const Re
 
     if (entry.traits.shadowMaps) {
         size_t maps = 0, bakes = 0, sky = 0;
+        double marches = 0.0;  // bytes, in double: a tiny shadow_step makes it astronomic
+        const auto& vols = ctx.volumes.volumes();
+        const float3 extent = ctx.volumes.worldBounds().hi - ctx.volumes.worldBounds().lo;
+        const double voxel = double(ctx.volumes.minVoxelSize());
+        const double diagonalVoxels =
+            voxel > 0.0
+                ? std::sqrt(double(extent.x) * extent.x + double(extent.y) * extent.y + double(extent.z) * extent.z) /
+                      voxel
+                : 0.0;
+        const double workers = double(r.threads > 0 ? r.threads : tbb::info::default_concurrency());
+        const bool rowsTogether = vols.size() == 1 && vols[0]->density.channels() == 1;
         const int n = r.lightVolumeResolution > 0 ? r.lightVolumeResolution : 32;
         const size_t shCoefficients = size_t(r.wkbShOrderMax + 1) * size_t(r.wkbShOrderMax + 1);
         for (size_t i = 0; i < plan.lights.size(); ++i) {
@@ -167,12 +182,18 @@ MemoryPlan estimateMemory(const Scene& scene, const RenderContext& ctx, const Re
                 }
                 maps += faces * res * res * kShadowMapTexelBytes;
                 bakes += densityBytes;
+                const double raysAtOnce = l.projection == "orthographic" && rowsTogether ? double(res) : 1.0;
+                const double vertices = diagonalVoxels / double(r.shadowStep) + 2.0;
+                marches = std::max(marches, workers * raysAtOnce * vertices * 2.0 * 16.0);
             }
             if (l.skyGrid)
                 sky += plan.volumes.size() * size_t(n) * size_t(n) * size_t(n) * 4 * ((shCoefficients + 1) & ~size_t(1)) *
                        sizeof(float);
         }
         m.items.push_back({"deep shadow maps", maps});
+        // Capped at 2^62 bytes (the size_t sum stays finite; any limit refuses it).
+        m.items.push_back({"deep shadow map marches, while built",
+                           marches < 4.6e18 ? size_t(marches) : (size_t(1) << 62)});
         m.items.push_back({"shadow bakes on the voxels", bakes});
         m.items.push_back({"sky grids", sky});
     }
@@ -213,6 +234,7 @@ const char* keySizing(const std::string& item)
         {"film", "camera.resolution"},
         {"deep film (at most)", "output.deep_samples"},
         {"deep shadow maps", "render.shadow_map_resolution"},
+        {"deep shadow map marches, while built", "render.shadow_step"},
         {"sky grids", "render.light_volume_resolution"},
         {"orders-3+ radiance cache, while filled", "render.wkb_orders3_grid"},
         {"kernel buffers", "camera.resolution"},

@@ -135,6 +135,22 @@ class Memory(unittest.TestCase):
         code, _, err = run("render", scene, "--set", f"render.memory_limit={estimate * 0.5:.0f}")
         self.assertEqual(code, 2, err)
 
+    def test_a_tiny_shadow_step_is_refused_before_the_shadow_maps_march(self):
+        # Each texel ray of a deep shadow map keeps its uncompressed march until the texel is
+        # compressed, one vertex per step: at shadow_step 1e-7 voxels that is ~10^9 vertices a ray
+        # (docs/robustness.md "Memory"). Refused by the estimate, naming the key, before any march.
+        scene = self.scene_file(small_scene())
+        code, out, err = run("info", scene)
+        self.assertEqual(code, 0, err)
+        self.assertIn("deep shadow map marches, while built", out)
+        result = run_measured("render", scene, "--set", "render.shadow_step=1e-7")
+        self.assertEqual(result["code"], 2, result["stderr"])
+        lines = [l for l in result["stderr"].splitlines() if l.strip()]
+        self.assertEqual(len(lines), 1, result["stderr"])
+        self.assertIn("render.shadow_step", lines[0])
+        self.assertIn("deep shadow map marches", lines[0])
+        self.assertFalse(os.path.exists(self.out), "an output was written")
+
     def test_negative_or_nan_limit_is_bad_input(self):
         for value in ("-1", "nan"):
             code, _, err = run("info", self.scene_file(small_scene()), "--set", f"render.memory_limit={value}")
