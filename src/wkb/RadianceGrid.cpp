@@ -116,7 +116,10 @@ float3 marchOrders3(const VolumeSet& volumes, const std::vector<NbPhase>& phases
         const float len = sp.t1 - sp.t0;
         if (!(len > 0.0f))
             continue;
-        const int n = stepCount(len, stepScale * sp.step);
+        // Never under half the smallest voxel: the cache's cells span many voxels, and a finer
+        // render.step (down to denormals, where the count would reach stepCount's bound and the
+        // read would take hours) buys L1's shadows, not a better read of them.
+        const int n = stepCount(len, std::max(stepScale * sp.step, 0.5f * volumes.minVoxelSize()));
         const float dt = len / float(n);
         for (int k = 0; k < n; ++k) {
             const float3 x = o + d * (sp.t0 + (float(k) + jitter) * dt);

@@ -160,7 +160,9 @@ bool WkbIntegrator::nextPiece(Cursor& cur, Scratch& sc, float3 o, float3 d, doub
             cur.coarse = true;
         if (!cur.coarse) {
             if (cur.fineN == 0) {
-                cur.fineN = stepCount(t1 - t0, kFineStepScale * span.step);
+                // At least a hundredth of the smallest voxel (render.step reaches denormals).
+                cur.fineN = stepCount(t1 - t0, std::max(kFineStepScale * span.step,
+                                                        0.01 * double(mCtx->volumes.minVoxelSize())));
                 cur.fineDt = (t1 - t0) / cur.fineN;
                 cur.fineK = std::min(cur.fineN - 1, std::max(0, int(std::floor((s - t0) / cur.fineDt))));
             }
