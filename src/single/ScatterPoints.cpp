@@ -9,7 +9,6 @@ namespace nimbus {
 
 namespace {
 
-
 // The march's step, in multiples of the span's L1 step: a point only needs T b to the accuracy of
 // a quadrature, and the weight is exact for the medium the march sees.
 constexpr float kStepScale = 2.0f;
