@@ -252,6 +252,17 @@ Scene twoLights()
     return s;
 }
 
+// A small cache over the two lights' scene: `paths` light paths, at most `maxCells` cells across,
+// perLightAovs as the film asks.
+vrl::Orders3Options smallCache(int paths, int maxCells, std::vector<char> perLightAovs)
+{
+    vrl::Orders3Options o;
+    o.paths = paths;
+    o.maxCells = maxCells;
+    o.perLightAovs = std::move(perLightAovs);
+    return o;
+}
+
 }  // namespace
 
 TEST(WkbOrders3, PerLightLayersMatchEachLightsPathTracedOrders3)
@@ -357,10 +368,7 @@ TEST(WkbOrders3, PerLightAovsAddUpToTheBeautyAndOneLayerWhereNoneIsWritten)
 
     // Only the beauty written (the CLI's film): the cache keeps one summed layer.
     const auto ctx = RenderContext::create(s, true);
-    vrl::Orders3Options o;
-    o.paths = 4096;
-    o.maxCells = 16;
-    o.perLightAovs = {0, 0};
+    vrl::Orders3Options o = smallCache(4096, 16, {0, 0});
     const auto none = vrl::traceOrders3(*ctx, o);
     ASSERT_TRUE(none);
     EXPECT_EQ(none->layers(), 1);
@@ -383,10 +391,7 @@ TEST(WkbOrders3, FillMemoryModelIsTheGridsItAllocates)
     Scene s = twoLights();
     useTempKernelCache();
     const auto ctx = RenderContext::create(s, true);
-    vrl::Orders3Options o;
-    o.paths = 4096;
-    o.maxCells = 20;
-    o.perLightAovs = {1, 1};
+    const vrl::Orders3Options o = smallCache(4096, 20, {1, 1});
     const auto grid = vrl::traceOrders3(*ctx, o);
     ASSERT_TRUE(grid);
     ASSERT_EQ(grid->layers(), 2);
