@@ -1,6 +1,9 @@
 #!/usr/bin/env python3
 # closure.py ROOT... [--stub SONAME ...]: DT_NEEDED closure (resolved against the system's ld cache),
-# subtrees under stubbed sonames cut off; prints resolved paths of non-excluded libs.
+# subtrees under stubbed sonames cut off; prints "soname path" per library ("STUB" for a stubbed one,
+# "NOTFOUND" if unresolved), glibc, libstdc++ and libgcc_s left out. Used by make_bundle.sh, which
+# packs the path tracer for a borrowed GPU machine (issue 13: the path tracer "on any OpenCL GPU
+# where present", its kernels timed there by run.sh when a task is lent a GPU).
 import subprocess, sys, os, re
 EXCL = re.compile(r'^(libc|libm|libdl|librt|libpthread|ld-linux-x86-64|libresolv|libutil|libstdc\+\+|libgcc_s)\.so')
 args = sys.argv[1:]

@@ -3,7 +3,9 @@
 # symbols (functions return a pointer to zeroed memory, data and TLS objects are zero-filled at
 # their real sizes) and no dependencies: loads where LIB would, so that a library that needs LIB
 # but is never asked to call into it (OIIO's movie, DICOM, OpenCV, HEIF and camera-raw readers;
-# LLVM's Z3 and libxml2) loads without LIB's tree of dependencies.
+# LLVM's Z3 and libxml2) loads without LIB's tree of dependencies. Used by make_bundle.sh to keep
+# the GPU bundle (issue 13: the path tracer "on any OpenCL GPU where present", timed by run.sh on a
+# borrowed GPU machine) within what the device tool carries.
 import os, re, subprocess, sys, tempfile
 lib, outdir = sys.argv[1], sys.argv[2]
 dyn = subprocess.run(['readelf', '-dW', lib], capture_output=True, text=True, check=True).stdout

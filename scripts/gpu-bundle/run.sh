@@ -1,9 +1,15 @@
 #!/bin/bash
-# .gpu/run.sh: nimbus's OpenCL path tracer on a borrowed GPU machine, from a bundle built on Debian 12
-# (.gpu/make_bundle.sh). Run from the repository root: `bash .gpu/run.sh`, $OUT set.
-#   NB_TEST_ICD=/path/libpocl.so.2  use that OpenCL driver instead of searching for NVIDIA's (local test)
-#   NB_TINY=1                       tiny sample counts (default 1 when NB_TEST_ICD is set)
+# scripts/gpu-bundle/run.sh: times nimbus's OpenCL path tracer on a borrowed GPU machine (issue 13:
+# the path tracer "on any OpenCL GPU where present"; when a task is lent a GPU, its kernels are
+# measured there). Needs the bundle in .gpu/ (scripts/gpu-bundle/make_bundle.sh, built on Debian 12)
+# and nothing installed on the device but its driver. Through the device tool, from the repository
+# root: command `NB_BUDGET_S=420 bash scripts/gpu-bundle/run.sh`, carry [".gpu"], timeout_s 480;
+# $OUT (default /tmp/gpuout) gets the log, the gtest output and XML, GPU load samples and a render.
+# Figures of the first run: docs/benchmarks.md and docs/pathtracer.md ("On a GPU").
 #   NB_BUDGET_S=470                 the whole script's deadline in seconds; every step is cut to fit
+#   NB_TEST_ICD=/path/libpocl.so.2  use that OpenCL driver instead of searching for NVIDIA's (a local
+#                                   rehearsal of the script on PoCL's CPU device)
+#   NB_TINY=1                       tiny sample counts (default 1 when NB_TEST_ICD is set)
 set -u
 OUT=${OUT:-/tmp/gpuout}
 mkdir -p "$OUT"
@@ -13,8 +19,10 @@ BUDGET=${NB_BUDGET_S:-470}
 DEADLINE=$((T0 + BUDGET))
 TINY=${NB_TINY:-0}
 [ -n "${NB_TEST_ICD:-}" ] && TINY=${NB_TINY:-1}
-REPO=$PWD
-BIN=$REPO/.gpu/bin
+REPO=$(cd "$(dirname "${BASH_SOURCE[0]}")/../.." && pwd)
+cd "$REPO"
+GPU=$REPO/.gpu
+BIN=$GPU/bin
 NB=/opt/nb
 
 # step NAME SECONDS CMD...: CMD under timeout (cut to the time left), its date and elapsed seconds.
@@ -49,9 +57,9 @@ uname -a; grep PRETTY_NAME /etc/os-release; ldd --version | head -1; echo "$(npr
 # --- the bundle: libraries and PNanoVDB.h -------------------------------------------------------
 mkdir -p $NB
 if command -v xz >/dev/null; then
-    step unpack 90 tar -xJf "$REPO/.gpu/libs.tar.xz" -C $NB
+    step unpack 90 tar -xJf "$GPU/libs.tar.xz" -C $NB
 else  # no xz binary: Python's tarfile reads .xz
-    step unpack 90 python3 -c "import tarfile,sys; tarfile.open(sys.argv[1]).extractall(sys.argv[2])" "$REPO/.gpu/libs.tar.xz" $NB
+    step unpack 90 python3 -c "import tarfile,sys; tarfile.open(sys.argv[1]).extractall(sys.argv[2])" "$GPU/libs.tar.xz" $NB
 fi || { echo "FATAL: cannot unpack .gpu/libs.tar.xz"; exit 1; }
 echo "$(ls $NB/lib | wc -l) libraries in $NB/lib, $(du -sh $NB/lib | cut -f1); stand-ins (stubs): $(cat $NB/STUBS 2>/dev/null | tr '\n' ' ')"
 # The PNanoVDB kernel variant reads the header from its compiled-in Debian path.
@@ -62,9 +70,15 @@ if ! cmp -s "$PNANO" $NB/data/PNanoVDB.h; then
     mkdir -p "$(dirname "$PNANO")" && cp $NB/data/PNanoVDB.h "$PNANO"
 fi
 echo "PNanoVDB.h at $PNANO: $(cmp -s "$PNANO" $NB/data/PNanoVDB.h && echo Debian\'s)"
-# Tests, benches and the CLI have the checkout's path compiled in (kernels, shaders, test data).
-if [ ! -e /work/main ]; then mkdir -p /work && ln -s "$REPO" /work/main && echo "linked /work/main -> $REPO"; fi
-mkdir -p /work/main/build/tests 2>/dev/null
+# Tests, benches and the CLI have the checkout's path compiled in (kernels, shaders, test data):
+# make_bundle.sh records it (the first bundle did not: /work/main).
+SRC=$(cat "$GPU/SOURCE_DIR" 2>/dev/null)
+SRC=${SRC:-/work/main}
+if [ ! -e "$SRC" ]; then
+    mkdir -p "$(dirname "$SRC")" && ln -s "$REPO" "$SRC" && echo "linked $SRC -> $REPO"
+elif [ "$(cd "$SRC" && pwd -P)" != "$(pwd -P)" ]; then
+    echo "NOTE: the binaries read test data and shaders from $SRC, not from this checkout"
+fi
 
 # --- the OpenCL driver --------------------------------------------------------------------------
 echo "=== /usr/local/nvidia:"; ls -la /usr/local/nvidia /usr/local/nvidia/lib* 2>&1 | grep -iE "opencl|nvidia-ml|libcuda|^/|total" | head -20
