@@ -2,6 +2,7 @@
 
 #include "../pathtracer/PathtraceScene.h"
 #include "../render/SphericalHarmonics.h"
+#include "SkinCells.h"
 #include "VrlLightPass.h"
 #include "VrlMedium.h"
 
@@ -30,9 +31,11 @@ constexpr int kBlurPasses = 1;
 // The deposits' random stream, keyed apart from the light paths'.
 constexpr uint32_t kDepositKey = 0x64657030u;
 
-// Deposits one segment into grid data `out`, in the cells' layer `layer`.
-void deposit(const RenderContext& ctx, const wkb::RadianceGrid& grid, const Vrl& v, int layer, float h, NbRng& rng,
-             float* out)
+// Deposits one segment into grid data `out`, in the cells' layer `layer`: its expected track
+// length in each cell it crosses (W/m^2 once divided by the cell's volume), or in a skin cell
+// (SkinCells.h) one point's estimate of int sigma_s T T_cam dt (W, until resolveSkinCells).
+void deposit(const RenderContext& ctx, const wkb::RadianceGrid& grid, const SkinCells& skin, const Vrl& v, int layer,
+             float h, NbRng& rng, float* out)
 {
     const size_t F = size_t(grid.floatsPerCell());
     out += size_t(layer) * wkb::RadianceGrid::kFloats;
@@ -45,13 +48,24 @@ void deposit(const RenderContext& ctx, const wkb::RadianceGrid& grid, const Vrl&
     grid.walk(v.origin, v.dir, v.t0, v.t1, [&](size_t cell, float ta, float tb) {
         // int T dt over [ta, tb], the extinction piecewise constant over steps of at most h
         // (sampled at each step's midpoint), each step's integral exact: T (1 - e^{-s dt}) / s.
-        const int n = std::max(1, int(std::ceil((tb - ta) / h)));
+        const int skinSlot = skin.slotOf(cell);
+        int n = std::max(1, int(std::ceil((tb - ta) / h)));
+        if (skinSlot >= 0)
+            // A skin cell's integrand varies with T_cam over a mean free path: its steps are at most
+            // half an optical depth (the largest extinction of the stretch's ends and middle),
+            // where a voxel-long step would spread a face's ramp as if it were uniform.
+            n = std::max(n, skinSubSteps(ctx.volumes, v.origin + v.dir * ta, v.dir, tb - ta));
         const float dt = (tb - ta) / float(n);
         float I[3] = {0, 0, 0};
         bool alive = true;
+        SkinPoint point;
         for (int k = 0; k < n && alive; ++k) {
             const MediumSample m = ctx.volumes.sample(v.origin + v.dir * (ta + (float(k) + 0.5f) * dt));
             const float st[3] = {m.sigma_t.x, m.sigma_t.y, m.sigma_t.z};
+            if (skinSlot >= 0) {
+                const float rT[3] = {r * T[0], r * T[1], r * T[2]};
+                point.offer(ta + float(k) * dt, dt, rT, m.sigma_s, m.sigma_t, nbRngNext(&rng));
+            }
             for (int c = 0; c < 3; ++c) {
                 const float x = st[c] * dt;
                 const float e = std::exp(-x);
@@ -68,16 +82,28 @@ void deposit(const RenderContext& ctx, const wkb::RadianceGrid& grid, const Vrl&
             }
         }
         float* d = out + cell * F;
-        for (int jm = 0; jm < wkb::RadianceGrid::kCoeffs; ++jm)
-            for (int c = 0; c < 3; ++c)
-                d[3 * jm + c] += float(y[jm]) * flux[c] * I[c] * invV;
+        if (skinSlot < 0) {
+            for (int jm = 0; jm < wkb::RadianceGrid::kCoeffs; ++jm)
+                for (int c = 0; c < 3; ++c)
+                    d[3 * jm + c] += float(y[jm]) * flux[c] * I[c] * invV;
+        } else if (point.any()) {
+            float e[3];
+            const float3 p = point.draw(v.origin, v.dir, nbRngNext(&rng), e);
+            const Rgb Tc = skin.inView(p) ? cameraTransmittance(ctx.volumes, p, skin.camera) : splat(0.0f);
+            const float w[3] = {flux[0] * e[0] * Tc.x, flux[1] * e[1] * Tc.y, flux[2] * e[2] * Tc.z};
+            if (w[0] > 0.0f || w[1] > 0.0f || w[2] > 0.0f)
+                for (int jm = 0; jm < wkb::RadianceGrid::kCoeffs; ++jm)
+                    for (int c = 0; c < 3; ++c)
+                        d[3 * jm + c] += float(y[jm]) * w[c];
+        }
         return alive;
     });
 }
 
-// One pass of the separable [1 2 1] / 4 filter along each axis (edges clamped), in place;
+// One pass of the separable [1 2 1] / 4 filter along each axis (edges clamped), in place, the
+// skin cells read but left as they are (their camera-weighted means are resolved already);
 // scratch: a buffer of the grid's size. stop: polled per slice (up to 512^2 cells each).
-void blur(wkb::RadianceGrid& grid, std::vector<float>& scratch, const StopFlag& stop)
+void blur(wkb::RadianceGrid& grid, const SkinCells& skin, std::vector<float>& scratch, const StopFlag& stop)
 {
     const int n[3] = {grid.size(0), grid.size(1), grid.size(2)};
     const size_t stride[3] = {1, size_t(n[0]), size_t(n[0]) * size_t(n[1])};
@@ -93,6 +119,8 @@ void blur(wkb::RadianceGrid& grid, std::vector<float>& scratch, const StopFlag& 
                 for (int x = 0; x < n[0]; ++x) {
                     const int c[3] = {x, y, z};
                     const size_t i = size_t(z) * stride[2] + size_t(y) * stride[1] + size_t(x);
+                    if (skin.slotOf(i) >= 0)
+                        continue;
                     const size_t lo = c[axis] > 0 ? i - stride[axis] : i;
                     const size_t hi = c[axis] + 1 < n[axis] ? i + stride[axis] : i;
                     for (int k = 0; k < F; ++k)
@@ -113,7 +141,7 @@ size_t orders3FillBytes(const RenderContext& ctx, const Orders3Options& options)
     size_t worst = 0;  // over the layer counts traceOrders3 can choose: the grid plus its partials
     for (int layers = 1; layers <= std::max(1, int(ctx.lights.size())); ++layers)
         worst = std::max(worst, size_t(layers) * size_t(1 + std::max(2, kPartials / layers)));
-    return cells * size_t(wkb::RadianceGrid::kFloats) * sizeof(float) * worst;
+    return cells * size_t(wkb::RadianceGrid::kFloats) * sizeof(float) * worst + skinCellsBytes(cells);
 }
 
 std::shared_ptr<const wkb::RadianceGrid> traceOrders3(const RenderContext& ctx, const Orders3Options& options)
@@ -157,6 +185,7 @@ std::shared_ptr<const wkb::RadianceGrid> traceOrders3(const RenderContext& ctx, 
     if (grid->empty())
         return nullptr;
     grid->setLayerLights(layerLight);
+    const SkinCells skin = options.skinCells ? findSkinCells(ctx, *grid) : SkinCells{};
     // Transmittance steps: at most the finest density voxel (each cell's stretch is split evenly).
     const float h = std::fmax(1e-6f, ctx.volumes.minVoxelSize());
 
@@ -188,7 +217,7 @@ std::shared_ptr<const wkb::RadianceGrid> traceOrders3(const RenderContext& ctx, 
                 if ((i - lo) % kStopPollInterval == kStopPollInterval - 1)
                     throwIfStopped(&ctx.stop);
                 NbRng rng = nbRngStart(options.seed ^ kDepositKey, uint32_t(i), uint32_t(b));
-                deposit(ctx, *grid, kept[i], layerOf[size_t(kept[i].light)], h, rng, partial[size_t(p)].data());
+                deposit(ctx, *grid, skin, kept[i], layerOf[size_t(kept[i].light)], h, rng, partial[size_t(p)].data());
             }
         });
     }
@@ -197,8 +226,9 @@ std::shared_ptr<const wkb::RadianceGrid> traceOrders3(const RenderContext& ctx, 
     for (int p = 0; p < partials; ++p)
         for (size_t i = 0; i < floats; ++i)
             data[i] += partial[size_t(p)][i];
+    resolveSkinCells(skin, *grid, partial[1]);
     for (int k = 0; k < kBlurPasses; ++k)
-        blur(*grid, partial[0], ctx.stop);
+        blur(*grid, skin, partial[0], ctx.stop);
     return grid;
 }
 

@@ -20,6 +20,10 @@ struct Orders3Options {
     // The first segment order deposited: 2 (a segment leaving the second scattering vertex) gives
     // orders 3 and up at the camera. Tests set 1 or 3 to show that a wrong order is caught.
     int firstOrder = 2;
+    // Skin cells (SkinCells.h): where the camera sees a cell many diffusion lengths deep, the
+    // camera-weighted mean instead of the volume mean. Tests turn it off to show that the volume
+    // mean fails on a lit face.
+    bool skinCells = true;
     // Per RenderContext::lights index: nonzero where that light's AOV is written. Where the scene's
     // lights that reach a volume are several and some of their AOVs are written, the cache keeps
     // one layer per such light (and one for the others, if any): RadianceGrid "Layers". Empty or
