@@ -24,8 +24,9 @@ constexpr float kMinTransmittance = 1e-4f;
 constexpr float kStepDepth = 0.5f;
 
 // The per-cell integrals of the skin pass (each ray's weighted by t^2 dOmega): sigma_s T_cam per
-// channel, and grey sigma_t T_cam, sigma_s T_cam, g sigma_s T_cam and sigma_t^2 T_cam.
-enum { kDr, kDg, kDb, kSt, kSs, kSg, kStSt, kAcc };
+// channel, and grey sigma_t T_cam, sigma_s T_cam and g sigma_s T_cam; and the largest grey
+// extinction a ray sampled there.
+enum { kDr, kDg, kDb, kSt, kSs, kSg, kStMax, kAcc };
 
 }  // namespace
 
@@ -185,10 +186,10 @@ SkinCells findSkinCells(const RenderContext& ctx, const wkb::RadianceGrid& grid)
                             for (int c = 0; c < 3; ++c) {
                                 a[kDr + c] += w * ss[c] * I[c];
                                 a[kSt] += w * st[c] * I[c] / 3.0;
-                                a[kStSt] += w * st[c] * st[c] * I[c] / 3.0;
                                 ssI += ss[c] * I[c] / 3.0;
                             }
                             a[kSs] += w * ssI;
+                            a[kStMax] = std::max(a[kStMax], (st[0] + st[1] + st[2]) / 3.0);
                             a[kSg] += w * g * ssI;
                         }
                         done = std::max(T[0], std::max(T[1], T[2])) < double(kMinTransmittance);
@@ -219,7 +220,7 @@ SkinCells findSkinCells(const RenderContext& ctx, const wkb::RadianceGrid& grid)
                         continue;
                     const size_t q = size_t(long(c) + long(o) * long(stride[axis]));
                     for (int k = 0; k < kAcc; ++k)
-                        sum[k] += tmp[q * kAcc + size_t(k)];
+                        sum[k] = k == kStMax ? std::max(sum[k], tmp[q * kAcc + size_t(k)]) : sum[k] + tmp[q * kAcc + size_t(k)];
                     rays += tmpRays[q];
                 }
                 std::copy(sum, sum + kAcc, hood.begin() + long(c * kAcc));
@@ -233,7 +234,7 @@ SkinCells findSkinCells(const RenderContext& ctx, const wkb::RadianceGrid& grid)
         if (hoodRays[c] < uint32_t(kMinRaysPerHood) || !(a[kSt] > 0.0) ||
             !(a[kDr] > 0.0 || a[kDg] > 0.0 || a[kDb] > 0.0))
             continue;
-        const double sigmaT = a[kStSt] / a[kSt];  // weighted by sigma_t T_cam: the medium the camera sees
+        const double sigmaT = a[kStMax];  // the medium under the face, not the ramp the camera sees into
         const double omega = std::min(1.0, a[kSs] / a[kSt]);
         const double g = a[kSs] > 0.0 ? a[kSg] / a[kSs] : 0.0;
         const double diffusion = 1.0 / (sigmaT * std::sqrt(std::max(1e-12, 3.0 * (1.0 - omega) * (1.0 - g * omega))));

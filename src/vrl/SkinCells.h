@@ -26,9 +26,12 @@
 //   from it to the camera (cameraTransmittance); points outside the camera's view count 0, as the
 //   camera rays do not see them.
 // - A cell is a skin cell where the camera sees its neighbourhood (kSkinRadius cells each side)
-//   and the diffusion length there, from the camera-weighted extinction, albedo and mean cosine,
-//   1 / (sigma_t sqrt(3 (1 - omega)(1 - g omega))), is at most the cell's size over
-//   kSkinDiffusionLengths: there the radiance varies within a cell. At albedo 0.999 (diffusion
+//   and the diffusion length there, 1 / (sigma_t sqrt(3 (1 - omega)(1 - g omega))), is at most the
+//   cell's size over kSkinDiffusionLengths: there the radiance varies within a cell. sigma_t is the
+//   largest the rays sampled in the neighbourhood (the medium under the face: a camera-weighted
+//   mean reads the face's one-voxel density ramp, 0.3 of the slab's extinction at 19 mean free
+//   paths per voxel, and missed a half-space at albedo 0.999); albedo and mean cosine are
+//   camera-weighted means. At albedo 0.999 (diffusion
 //   length 33 mean free paths at g 0.7) the volume mean is right and no cell is a skin cell. The
 //   neighbourhood, not the cell alone: rays sample a cell's cross-section at points, and a cell's
 //   own integrals alias with their spacing, while the skin cells' set must cover the same region
