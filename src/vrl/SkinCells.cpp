@@ -83,6 +83,23 @@ SkinCells findSkinCells(const RenderContext& ctx, const wkb::RadianceGrid& grid)
     SkinCells skin;
     if (!ctx.scene || grid.empty())
         return skin;
+    {
+        // No pass where no cell can be a skin cell: the cell's size over the shortest diffusion
+        // length the media allow (the densest extinction of all volumes together, and the lowest
+        // albedo and mean cosine of any) is under the threshold. Most clouds stop here.
+        double sigmaT = 0.0, absorb = 0.0;
+        for (const auto& v : ctx.volumes.volumes()) {
+            const Rgb st = v->sigmaT(), ss = v->sigmaS();
+            sigmaT += double(nbMaxComponent(st)) * double(v->density.maxValue());
+            const double g = double(nbPhaseMeanCos(v->medium.phase));
+            for (int c = 0; c < 3; ++c) {
+                const double t = double((&st.x)[c]), omega = t > 0.0 ? std::min(1.0, double((&ss.x)[c]) / t) : 1.0;
+                absorb = std::max(absorb, 3.0 * (1.0 - omega) * (1.0 - std::min(g, 0.0) * omega));
+            }
+        }
+        if (double(grid.cellSize()) * sigmaT * std::sqrt(absorb) < double(kSkinDiffusionLengths))
+            return skin;
+    }
     const Camera& cam = ctx.scene->camera;
     const NbCamera nc = makeNbCamera(cam);
     const int W = std::max(1, cam.width), H = std::max(1, cam.height);

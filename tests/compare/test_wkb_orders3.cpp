@@ -28,6 +28,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <map>
 #include <string>
 
 using namespace nimbus;
@@ -67,19 +68,27 @@ Scene baseScene(float3 from, float3 lightTravel)
     return s;
 }
 
+// A procedural volume of one grey medium: extinction sigmaT (1/m at density 1), albedo, HG g.
+Volume greyVolume(const char* name, const char* generator, std::map<std::string, double> params, float sigmaT,
+                  float albedo, float g)
+{
+    Volume v;
+    v.name = name;
+    v.source.type = SourceType::Procedural;
+    v.source.generator = generator;
+    v.source.params = std::move(params);
+    v.medium.sigma_s = splat(sigmaT * albedo);
+    v.medium.sigma_a = splat(sigmaT * (1 - albedo));
+    v.medium.phase = NbPhase{g, 0, 0, 0};
+    return v;
+}
+
 Scene sphereAgainstTheLight()
 {
     Scene s = baseScene(make_float3(0.0f, 0.3f, -4.0f), make_float3(0, -0.08f, -1));
-    Volume v;
-    v.name = "sphere";
-    v.source.type = SourceType::Procedural;
-    v.source.generator = "sphere";
-    v.source.params = {{"radius", 1.0}, {"voxel_size", 0.05}, {"falloff", 0.05}};
-    const float sigmaT = 2.0f, albedo = 0.95f;  // optical diameter 4
-    v.medium.sigma_s = splat(sigmaT * albedo);
-    v.medium.sigma_a = splat(sigmaT * (1 - albedo));
-    v.medium.phase = NbPhase{0.7f, 0, 0, 0};
-    s.volumes.push_back(v);
+    // optical diameter 4
+    s.volumes.push_back(greyVolume("sphere", "sphere", {{"radius", 1.0}, {"voxel_size", 0.05}, {"falloff", 0.05}},
+                                   2.0f, 0.95f, 0.7f));
     return s;
 }
 
@@ -396,16 +405,9 @@ TEST(WkbOrders3, LitFaceMatchesThePathTracerWithSkinCells)
                         make_float3(0.0f, -std::cos(0.5236f), std::sin(0.5236f)));
     s.camera.to = make_float3(0, 0.5f, 0);
     s.camera.fov = 10;
-    Volume v;
-    v.name = "slab";
-    v.source.type = SourceType::Procedural;
-    v.source.generator = "box";
-    v.source.params = {{"size_x", 2.0}, {"size_y", 1.0}, {"size_z", 2.0}, {"voxel_size", 0.0625}};
-    const float sigmaT = 192.0f, albedo = 0.8f;
-    v.medium.sigma_s = splat(sigmaT * albedo);
-    v.medium.sigma_a = splat(sigmaT * (1 - albedo));
-    v.medium.phase = NbPhase{0.0f, 0, 0, 0};
-    s.volumes.push_back(v);
+    s.volumes.push_back(greyVolume("slab", "box",
+                                   {{"size_x", 2.0}, {"size_y", 1.0}, {"size_z", 2.0}, {"voxel_size", 0.0625}},
+                                   192.0f, 0.8f, 0.0f));
     const Reference ref = pathTracedOrders3(s, 1024);
     ASSERT_GT(ref.energy, 0.0);
     ASSERT_LT(ref.se, 0.2 * kEnergyTarget * ref.energy) << "the reference is too noisy to test 5%";
