@@ -107,6 +107,31 @@ TEST(MeshFile, DamagedPlyHeadersAreRefusedBeforeAssimpReadsThem)
     EXPECT_NE(e.find("describes at least 12000000000 bytes of elements where 4 are left"), std::string::npos) << e;
 }
 
+// fuzz_mesh's second run (docs/robustness.md, Findings): each of these crashed, aborted, threw
+// std::out_of_range (exit 1) or took over 25 s; each is one InputError naming the file now.
+TEST(MeshFile, FuzzedPlyFilesAreInputErrors)
+{
+    const std::string found = std::string(NIMBUS_TEST_DIR) + "/../fuzz/regressions/mesh/";
+    const std::pair<const char*, const char*> cases[] = {
+        // "property a" in a binary header: kTypeBytes.at("a") threw std::out_of_range.
+        {"ply_unknown_property_type_map_at.ply", "PLY header line 3 'property a \\x00' is not a PLY header line"},
+        // First line "plyply": Assimp read it as PLY for over 25 s.
+        {"ply_first_line_not_ply_timeout.ply", "its first line 'plyply' is not 'ply'"},
+    };
+    for (const auto& [name, expected] : cases) {
+        const std::string e = meshError(found + name);
+        EXPECT_NE(e.find("scene.json: geometry[0].file"), std::string::npos) << name << ": " << e;
+        EXPECT_NE(e.find(name), std::string::npos) << e;
+        EXPECT_NE(e.find(expected), std::string::npos) << name << ": " << e;
+    }
+    // A valid polygon still reads, triangulated by Assimp: a quad is two triangles.
+    TempDir dir;
+    writeText(dir / "quad.ply", "ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\nproperty float y\n"
+                                "property float z\nelement face 1\nproperty list uchar int vertex_indices\n"
+                                "end_header\n0 0 0\n1 0 0\n1 1 0\n0 1 0\n4 0 1 2 3\n");
+    EXPECT_EQ(readMeshFile(dir / "quad.ply", "k").indices.size(), 6u);
+}
+
 TEST(MeshFile, NoTrianglesIsAnInputError)
 {
     TempDir dir;
