@@ -152,12 +152,38 @@ TriangleMesh readMeshFile(const std::string& path, const std::string& key)
     // OBJ faces index shared positions already, and Assimp's importer keeps one vertex per face
     // corner; welding them back (aiProcess_JoinIdenticalVertices) hashes every corner and was
     // most of a 100k-triangle mesh's load time, for memory nimbus does not need back.
-    const aiScene* scene =
-        importer.ReadFile(path, aiProcess_RemoveComponent | aiProcess_Triangulate | aiProcess_PreTransformVertices);
-    if (!scene) {
-        std::string why = importer.GetErrorString();
+    //
+    // Read, validated, then checked, and only then post-processed: Assimp 5.2's post-steps trust
+    // the importer's faces. A face whose index is past the vertices crashed aiProcess_Triangulate
+    // (SIGSEGV) and a face of no indices (a binary PLY list of length 0, a truncated ASCII one)
+    // failed its ai_assert (abort); aiProcess_ValidateDataStructure refuses the first, the loop
+    // below the second (fuzz_mesh, docs/robustness.md).
+    const auto failed = [&](const char* what) {
+        std::string why = what;
         std::replace(why.begin(), why.end(), '\n', ' ');
-        throw InputError(key + ": cannot read mesh " + quoted + ": " + (why.empty() ? "unreadable" : why));
+        return InputError(key + ": cannot read mesh " + quoted + ": " + (why.empty() ? "unreadable" : why));
+    };
+    const aiScene* scene = nullptr;
+    try {
+        scene = importer.ReadFile(path, aiProcess_ValidateDataStructure);
+        if (!scene)
+            throw failed(importer.GetErrorString());
+        for (unsigned m = 0; m < scene->mNumMeshes; ++m) {
+            const aiMesh* am = scene->mMeshes[m];
+            for (unsigned f = 0; f < am->mNumFaces; ++f)
+                if (am->mFaces[f].mNumIndices == 0 || !am->mFaces[f].mIndices)
+                    throw InputError(key + ": mesh " + quoted + ": face " + std::to_string(f) + " of mesh " +
+                                     std::to_string(m) + " has no vertices (damaged)");
+        }
+        scene = importer.ApplyPostProcessing(aiProcess_RemoveComponent | aiProcess_Triangulate |
+                                             aiProcess_PreTransformVertices);
+        if (!scene)
+            throw failed(importer.GetErrorString());
+    } catch (const InputError&) {
+        throw;
+    } catch (const std::exception& e) {
+        // Assimp reports through GetErrorString; anything it throws past that is the file's too.
+        throw failed(e.what());
     }
 
     TriangleMesh mesh;

@@ -113,6 +113,10 @@ TEST(MeshFile, FuzzedPlyFilesAreInputErrors)
 {
     const std::string found = std::string(NIMBUS_TEST_DIR) + "/../fuzz/regressions/mesh/";
     const std::pair<const char*, const char*> cases[] = {
+        // Assimp's aiProcess_Triangulate read past the vertices (SIGSEGV): validated first.
+        {"ply_face_index_past_vertices_triangulate_segv.ply", "is out of range"},
+        // Faces of no indices: Triangulate's ai_assert aborted.
+        {"ply_empty_faces_triangulate_abort.ply", "has no vertices (damaged)"},
         // "property a" in a binary header: kTypeBytes.at("a") threw std::out_of_range.
         {"ply_unknown_property_type_map_at.ply", "PLY header line 3 'property a \\x00' is not a PLY header line"},
         // First line "plyply": Assimp read it as PLY for over 25 s.
