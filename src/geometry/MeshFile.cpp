@@ -26,13 +26,14 @@ std::string lowerExtension(const std::string& path)
     return ext;
 }
 
-// Up to 80 bytes of a header line for a message: a NUL or other control byte as \xNN (a NUL cut
-// the CLI's error line short: fuzz_mesh, "property a\0").
+// Up to 80 bytes of a header line for a message: a NUL, another control byte or a byte outside
+// ASCII as \xNN (a NUL cut the CLI's error line short: fuzz_mesh, "property a\0"; binary first
+// lines would make it invalid UTF-8).
 std::string quotedLine(const std::string& line)
 {
     std::string out;
     for (unsigned char c : line.substr(0, 80)) {
-        if (c < 0x20 || c == 0x7f) {
+        if (c < 0x20 || c >= 0x7f) {
             static const char* hex = "0123456789abcdef";
             out += "\\x";
             out += hex[c >> 4];
