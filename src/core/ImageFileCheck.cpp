@@ -83,8 +83,34 @@ struct ExrPart {
     int64_t tileX = 0, tileY = 0;   // > 0: tiled
     int64_t chunkCount = -1;        // multi-part and deep files state it
     double bytesPerPixel = 0.0;     // over the channels, subsampling included
+    int64_t bytesPerTilePixel = 0;  // over the channels, no subsampling (tiles have none)
     bool deep = false;
 };
+
+// The bytes OpenEXR 3.1's C++ reader takes for a value of a fixed-size type, whatever the
+// attribute's size field says (TypedAttribute<T>::readValueFrom reads a T); 0: not fixed.
+int fixedValueSize(const std::string& type)
+{
+    static const struct {
+        const char* type;
+        int size;
+    } sizes[] = {{"box2i", 16},  {"box2f", 16},          {"chromaticities", 32}, {"compression", 1},
+                 {"deepImageState", 1}, {"double", 8},   {"envmap", 1},          {"float", 4},
+                 {"int", 4},     {"keycode", 28},        {"lineOrder", 1},       {"m33f", 36},
+                 {"m33d", 72},   {"m44f", 64},           {"m44d", 128},          {"rational", 8},
+                 {"tiledesc", 9}, {"timecode", 8},       {"v2i", 8},             {"v2f", 8},
+                 {"v2d", 16},    {"v3i", 12},            {"v3f", 12},            {"v3d", 24}};
+    for (const auto& s : sizes)
+        if (type == s.type)
+            return s.size;
+    return 0;
+}
+
+// A tile's pixels, unclipped: OpenEXR allocates the tile buffers and the compressor's at this
+// size when the file is opened, before a byte of them is read (fuzz_depth, bug 8: 1 GB in
+// newTileCompressor for a 508-byte file). 64 MiB is a 2048 x 2048 tile of four 32-bit channels;
+// files use 32 to 256 pixels a side.
+constexpr int64_t maxTileBytes = int64_t(64) << 20;
 
 std::string exrProblem(std::ifstream& in, uint64_t fileSize)
 {
@@ -111,6 +137,43 @@ std::string exrProblem(std::ifstream& in, uint64_t fileSize)
             if (size < 0 || uint64_t(size) > left)
                 return describe(("its header attribute '" + name + "' claims").c_str(), uint64_t(uint32_t(size)), left);
             const uint64_t end = here + uint64_t(size);
+            // OpenEXR's C++ reader takes what a known type's value needs, not the size field
+            // (a channel list up to its empty name, a fixed-size value whole, a preview its
+            // width x height pixels): where the two differ, the rest of the header is read from
+            // another place than this walk reads it (fuzz bug 9: a channel list 'of 55 bytes'
+            // that ends elsewhere, then an opaque attribute of 842 MB in a 204-byte file). Such
+            // a header is refused: what OpenEXR reads must be what is checked here.
+            const auto disagrees = [&](uint64_t takes) {
+                char line[512];
+                std::snprintf(line, sizeof line,
+                              "its header attribute '%s' (%s) says %lld bytes but its value takes %llu (damaged)",
+                              name.c_str(), type.c_str(), static_cast<long long>(size),
+                              static_cast<unsigned long long>(takes));
+                return std::string(line);
+            };
+            if (const int fixed = fixedValueSize(type); fixed > 0 && size != fixed)
+                return disagrees(uint64_t(fixed));
+            if (type == "preview") {
+                const uint64_t w = uint32_t(r.i32()), h = uint32_t(r.i32());
+                if (r.bad || size < 8 || 8 + 4 * w * h != uint64_t(size))
+                    return disagrees(8 + 4 * w * h);
+            } else if (type == "stringvector") {
+                uint64_t taken = 0;
+                while (taken < uint64_t(size)) {
+                    const int32_t n = r.i32();
+                    taken += 4;
+                    if (r.bad || n < 0 || uint64_t(n) > uint64_t(size) - std::min<uint64_t>(taken, uint64_t(size)))
+                        return disagrees(taken + uint64_t(uint32_t(n)));
+                    taken += uint64_t(n);
+                    in.seekg(std::streamoff(here + taken));
+                }
+                if (taken != uint64_t(size))
+                    return disagrees(taken);
+            } else if (type == "floatvector" && size % 4 != 0) {
+                return disagrees(uint64_t(size / 4) * 4);
+            }
+            in.clear();
+            in.seekg(std::streamoff(here));
             if (name == "dataWindow" && type == "box2i" && size == 16) {
                 const int64_t x0 = r.i32(), y0 = r.i32(), x1 = r.i32(), y1 = r.i32();
                 p.hasWindow = x1 >= x0 && y1 >= y0;
@@ -126,13 +189,24 @@ std::string exrProblem(std::ifstream& in, uint64_t fileSize)
                 in.read(&value[0], size);
                 p.deep = value.compare(0, 4, "deep") == 0;
             } else if (name == "channels" && type == "chlist") {
+                // As OpenEXR reads it: up to the empty name, wherever the size field ends.
                 std::string channel;
-                while (r.offset() < end && r.name(channel) && !channel.empty()) {
+                for (;;) {
+                    if (!r.name(channel))
+                        return r.bad ? "its header ends early (truncated)"
+                                     : "a channel name is longer than 255 bytes";
+                    if (channel.empty())
+                        break;
                     const int32_t pixelType = r.i32();
                     r.i32();  // pLinear and reserved
                     const int64_t xs = std::max<int32_t>(1, r.i32()), ys = std::max<int32_t>(1, r.i32());
+                    if (r.bad)
+                        return "its header ends early (truncated)";
                     p.bytesPerPixel += (pixelType == 1 ? 2.0 : 4.0) / double(xs * ys);
+                    p.bytesPerTilePixel += pixelType == 1 ? 2 : 4;
                 }
+                if (r.offset() != end)
+                    return disagrees(r.offset() - here);
             }
             in.clear();
             in.seekg(std::streamoff(end));
@@ -141,6 +215,18 @@ std::string exrProblem(std::ifstream& in, uint64_t fileSize)
         }
         if (!any)
             break;  // multi-part: the empty header after the last
+        if (p.tileX > 0 && p.tileY > 0) {
+            const double tileBytes = double(p.tileX) * double(p.tileY) * double(std::max<int64_t>(2, p.bytesPerTilePixel));
+            if (tileBytes > double(maxTileBytes)) {
+                char line[256];
+                std::snprintf(line, sizeof line,
+                              "its header attribute 'tiles' describes %lld x %lld pixel tiles (%.3g bytes a tile, "
+                              "more than the %lld allowed; damaged)",
+                              static_cast<long long>(p.tileX), static_cast<long long>(p.tileY), tileBytes,
+                              static_cast<long long>(maxTileBytes));
+                return line;
+            }
+        }
         if (p.hasWindow) {
             double chunks;
             if (p.chunkCount >= 0)

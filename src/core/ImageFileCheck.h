@@ -9,6 +9,12 @@
 // reading them. A file can only hold so much: each attribute's bytes must be in the file, the
 // offset table (8 bytes a chunk) too, and the pixels at most a compression's largest ratio times
 // the file's size. The same bound for Radiance .hdr files (run-length coding, at most 64:1).
+// The walk must read the header where OpenEXR's C++ reader does: it takes a channel list up to
+// its empty name and a fixed-size value (box2i, int, tiledesc, ...) whole, whatever the size
+// field says, so an attribute whose size field disagrees with its value is refused (a 204-byte
+// file whose channel list "of 55 bytes" took 24 sent OpenEXR to an opaque attribute of 842 MB).
+// A tile may take at most 64 MiB (OpenEXR allocates a tile's buffers and its compressor's when
+// it opens a tiled file: a 508-byte file with 8 x 2^24 tiles took 1 to 2 GB).
 // Other formats (TIFF, PNG, ...) are read as OpenImageIO reads them.
 #pragma once
 

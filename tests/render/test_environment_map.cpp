@@ -259,3 +259,17 @@ TEST(EnvironmentMap, HeadersClaimingMoreThanTheFileHoldsAreRefusedUnread)
     EXPECT_NE(message.find("describes 1073741824 x 4 pixels"), std::string::npos) << message;
     EXPECT_NE(message.find("more than its"), std::string::npos) << message;
 }
+
+// OpenEXR reads a channel list up to its empty name and a fixed-size value whole, whatever the
+// attribute's size field says; where the two disagree it reads the rest of the header from
+// elsewhere than the check would (fuzz bug 9: a 204-byte file whose channel list "of 55 bytes"
+// ends elsewhere, after which OpenEXR read an opaque attribute of 842 MB). Refused unread.
+TEST(EnvironmentMap, HeaderWhoseAttributeSizesDisagreeWithTheirValuesIsRefused)
+{
+    const std::string finding = std::string(NIMBUS_TEST_DIR) +
+                                "/../fuzz/regressions/envmap/exr_channel_list_size_disagrees_then_842mb_attribute_oom.exr";
+    const std::string what = loadError(finding);
+    EXPECT_NE(what.find("lights[0].map"), std::string::npos) << what;
+    EXPECT_NE(what.find("attribute 'channels' (chlist) says 55 bytes but its value takes"), std::string::npos)
+        << what;
+}
