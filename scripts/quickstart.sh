@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
-# Installs, builds and renders the embedded default scene (a procedural cloud lit by a key and
-# a fill light) to out/default.exr and out/default.png.
+# Installs, builds and renders the embedded default scene (a procedural cumulus under a sun and
+# a blue sky, with multiple scattering: wkb) to out/default.exr and out/default.png.
 set -euo pipefail
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 cd "$root"
