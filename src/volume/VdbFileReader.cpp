@@ -12,6 +12,7 @@
 #include <openvdb/openvdb.h>
 
 #include <algorithm>
+#include <cstdio>
 #include <stdexcept>
 #include <type_traits>
 
@@ -79,7 +80,19 @@ public:
         skip(sizeof(ValueT), "background");
         const uint32_t tiles = read<uint32_t>("root tile count");
         const uint32_t children = read<uint32_t>("root child count");
-        skip(uint64_t(tiles) * (12 + sizeof(ValueT) + 1), "root tiles");
+        // Each tile: its origin (3 int32), its value, its active flag, which RootNode::readTopology
+        // reads straight into a bool: a byte other than 0 or 1 is undefined behaviour there.
+        need(uint64_t(tiles) * (12 + sizeof(ValueT) + 1), "root tiles");
+        for (uint32_t i = 0; i < tiles; ++i) {
+            skip(12 + sizeof(ValueT), "root tile origin and value");
+            const uint8_t active = read<uint8_t>("root tile active flag");
+            if (active > 1) {
+                mPos -= 1;  // name the flag's own byte
+                char hex[8];
+                std::snprintf(hex, sizeof hex, "0x%02X", unsigned(active));
+                damaged("root tile " + std::to_string(i) + "'s active flag is byte " + hex + ", not 0 or 1");
+            }
+        }
         for (uint32_t i = 0; i < children; ++i) {
             skip(12, "root child origin");
             node<typename RootT::ChildNodeType>(leafActive);

@@ -11,6 +11,7 @@
 
 #include <cmath>
 #include <cstdint>
+#include <cstdio>
 #include <cstring>
 #include <functional>
 #include <iterator>
@@ -555,6 +556,49 @@ TEST(VdbFileReader, DamagedCompressedBlocksAreRefusedBeforeOpenVdbReadsThem)
             EXPECT_NE(input.find(path), std::string::npos) << input;
             EXPECT_EQ(input.find('\n'), std::string::npos) << input;
         }
+    }
+}
+
+// Fuzz bug 5 (docs/robustness.md): RootNode::readTopology reads a root tile's active flag
+// straight into a bool, so a byte other than 0 or 1 is undefined behaviour in OpenVDB (UBSan:
+// "not a valid value for type 'bool'"). VdbFileReader's topology walk refuses it first.
+TEST(VdbFileReader, RootTileActiveFlagOtherThan0Or1IsRefused)
+{
+    openvdb::initialize();
+    ScratchDir dir;
+    openvdb::Int32Grid::Ptr grid = openvdb::Int32Grid::create(0);
+    grid->setName("density");
+    grid->tree().addTile(3, Coord(-4096, 0, 0), 77, true);
+    grid->tree().addTile(3, Coord(4096, 0, 0), 78, false);
+    const std::string good = dir / "good.vdb";
+    {
+        openvdb::io::File file(good);
+        file.setCompression(openvdb::io::COMPRESS_NONE);
+        file.write({grid});
+    }
+    EXPECT_EQ(readError(good, "density"), "");
+    const std::string data = readBytes(good);
+    // The second tile (in file order, by origin): origin, value, active flag.
+    const int32_t tile[4] = {4096, 0, 0, 78};
+    const size_t at = data.find(std::string(reinterpret_cast<const char*>(tile), sizeof tile));
+    ASSERT_NE(at, std::string::npos);
+    ASSERT_EQ(data.at(at + sizeof tile), '\0');
+    for (unsigned char flag : {2, 0x80, 0xff}) {
+        std::string bad = data;
+        bad[at + sizeof tile] = char(flag);
+        const std::string path = dir / "bad.vdb";
+        writeText(path, bad);
+        const std::string message = readError(path, "density");
+        char hex[8];
+        std::snprintf(hex, sizeof hex, "0x%02X", flag);
+        EXPECT_NE(message.find("grid 'density'"), std::string::npos) << message;
+        EXPECT_NE(message.find(std::string("root tile 1's active flag is byte ") + hex + ", not 0 or 1"),
+                  std::string::npos)
+            << message;
+        EXPECT_NE(message.find("(damaged)"), std::string::npos) << message;
+        const std::string input = inputError(vdbScene(path));
+        EXPECT_NE(input.find(path), std::string::npos) << input;
+        EXPECT_EQ(input.find('\n'), std::string::npos) << input;
     }
 }
 
