@@ -3,6 +3,7 @@
 #include "../pathtracer/PathtraceScene.h"
 #include "../render/SphericalHarmonics.h"
 #include "SkinCells.h"
+#include "ViewFocus.h"
 #include "VrlLightPass.h"
 #include "VrlMedium.h"
 
@@ -150,7 +151,7 @@ std::shared_ptr<const wkb::RadianceGrid> traceOrders3(const RenderContext& ctx, 
         return nullptr;
     PathtraceScene ps = buildPathtraceScene(ctx);
     VrlMedium medium(ps);
-    const LightPass pass(ctx, ps, medium, 0);  // unbounded: wkb has no depth cap
+    LightPass pass(ctx, ps, medium, 0);  // unbounded: wkb has no depth cap
     if (pass.empty())
         return nullptr;
     // Layers (RadianceGrid "Layers"): the light pass's light i deposits into layer layerOf[i].
@@ -186,6 +187,8 @@ std::shared_ptr<const wkb::RadianceGrid> traceOrders3(const RenderContext& ctx, 
         return nullptr;
     grid->setLayerLights(layerLight);
     const SkinCells skin = options.skinCells ? findSkinCells(ctx, *grid) : SkinCells{};
+    if (options.focus)
+        pass.setFocus(findViewFocus(ctx, grid->cellSize(), pass.boundsRadius()));
     // Transmittance steps: at most the finest density voxel (each cell's stretch is split evenly).
     const float h = std::fmax(1e-6f, ctx.volumes.minVoxelSize());
 

@@ -24,6 +24,9 @@ struct Orders3Options {
     // camera-weighted mean instead of the volume mean. Tests turn it off to show that the volume
     // mean fails on a lit face.
     bool skinCells = true;
+    // Paths aimed at what the camera sees (ViewFocus.h), where it sees a small part of the medium.
+    // Tests turn it off to show that the cache's mean does not move.
+    bool focus = true;
     // Per RenderContext::lights index: nonzero where that light's AOV is written. Where the scene's
     // lights that reach a volume are several and some of their AOVs are written, the cache keeps
     // one layer per such light (and one for the others, if any): RadianceGrid "Layers". Empty or

@@ -38,6 +38,24 @@ float3 discPoint(float3 c, float3 d, float R, float u0, float u1)
     return c + t * (r * std::cos(phi)) + b * (r * std::sin(phi));
 }
 
+// The pdf (per unit solid angle) of a direction drawn uniformly within the cone of axis `axis` and
+// 1 - cos(half angle) = oneMinusCos; 0 outside it.
+float conePdf(float3 dir, float3 axis, float oneMinusCos)
+{
+    // (A hair of slack: nbSampleCone draws within 1 - cos rounded to float, which may be wider.)
+    return dot(dir, axis) >= 1.0f - oneMinusCos * 1.0001f ? 1.0f / (2.0f * NB_PI * oneMinusCos) : 0.0f;
+}
+
+// The pdf (per unit area across dir) of the line through p along dir drawn from the disc of radius
+// R centred at c across dir; 0 where the line passes farther than R from c (a hair of slack for
+// lines drawn at the disc's rim).
+float discPdf(float3 p, float3 dir, float3 c, float R)
+{
+    float3 v = p - c;
+    v = v - dir * dot(v, dir);
+    return dot(v, v) <= R * R * 1.0001f ? 1.0f / (NB_PI * R * R) : 0.0f;
+}
+
 float area(const NbLight& l)
 {
     return 4.0f * length(nbLoad3(l.axisU)) * length(nbLoad3(l.axisV));
@@ -101,14 +119,35 @@ bool LightPass::emit(int i, NbRng& rng, float3& x, float3& dir, float3& W, float
     tEnd = INFINITY;
     switch (l.type) {
     case NB_LIGHT_POINT:
-        x = nbLoad3(l.position);
-        dir = nbSampleSphereUniform(u0, u1);
-        W = colour * (4.0f * NB_PI);
-        return true;
     case NB_LIGHT_SPOT: {
         x = nbLoad3(l.position);
-        dir = nbSampleCone(nbLoad3(l.direction), l.p0, u0, u1);
-        W = colour * (2.0f * NB_PI * (1.0f - l.p0) * nbSpotFalloff(l, -dir));
+        const bool spot = l.type == NB_LIGHT_SPOT;
+        const float3 spotAxis = spot ? nbLoad3(l.direction) : make_float3(0, 0, 1);
+        // The light's own distribution: uniform over the sphere, or over the spot's outer cone.
+        auto ownPdf = [&](float3 w) { return spot ? conePdf(w, spotAxis, 1.0f - l.p0) : 1.0f / (4.0f * NB_PI); };
+        auto ownSample = [&](float a, float b) {
+            return spot ? nbSampleCone(spotAxis, l.p0, a, b) : nbSampleSphereUniform(a, b);
+        };
+        const float3 toFocus = mFocus.centre - x;
+        const float dist = length(toFocus);
+        if (mFocus.active && dist > mFocus.radius * 1.0001f) {
+            // The cone subtending the focus: sin^2 = (R / dist)^2, 1 - cos = sin^2 / (1 + cos).
+            const float3 axis = toFocus * (1.0f / dist);
+            const float s2 = (mFocus.radius / dist) * (mFocus.radius / dist);
+            const float cosMax = std::sqrt(std::fmax(0.0f, 1.0f - s2));
+            const float oneMinusCos = s2 / (1.0f + cosMax);
+            dir = nbRngNext(&rng) < kFocusDefensive ? ownSample(u0, u1) : nbSampleCone(axis, cosMax, u0, u1);
+            const float pdf = kFocusDefensive * ownPdf(dir) + (1.0f - kFocusDefensive) * conePdf(dir, axis, oneMinusCos);
+            if (!(pdf > 0.0f))
+                return false;
+            W = colour * ((spot ? nbSpotFalloff(l, -dir) : 1.0f) / pdf);  // 0 outside a spot's cone
+        } else if (spot) {
+            dir = nbSampleCone(spotAxis, l.p0, u0, u1);
+            W = colour * (2.0f * NB_PI * (1.0f - l.p0) * nbSpotFalloff(l, -dir));
+        } else {
+            dir = nbSampleSphereUniform(u0, u1);
+            W = colour * (4.0f * NB_PI);
+        }
         return nbMaxComponent(W) > 0.0f;
     }
     case NB_LIGHT_DISTANT:
@@ -128,8 +167,20 @@ bool LightPass::emit(int i, NbRng& rng, float3& x, float3& dir, float3& W, float
             perDirection = s.weight;
         }
         dir = -toLight;
-        x = discPoint(mCentre, dir, mRadius, u2, u3) - dir * mRadius;
-        W = perDirection * (NB_PI * mRadius * mRadius);
+        if (mFocus.active) {
+            const bool own = nbRngNext(&rng) < kFocusDefensive;
+            const float3 p = own ? discPoint(mCentre, dir, mRadius, u2, u3)
+                                 : discPoint(mFocus.centre, dir, mFocus.radius, u2, u3);
+            const float pdf = kFocusDefensive * discPdf(p, dir, mCentre, mRadius) +
+                              (1.0f - kFocusDefensive) * discPdf(p, dir, mFocus.centre, mFocus.radius);
+            if (!(pdf > 0.0f))
+                return false;
+            x = p + dir * (dot(mCentre - p, dir) - mRadius);  // outside the volumes' sphere
+            W = perDirection * (1.0f / pdf);
+        } else {
+            x = discPoint(mCentre, dir, mRadius, u2, u3) - dir * mRadius;
+            W = perDirection * (NB_PI * mRadius * mRadius);
+        }
         return nbMaxComponent(W) > 0.0f;
     }
     case NB_LIGHT_RECT: {

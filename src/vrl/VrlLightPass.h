@@ -23,6 +23,8 @@
 //    distribution, or uniform), then a point on the disc of radius R (the volumes' bounding
 //    sphere) across it: W = (L / pdf) pi R^2, L / pdf as in light.h;
 //  - rect: a uniform point and a cosine-weighted direction on the emitting side, W = pi A L;
+//  - with a focus (setFocus), distant, environment, point and spot lights aim a share of the paths
+//    at it, W divided by the mixture's pdf instead;
 //  - sphere: a uniform point and a cosine-weighted direction outward, W = pi 4 pi r^2 L; where a
 //    volume reaches inside the sphere, half the paths leave the surface inward instead (a point
 //    inside sees radiance L from every direction, light.h) and end at its far side, W doubled.
@@ -30,6 +32,7 @@
 
 #include "../pathtracer/PathtraceScene.h"
 #include "../render/RenderContext.h"
+#include "ViewFocus.h"
 #include "VrlMedium.h"
 
 #include <vector>
@@ -60,6 +63,16 @@ public:
 
     bool empty() const { return mCdf.empty(); }
 
+    // Aims a share of the paths at `focus` (ViewFocus.h; WKB's orders-3+ cache only): distant and
+    // environment lights draw the line's point on the disc across the direction from the focus's
+    // disc with probability 1 - kFocusDefensive, else from the volumes' (as without a focus); point
+    // and spot lights draw the direction from the cone that subtends the focus likewise, else as
+    // without. Each path's W divides by the mixture's pdf (both parts, whichever drew it): the
+    // estimate stays unbiased; paths away from the focus are fewer and carry more flux. Rect and
+    // sphere lights, and lights inside the focus, are not aimed.
+    void setFocus(const EmissionFocus& focus) { mFocus = focus; }
+    float boundsRadius() const { return mRadius; }
+
 private:
     void tracePath(uint32_t seed, uint32_t iteration, int path, int paths, std::vector<Vrl>& out) const;
     // A point, direction and W on light i; false for a void sample. tEnd: where the first
@@ -76,6 +89,10 @@ private:
     float3 mCentre;             // the volumes' bounding sphere
     float mRadius = 0;
     NbPhase mDefaultPhase;
+    EmissionFocus mFocus;
 };
+
+// The share of a focused light pass's paths drawn as without a focus (LightPass::setFocus).
+constexpr float kFocusDefensive = 0.2f;
 
 }  // namespace nimbus::vrl
