@@ -85,19 +85,22 @@ SkinCells findSkinCells(const RenderContext& ctx, const wkb::RadianceGrid& grid)
         return skin;
     {
         // No pass where no cell can be a skin cell: the cell's size over the shortest diffusion
-        // length the media allow (the densest extinction of all volumes together, and the lowest
-        // albedo and mean cosine of any) is under the threshold. Most clouds stop here.
-        double sigmaT = 0.0, absorb = 0.0;
+        // and transport lengths the media allow (the densest extinction of all volumes together, and
+        // the lowest albedo and mean cosine of any) is under both thresholds. Most clouds stop here.
+        double sigmaT = 0.0, absorb = 0.0, transport = 0.0;
         for (const auto& v : ctx.volumes.volumes()) {
             const Rgb st = v->sigmaT(), ss = v->sigmaS();
             sigmaT += double(nbMaxComponent(st)) * double(v->density.maxValue());
             const double g = double(nbPhaseMeanCos(v->medium.phase));
+            transport = std::max(transport, 1.0 - std::min(g, 0.0));  // the largest 1 - g omega
             for (int c = 0; c < 3; ++c) {
                 const double t = double((&st.x)[c]), omega = t > 0.0 ? std::min(1.0, double((&ss.x)[c]) / t) : 1.0;
                 absorb = std::max(absorb, 3.0 * (1.0 - omega) * (1.0 - std::min(g, 0.0) * omega));
             }
         }
-        if (double(grid.cellSize()) * sigmaT * std::sqrt(absorb) < double(kSkinDiffusionLengths))
+        const double cellTau = double(grid.cellSize()) * sigmaT;
+        if (cellTau * std::sqrt(absorb) < double(kSkinDiffusionLengths) &&
+            cellTau * transport < double(kSkinTransportLengths))
             return skin;
     }
     const Camera& cam = ctx.scene->camera;
@@ -255,7 +258,9 @@ SkinCells findSkinCells(const RenderContext& ctx, const wkb::RadianceGrid& grid)
         const double omega = std::min(1.0, a[kSs] / a[kSt]);
         const double g = a[kSs] > 0.0 ? a[kSg] / a[kSs] : 0.0;
         const double diffusion = 1.0 / (sigmaT * std::sqrt(std::max(1e-12, 3.0 * (1.0 - omega) * (1.0 - g * omega))));
-        if (double(grid.cellSize()) < double(kSkinDiffusionLengths) * diffusion)
+        const double transport = 1.0 / (sigmaT * (1.0 - g * omega));
+        if (double(grid.cellSize()) < double(kSkinDiffusionLengths) * diffusion &&
+            double(grid.cellSize()) < double(kSkinTransportLengths) * transport)
             continue;
         skin.slot[c] = int(skin.count());
         for (int k = 0; k < 3; ++k)

@@ -31,8 +31,13 @@
 //   largest the rays sampled in the neighbourhood (the medium under the face: a camera-weighted
 //   mean reads the face's one-voxel density ramp, 0.3 of the slab's extinction at 19 mean free
 //   paths per voxel, and missed a half-space at albedo 0.999); albedo and mean cosine are
-//   camera-weighted means. At albedo 0.999 (diffusion
-//   length 33 mean free paths at g 0.7) the volume mean is right and no cell is a skin cell. The
+//   camera-weighted means. Or where the cell is kSkinTransportLengths transport mean free paths
+//   1 / (sigma_t (1 - g omega)) across or more: at high albedo the diffusion length is long (33 mean
+//   free paths at albedo 0.999, g 0.7), but under a lit face the radiance still has a boundary layer
+//   of a few transport lengths (the diffusion solution's linear rise from an extrapolated zero
+//   0.71 transport lengths outside the face), which a camera sees into and a cell many of them deep
+//   averages away: the half-space table's albedo-0.999 rows came out -10% to -22% with the volume
+//   mean at 4 mean free paths per voxel, within 7.3% with it made a skin cell. The
 //   neighbourhood, not the cell alone: rays sample a cell's cross-section at points, and a cell's
 //   own integrals alias with their spacing, while the skin cells' set must cover the same region
 //   in the numerators as the rays cover in the denominators (checked while it was written, with
@@ -59,6 +64,10 @@ namespace nimbus::vrl {
 // Fitted on the calibration suite (docs/validation.md, "Skin cells"): a cell this many diffusion
 // lengths across or more is a skin cell.
 constexpr float kSkinDiffusionLengths = 1.0f;
+// A cell this many transport mean free paths across or more is a skin cell too (the boundary
+// layer's argument above; the calibration suite's scenes come out the same with 2 and 4, 0.5 loses
+// core_twolobe_lit; docs/validation.md "Skin cells at high albedo").
+constexpr float kSkinTransportLengths = 2.0f;
 // The skin cells' neighbourhood whose numerators and denominators are summed (cells each side).
 constexpr int kSkinRadius = 2;
 
