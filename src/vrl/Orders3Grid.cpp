@@ -187,8 +187,10 @@ std::shared_ptr<const wkb::RadianceGrid> traceOrders3(const RenderContext& ctx, 
         return nullptr;
     grid->setLayerLights(layerLight);
     const SkinCells skin = options.skinCells ? findSkinCells(ctx, *grid) : SkinCells{};
-    if (options.focus)
+    if (options.focus) {
         pass.setFocus(findViewFocus(ctx, grid->cellSize(), pass.boundsRadius()));
+        pass.setAimAtVolumes(true);
+    }
     // Transmittance steps: at most the finest density voxel (each cell's stretch is split evenly).
     const float h = std::fmax(1e-6f, ctx.volumes.minVoxelSize());
 

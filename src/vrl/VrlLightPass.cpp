@@ -128,14 +128,20 @@ bool LightPass::emit(int i, NbRng& rng, float3& x, float3& dir, float3& W, float
         auto ownSample = [&](float a, float b) {
             return spot ? nbSampleCone(spotAxis, l.p0, a, b) : nbSampleSphereUniform(a, b);
         };
-        const float3 toFocus = mFocus.centre - x;
+        // The view's focus, else (where asked) the volumes' bounding sphere: every direction that
+        // can meet a volume is in the cone that subtends it.
+        const EmissionFocus bounds{true, mCentre, mRadius};
+        const EmissionFocus& aim = mFocus.active ? mFocus : bounds;
+        const float3 toFocus = aim.centre - x;
         const float dist = length(toFocus);
-        if (mFocus.active && dist > mFocus.radius * 1.0001f) {
-            // The cone subtending the focus: sin^2 = (R / dist)^2, 1 - cos = sin^2 / (1 + cos).
+        // The cone subtending the aim: sin^2 = (R / dist)^2, 1 - cos = sin^2 / (1 + cos); aimed only
+        // where the light is outside it and the cone is narrower than the light's own.
+        const float s2 = dist > 0.0f ? (aim.radius / dist) * (aim.radius / dist) : 1.0f;
+        const float cosMax = std::sqrt(std::fmax(0.0f, 1.0f - s2));
+        const float oneMinusCos = s2 / (1.0f + cosMax);
+        const float ownOneMinusCos = spot ? 1.0f - l.p0 : 2.0f;
+        if ((mFocus.active || mAimAtVolumes) && s2 < 0.9998f && oneMinusCos < ownOneMinusCos) {
             const float3 axis = toFocus * (1.0f / dist);
-            const float s2 = (mFocus.radius / dist) * (mFocus.radius / dist);
-            const float cosMax = std::sqrt(std::fmax(0.0f, 1.0f - s2));
-            const float oneMinusCos = s2 / (1.0f + cosMax);
             dir = nbRngNext(&rng) < kFocusDefensive ? ownSample(u0, u1) : nbSampleCone(axis, cosMax, u0, u1);
             const float pdf = kFocusDefensive * ownPdf(dir) + (1.0f - kFocusDefensive) * conePdf(dir, axis, oneMinusCos);
             if (!(pdf > 0.0f))

@@ -69,8 +69,13 @@ public:
     // and spot lights draw the direction from the cone that subtends the focus likewise, else as
     // without. Each path's W divides by the mixture's pdf (both parts, whichever drew it): the
     // estimate stays unbiased; paths away from the focus are fewer and carry more flux. Rect and
-    // sphere lights, and lights inside the focus, are not aimed.
+    // sphere lights, lights inside the focus, and spot lights whose own cone is narrower than the
+    // focus's are not aimed.
     void setFocus(const EmissionFocus& focus) { mFocus = focus; }
+    // Without a focus, point and spot lights outside the volumes' bounding sphere aim at it
+    // instead, the same way (WKB's cache: a lamp a few metres from a small cloud sent most of its
+    // uniform directions past it).
+    void setAimAtVolumes(bool aim) { mAimAtVolumes = aim; }
     float boundsRadius() const { return mRadius; }
 
 private:
@@ -90,6 +95,7 @@ private:
     float mRadius = 0;
     NbPhase mDefaultPhase;
     EmissionFocus mFocus;
+    bool mAimAtVolumes = false;
 };
 
 // The share of a focused light pass's paths drawn as without a focus (LightPass::setFocus).

@@ -5,7 +5,8 @@
 // a focus; the two must agree within four standard errors for a box inside the focus and for one
 // far outside it (where the focused pass sends few paths with more flux each). The same statistic
 // must reject a focused estimate scaled by 1.05 on the box inside the focus (so 5% is
-// resolvable), and the focus must send several times more segments through that box.
+// resolvable), and the focus must send several times more segments through that box. The same for
+// a point light aimed at the volumes' bounding sphere (setAimAtVolumes) without a focus.
 //
 // And findViewFocus: a narrow camera on a large slab gives a focus around what it sees; a camera
 // that sees the whole volume gives none.
@@ -54,12 +55,14 @@ struct Estimate {
 
 // Sum over the light's first segments of flux (channel mean) times [the line crosses box b], per
 // batch, over `batches` batches of `paths` paths: its mean per batch and standard error.
-Estimate throughBox(const RenderContext& ctx, const vrl::EmissionFocus& focus, const Bbox& b, int batches, int paths)
+Estimate throughBox(const RenderContext& ctx, const vrl::EmissionFocus& focus, const Bbox& b, int batches, int paths,
+                    bool aimAtVolumes = false)
 {
     PathtraceScene ps = buildPathtraceScene(ctx);
     vrl::VrlMedium medium(ps);
     vrl::LightPass pass(ctx, ps, medium, 2);  // max_depth 2: the first segments only
     pass.setFocus(focus);
+    pass.setAimAtVolumes(aimAtVolumes);
     double s1 = 0, s2 = 0;
     long crossing = 0;
     for (int k = 0; k < batches; ++k) {
@@ -92,20 +95,23 @@ Bbox box(float3 c, float h)
     return b;
 }
 
-void checkLight(const char* name, const Light& light)
+void checkLight(const char* name, const Light& light, bool aimAtVolumes = false)
 {
     setenv("NIMBUS_CACHE_DIR", (std::string(::testing::TempDir()) + "nimbus-kernel-cache-focus").c_str(), 1);
     const Scene s = slabScene(light);
     const auto ctx = RenderContext::create(s, true);
-    vrl::EmissionFocus focus;
-    focus.active = true;
+    vrl::EmissionFocus focus;  // or, with aimAtVolumes, none: the volumes' bounding sphere instead
+    focus.active = !aimAtVolumes;
     focus.centre = make_float3(0.0f, 0.5f, 0.0f);
     focus.radius = 0.6f;
     const vrl::EmissionFocus none;
-    const Bbox inside = box(make_float3(0.1f, 0.3f, -0.1f), 0.35f), outside = box(make_float3(3.0f, 0.0f, -2.5f), 0.3f);
-    const int batches = 128, paths = 16384;
-    const Estimate fIn = throughBox(*ctx, focus, inside, batches, paths), nIn = throughBox(*ctx, none, inside, batches, paths);
-    const Estimate fOut = throughBox(*ctx, focus, outside, batches, paths),
+    // (Aimed at the volumes, the gain is smaller: larger boxes and more paths resolve 5%.)
+    const Bbox inside = box(make_float3(0.1f, 0.3f, -0.1f), aimAtVolumes ? 1.5f : 0.35f),
+               outside = box(make_float3(3.0f, 0.0f, -2.5f), aimAtVolumes ? 0.9f : 0.3f);
+    const int batches = aimAtVolumes ? 256 : 128, paths = 16384;
+    const Estimate fIn = throughBox(*ctx, focus, inside, batches, paths, aimAtVolumes),
+                   nIn = throughBox(*ctx, none, inside, batches, paths);
+    const Estimate fOut = throughBox(*ctx, focus, outside, batches, paths, aimAtVolumes),
                    nOut = throughBox(*ctx, none, outside, batches, paths);
     auto z = [](const Estimate& a, const Estimate& b, double scale) {
         return (scale * a.mean - b.mean) / std::sqrt(scale * scale * a.se * a.se + b.se * b.se);
@@ -119,7 +125,7 @@ void checkLight(const char* name, const Light& light)
     EXPECT_LT(std::fabs(z(fIn, nIn, 1.0)), 4.0) << name;
     EXPECT_LT(std::fabs(z(fOut, nOut, 1.0)), 4.0) << name;
     EXPECT_GT(std::fabs(z(fIn, nIn, 1.05)), 4.0) << name << ": the check cannot resolve 5%";
-    EXPECT_GT(fIn.crossing, 3 * nIn.crossing) << name << ": the focus does not aim the paths";
+    EXPECT_GT(fIn.crossing, (aimAtVolumes ? 2 : 3) * nIn.crossing) << name << ": the focus does not aim the paths";
 }
 
 }  // namespace
@@ -159,6 +165,16 @@ TEST(ViewFocus, AimedSpotLightKeepsItsExpectation)
     l.coneAngle = 160.0f;  // wide enough to light the box outside the focus too
     l.intensity = splat(4.0f);
     checkLight("spot", l);
+}
+
+// A lamp far from a small volume, no view focus: aimed at the volumes' bounding sphere.
+TEST(ViewFocus, PointLightAimedAtTheVolumesKeepsItsExpectation)
+{
+    Light l;
+    l.type = LightType::Point;
+    l.position = make_float3(5.0f, 4.0f, -4.0f);
+    l.intensity = splat(40.0f);
+    checkLight("point aimed at the volumes", l, true);
 }
 
 TEST(ViewFocus, NarrowViewOfALargeSlabIsFocusedAndAWholeViewIsNot)
