@@ -178,13 +178,12 @@ void renderTiles(const RenderContext& ctx, const Integrator& integrator, Film& f
         const nb_uint pixelIndex = nb_uint(y) * nb_uint(film.width) + nb_uint(x);
         rng = nbRngStart(scene.render.seed, pixelIndex, nb_uint(s));
         // The pixel filter by importance sampling (filter.h): an offset from the centre, its two
-        // random numbers stratified over the pixel's samples (PixelStrata.h).
-        const float u0 = nbRngNext(&rng), u1 = nbRngNext(&rng);
-        float ux, uy;
-        stratifiedPixelPoint(s, spp, nbPcgHash(nbPcgHash(pixelIndex) ^ scene.render.seed), u0, u1, ux, uy);
-        const float jx = nbFilterSample(filterType, filterWidth, ux);
-        const float jy = nbFilterSample(filterType, filterWidth, uy);
-        time = nbRngNext(&rng);
+        // random numbers stratified over the pixel's samples, and the shutter time too
+        // (PixelStrata.h).
+        const PixelSampleNumbers u = pixelSampleNumbers(scene.render.seed, pixelIndex, s, spp, rng);
+        const float jx = nbFilterSample(filterType, filterWidth, u.ux);
+        const float jy = nbFilterSample(filterType, filterWidth, u.uy);
+        time = u.time;
         px = float(x) + 0.5f + jx, py = float(y) + 0.5f + jy;
         nbCameraRay(cam, px, py, film.width, film.height, time, &o, &d);
     };

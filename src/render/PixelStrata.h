@@ -12,7 +12,11 @@
 // cumulus_against at 4 spp: beauty relMSE 0.0270 with independent samples, 0.0134 stratified;
 // docs/validation.md "Stratified pixel samples"). Where spp is a square this is the jittered grid.
 // Each sample is made from its own index (the rays of a pixel are made in any order, on any thread).
+// The shutter time is stratified in 1D too (stratifiedTime, by a shuffle independent of the
+// point's strata): with camera or volume motion a pixel's samples cover the shutter evenly.
 #pragma once
+
+#include "../../kernels/shared/rng.h"
 
 #include <algorithm>
 #include <cmath>
@@ -58,6 +62,49 @@ inline void stratifiedPixelPoint(int s, int spp, uint32_t key, float u0, float u
     const int sx = int(stratum % uint32_t(m)), sy = int(stratum / uint32_t(m));
     x = std::fmin((float(sx) + u0) / float(m), 0x1.fffffep-1f);
     y = std::fmin((float(sy) + u1) / float(n), 0x1.fffffep-1f);
+}
+
+// Sample s of spp's shutter time in [0, 1): u uniform in [0, 1) to a point of stratum perm(s) of
+// spp equal strata, perm a uniformly random permutation keyed by `key` (a Fisher-Yates shuffle
+// run up to s, kTimeStrataMax strata at most; above that the time is u itself). Not the pixel
+// point's rotation: two affine maps of s would tie each sample's time to its place in the pixel
+// (sideways camera motion then smeared along lines), and the shuffle is independent of it.
+constexpr int kTimeStrataMax = 256;
+
+inline float stratifiedTime(int s, int spp, uint32_t key, float u)
+{
+    if (spp <= 1 || spp > kTimeStrataMax)
+        return u;
+    uint16_t order[kTimeStrataMax];
+    for (int i = 0; i < spp; ++i)
+        order[i] = uint16_t(i);
+    uint64_t state = (uint64_t(key) << 1) | 1u;
+    for (int i = 0; i <= s; ++i) {
+        state = state * 6364136223846793005ull + 1442695040888963407ull;  // an LCG step; its high bits
+        const int j = i + int(((state >> 32) * uint64_t(spp - i)) >> 32);
+        const uint16_t t = order[i];
+        order[i] = order[j];
+        order[j] = t;
+    }
+    return std::fmin((float(order[s]) + u) / float(spp), 0x1.fffffep-1f);
+}
+
+// The random numbers of camera sample s (of spp) of pixel `pixel` (y width + x): (ux, uy) in
+// [0, 1)^2 for the pixel filter's importance sampling, and the shutter time in [0, 1). rng: the
+// sample's own stream, nbRngStart(seed, pixel, s), advanced past its three numbers (the
+// integrators draw the rest of theirs after them). Tests that replay the renderer's rays call it.
+struct PixelSampleNumbers {
+    float ux, uy, time;
+};
+
+inline PixelSampleNumbers pixelSampleNumbers(uint32_t seed, uint32_t pixel, int s, int spp, NbRng& rng)
+{
+    const float u0 = nbRngNext(&rng), u1 = nbRngNext(&rng), u2 = nbRngNext(&rng);
+    const uint32_t key = nbPcgHash(nbPcgHash(pixel) ^ seed);
+    PixelSampleNumbers n;
+    stratifiedPixelPoint(s, spp, key, u0, u1, n.ux, n.uy);
+    n.time = stratifiedTime(s, spp, nbPcgHash(key ^ 0x74696d65u), u2);
+    return n;
 }
 
 }  // namespace nimbus

@@ -7,6 +7,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <set>
 #include <vector>
@@ -70,6 +71,39 @@ TEST(PixelStrata, EachSampleIsUniformOverThePixel)
             const double qse = std::sqrt(0.25 * 0.75 / keys);
             for (int q = 0; q < 4; ++q)
                 EXPECT_LT(std::fabs(double(quadrant[q]) / keys - 0.25), 4 * qse) << "spp " << spp << " sample " << s;
+        }
+    }
+}
+
+TEST(PixelStrata, ShutterTimesTakeEachStratumOnceAndAreUniform)
+{
+    for (int spp : {2, 3, 4, 7, 16, 64, 256})
+        for (uint32_t key : {1u, 99u, 0xabcdef01u}) {
+            std::set<int> strata;
+            for (int s = 0; s < spp; ++s) {
+                const float t = stratifiedTime(s, spp, key, 0.5f);
+                ASSERT_GE(t, 0.0f);
+                ASSERT_LT(t, 1.0f);
+                strata.insert(int(t * float(spp)));
+            }
+            EXPECT_EQ(int(strata.size()), spp) << "spp " << spp << ": two samples share a time stratum";
+        }
+    // Each sample's time is uniform over the shutter, over many pixels (keys): mean 1/2 and a
+    // quarter in each quarter of the shutter.
+    const int keys = 40000;
+    for (int spp : {3, 8}) {
+        for (int s = 0; s < spp; ++s) {
+            double sum = 0;
+            int quarter[4] = {0, 0, 0, 0};
+            for (int k = 0; k < keys; ++k) {
+                const float t = stratifiedTime(s, spp, uint32_t(k) * 2654435761u + 7u, float((k * 7919) % 1000 + 0.5) / 1000.0f);
+                sum += t;
+                ++quarter[std::min(3, int(t * 4.0f))];
+            }
+            EXPECT_LT(std::fabs(sum / keys - 0.5), 4 * std::sqrt(1.0 / 12.0 / keys)) << "spp " << spp << " sample " << s;
+            for (int q = 0; q < 4; ++q)
+                EXPECT_LT(std::fabs(double(quarter[q]) / keys - 0.25), 4 * std::sqrt(0.25 * 0.75 / keys))
+                    << "spp " << spp << " sample " << s;
         }
     }
 }

@@ -7,9 +7,11 @@
 #include "engine/Renderer.h"
 #include "render/DeepShadowMap.h"
 #include "render/RenderContext.h"
+#include "render/PixelStrata.h"
 #include "scene/KernelScene.h"
 
 #include <boost/math/quadrature/gauss_kronrod.hpp>
+
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -105,7 +107,9 @@ TEST(SingleAnalytic, SkanbergBoxMatchesEq44)
             bool applies = true;
             for (int s = 0; s < scene.render.spp && applies; ++s) {
                 NbRng rng = nbRngStart(scene.render.seed, nb_uint(y * scene.camera.width + x), nb_uint(s));
-                float jx = nbRngNext(&rng), jy = nbRngNext(&rng), time = nbRngNext(&rng);
+                // The box filter of width 1: the pixel's point is the offset itself.
+                const PixelSampleNumbers u = pixelSampleNumbers(scene.render.seed, nb_uint(y * scene.camera.width + x), s, scene.render.spp, rng);
+                const float jx = u.ux, jy = u.uy, time = u.time;
                 float3 o, d;
                 nbCameraRay(cam, x + jx, y + jy, scene.camera.width, scene.camera.height, time, &o, &d);
                 for (int c = 0; c < 3; ++c) {

@@ -34,6 +34,7 @@
 
 #include "../../kernels/shared/rng.h"
 #include "engine/Renderer.h"
+#include "render/PixelStrata.h"
 #include "scene/KernelScene.h"
 
 #include <gtest/gtest.h>
@@ -117,7 +118,9 @@ void meanL1(const Scene& scene, ClosedForm closedForm, double rendered[3], doubl
         for (int x = 0; x < w; ++x) {
             for (int s = 0; s < spp; ++s) {
                 NbRng rng = nbRngStart(scene.render.seed, nb_uint(y * w + x), nb_uint(s));
-                float jx = nbRngNext(&rng), jy = nbRngNext(&rng), time = nbRngNext(&rng);
+                // The box filter of width 1: the pixel's point is the offset itself.
+                const PixelSampleNumbers u = pixelSampleNumbers(scene.render.seed, nb_uint(y * w + x), s, spp, rng);
+                const float jx = u.ux, jy = u.uy, time = u.time;
                 float3 o, d;
                 nbCameraRay(cam, x + jx, y + jy, w, h, time, &o, &d);
                 for (int c = 0; c < 3; ++c)
