@@ -401,15 +401,28 @@ TEST(WkbOrders3, PerLightAovsAddUpToTheBeautyAndOneLayerWhereNoneIsWritten)
 // orders 3+, which live in the top mean free paths (the half-space table of docs/validation.md:
 // 23-45% dark); the camera-weighted skin cells must match the path tracer within the target, and
 // the same check must fail for the volume mean.
-TEST(WkbOrders3, LitFaceMatchesThePathTracerWithSkinCells)
+namespace {
+
+// The lit faces below: a box 2 x 1 x 2 m, sigma_t 192 per m, albedo 0.8, HG g, lit on its top face
+// by a sun 30 degrees from the normal (sunZ: the z of its travel direction, +-sin 30 degrees), seen
+// through a 10 degree lens from 3 m at `view` radians from the normal (the camera at -z).
+Scene litFace(float view, float sunZ, float g)
 {
-    Scene s = baseScene(make_float3(0.0f, 0.5f + 3.0f * std::cos(0.698f), -3.0f * std::sin(0.698f)),
-                        make_float3(0.0f, -std::cos(0.5236f), std::sin(0.5236f)));
+    Scene s = baseScene(make_float3(0.0f, 0.5f + 3.0f * std::cos(view), -3.0f * std::sin(view)),
+                        make_float3(0.0f, -std::cos(0.5236f), sunZ));
     s.camera.to = make_float3(0, 0.5f, 0);
     s.camera.fov = 10;
     s.volumes.push_back(greyVolume("slab", "box",
                                    {{"size_x", 2.0}, {"size_y", 1.0}, {"size_z", 2.0}, {"voxel_size", 0.0625}},
-                                   192.0f, 0.8f, 0.0f));
+                                   192.0f, 0.8f, g));
+    return s;
+}
+
+}  // namespace
+
+TEST(WkbOrders3, LitFaceMatchesThePathTracerWithSkinCells)
+{
+    const Scene s = litFace(0.698f, std::sin(0.5236f), 0.0f);
     const Reference ref = pathTracedOrders3(s, 1024);
     ASSERT_GT(ref.energy, 0.0);
     ASSERT_LT(ref.se, 0.2 * kEnergyTarget * ref.energy) << "the reference is too noisy to test 5%";
@@ -427,17 +440,11 @@ TEST(WkbOrders3, LitFaceMatchesThePathTracerWithSkinCells)
 // of albedo 0.8 and g 0.7 seen 60 degrees off its normal on the far side from the sun, through a
 // lens that sees a small part of it. Orders 3+ within 5% of the path tracer's with the light
 // paths aimed at the view (ViewFocus.h); without the aim the default paths leave the cells the
-// camera reads undersampled (printed, not asserted: the shortfall is noise, -4.9% on this seed; -31% on the half-space table's larger face).
+// camera reads undersampled (printed, not asserted: the shortfall is noise, -4.9% on this seed;
+// -31% on the half-space table's larger face).
 TEST(WkbOrders3, ObliqueForwardLitFaceMatchesThePathTracerWithAimedPaths)
 {
-    const float view = 1.047f, sun = 0.5236f;  // 60 and 30 degrees from the normal, opposite azimuths
-    Scene s = baseScene(make_float3(0.0f, 0.5f + 3.0f * std::cos(view), -3.0f * std::sin(view)),
-                        make_float3(0.0f, -std::cos(sun), -std::sin(sun)));
-    s.camera.to = make_float3(0, 0.5f, 0);
-    s.camera.fov = 10;
-    s.volumes.push_back(greyVolume("slab", "box",
-                                   {{"size_x", 2.0}, {"size_y", 1.0}, {"size_z", 2.0}, {"voxel_size", 0.0625}},
-                                   192.0f, 0.8f, 0.7f));
+    const Scene s = litFace(1.047f, -std::sin(0.5236f), 0.7f);  // 60 degrees, the sun's azimuth opposite
     const Reference ref = pathTracedOrders3(s, 1024);
     ASSERT_GT(ref.energy, 0.0);
     ASSERT_LT(ref.se, 0.2 * kEnergyTarget * ref.energy) << "the reference is too noisy to test 5%";
