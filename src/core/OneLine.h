@@ -12,13 +12,14 @@
 namespace nimbus {
 
 // Control characters written as escapes (\n, \r, \t, \xNN); everything else (UTF-8 included)
-// as it is. Idempotent: an escaped message is left as it is.
-inline std::string oneLine(const std::string& text)
+// as it is. Idempotent: an escaped message is left as it is. asciiOnly: bytes above 0x7e as \xNN
+// too (a line of a binary file quoted in a message, which need not be UTF-8).
+inline std::string oneLine(const std::string& text, bool asciiOnly = false)
 {
     std::string out;
     out.reserve(text.size());
     for (unsigned char c : text) {
-        if (c >= 0x20 && c != 0x7f) {
+        if (c >= 0x20 && c != 0x7f && !(asciiOnly && c > 0x7f)) {
             out += char(c);
         } else if (c == '\n') {
             out += "\\n";

@@ -1,6 +1,7 @@
 #include "MeshFile.h"
 
 #include "../core/Error.h"
+#include "../core/OneLine.h"
 
 #include <assimp/Importer.hpp>
 #include <assimp/postprocess.h>
@@ -26,23 +27,12 @@ std::string lowerExtension(const std::string& path)
     return ext;
 }
 
-// Up to 80 bytes of a header line for a message: a NUL, another control byte or a byte outside
-// ASCII as \xNN (a NUL cut the CLI's error line short: fuzz_mesh, "property a\0"; binary first
-// lines would make it invalid UTF-8).
+// Up to 80 bytes of a header line for a message: a NUL or another control byte escaped, a byte
+// outside ASCII as \xNN (a NUL cut the CLI's error line short: fuzz_mesh, "property a\0"; binary
+// first lines would make it invalid UTF-8).
 std::string quotedLine(const std::string& line)
 {
-    std::string out;
-    for (unsigned char c : line.substr(0, 80)) {
-        if (c < 0x20 || c >= 0x7f) {
-            static const char* hex = "0123456789abcdef";
-            out += "\\x";
-            out += hex[c >> 4];
-            out += hex[c & 15];
-        } else {
-            out += char(c);
-        }
-    }
-    return out;
+    return oneLine(line.substr(0, 80), /*asciiOnly=*/true);
 }
 
 // A PLY file's header, checked before Assimp reads it: every line one PLY keyword with its
