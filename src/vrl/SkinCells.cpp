@@ -41,6 +41,33 @@ int skinSubSteps(const VolumeSet& volumes, float3 o, float3 d, float len)
     return depth > kStepDepth ? std::min(4096, int(std::ceil(depth / kStepDepth))) : 1;
 }
 
+namespace {
+
+// The sub-steps of o + t d, t in [0, tMax], over the volumes' spans: each span's steps, each cut
+// into skinSubSteps pieces of at most kStepDepth optical depth; f(tMid, ds) per piece, in order,
+// until f returns false. The camera pass and cameraTransmittance march alike through it. spans:
+// the caller's scratch.
+template <class F>
+void forEachSubStep(const VolumeSet& volumes, float3 o, float3 d, float tMax, std::vector<Span>& spans, F&& f)
+{
+    volumes.spans(o, d, 0.0f, tMax, 1.0f, spans);
+    for (const Span& sp : spans) {
+        const float len = sp.t1 - sp.t0;
+        const int n = stepCount(len, sp.step);
+        const float dt = len / float(n);
+        for (int k = 0; k < n; ++k) {
+            const float ta = sp.t0 + float(k) * dt;
+            const int m = skinSubSteps(volumes, o + d * ta, d, dt);
+            const float ds = dt / float(m);
+            for (int i = 0; i < m; ++i)
+                if (!f(ta + (float(i) + 0.5f) * ds, ds))
+                    return;
+        }
+    }
+}
+
+}  // namespace
+
 size_t skinCellsBytes(size_t cells)
 {
     // The integrals, their neighbourhood sums and the sums' scratch; the ray counts, their sums and
@@ -57,25 +84,15 @@ Rgb cameraTransmittance(const VolumeSet& volumes, float3 x, float3 camera)
     if (!(dist > 0.0f))
         return splat(1.0f);
     const float3 d = toCamera * (1.0f / dist);
-    volumes.spans(x, d, 0.0f, dist, 1.0f, spans);
     const float tauMax = -std::log(kMinTransmittance);
     Rgb tau = splat(0.0f);
-    for (const Span& sp : spans) {
-        const float len = sp.t1 - sp.t0;
-        const int n = stepCount(len, sp.step);
-        const float dt = len / float(n);
-        for (int k = 0; k < n; ++k) {
-            const float ta = sp.t0 + float(k) * dt;
-            const int m = skinSubSteps(volumes, x + d * ta, d, dt);
-            const float ds = dt / float(m);
-            for (int i = 0; i < m; ++i) {
-                tau += volumes.sample(x + d * (ta + (float(i) + 0.5f) * ds)).sigma_t * ds;
-                if (std::fmin(tau.x, std::fmin(tau.y, tau.z)) > tauMax)
-                    return splat(0.0f);
-            }
-        }
-    }
-    return make_float3(std::exp(-tau.x), std::exp(-tau.y), std::exp(-tau.z));
+    bool dark = false;
+    forEachSubStep(volumes, x, d, dist, spans, [&](float t, float ds) {
+        tau += volumes.sample(x + d * t).sigma_t * ds;
+        dark = std::fmin(tau.x, std::fmin(tau.y, tau.z)) > tauMax;
+        return !dark;
+    });
+    return dark ? splat(0.0f) : make_float3(std::exp(-tau.x), std::exp(-tau.y), std::exp(-tau.z));
 }
 
 SkinCells findSkinCells(const RenderContext& ctx, const wkb::RadianceGrid& grid)
@@ -162,60 +179,46 @@ SkinCells findSkinCells(const RenderContext& ctx, const wkb::RadianceGrid& grid)
             // The ray's solid angle: its share of the plane times cos^3 of its angle to the axis.
             const double cosA = std::fabs(double(dot(d, axis)));
             const double dOmega = planeArea * cosA * cosA * cosA;
-            ctx.volumes.spans(o, d, 0.0f, 1e30f, 1.0f, spans);
             double T[3] = {1, 1, 1};
-            bool done = false;
             long lastCell = -1;
-            for (size_t si = 0; si < spans.size() && !done; ++si) {
-                const Span& sp = spans[si];
-                const float len = sp.t1 - sp.t0;
-                const int n = stepCount(len, sp.step);
-                const float dt = len / float(n);
-                for (int k = 0; k < n && !done; ++k) {
-                    const float ta = sp.t0 + float(k) * dt;
-                    const int m = skinSubSteps(ctx.volumes, o + d * ta, d, dt);
-                    const float ds = dt / float(m);
-                    for (int i = 0; i < m && !done; ++i) {
-                        const float tm = ta + (float(i) + 0.5f) * ds;
-                        const float3 x = o + d * tm;
-                        std::fill(pw.begin(), pw.end(), 0.0f);
-                        const MediumSample s = ctx.volumes.sample(x, pw.data());
-                        const double st[3] = {s.sigma_t.x, s.sigma_t.y, s.sigma_t.z};
-                        const double ss[3] = {s.sigma_s.x, s.sigma_s.y, s.sigma_s.z};
-                        double I[3];  // int T_cam over the sub-step
-                        for (int c = 0; c < 3; ++c) {
-                            const double y = st[c] * double(ds);
-                            I[c] = T[c] * (y > 1e-6 ? -std::expm1(-y) / st[c] : double(ds) * (1.0 - 0.5 * y));
-                            T[c] *= std::exp(-y);
-                        }
-                        const long cell = cellOf(x);
-                        if (cell >= 0) {
-                            if (cell != lastCell && crossed[size_t(cell)] < 255)
-                                ++crossed[size_t(cell)];
-                            lastCell = cell;
-                            double g = 0.0, wsum = 0.0;
-                            for (size_t v = 0; v < phases.size(); ++v)
-                                if (pw[v] > 0.0f) {
-                                    g += double(pw[v]) * double(nbPhaseMeanCos(phases[v]));
-                                    wsum += double(pw[v]);
-                                }
-                            g = wsum > 0.0 ? g / wsum : 0.0;
-                            const double w = dOmega * double(tm) * double(tm);
-                            double* a = acc.data() + size_t(cell) * kAcc;
-                            double ssI = 0.0;
-                            for (int c = 0; c < 3; ++c) {
-                                a[kDr + c] += w * ss[c] * I[c];
-                                a[kSt] += w * st[c] * I[c] / 3.0;
-                                ssI += ss[c] * I[c] / 3.0;
-                            }
-                            a[kSs] += w * ssI;
-                            a[kStMax] = std::max(a[kStMax], (st[0] + st[1] + st[2]) / 3.0);
-                            a[kSg] += w * g * ssI;
-                        }
-                        done = std::max(T[0], std::max(T[1], T[2])) < double(kMinTransmittance);
-                    }
+            forEachSubStep(ctx.volumes, o, d, 1e30f, spans, [&](float tm, float ds) {
+                const float3 x = o + d * tm;
+                std::fill(pw.begin(), pw.end(), 0.0f);
+                const MediumSample s = ctx.volumes.sample(x, pw.data());
+                const double st[3] = {s.sigma_t.x, s.sigma_t.y, s.sigma_t.z};
+                const double ss[3] = {s.sigma_s.x, s.sigma_s.y, s.sigma_s.z};
+                double I[3];  // int T_cam over the sub-step
+                for (int c = 0; c < 3; ++c) {
+                    const double y = st[c] * double(ds);
+                    I[c] = T[c] * (y > 1e-6 ? -std::expm1(-y) / st[c] : double(ds) * (1.0 - 0.5 * y));
+                    T[c] *= std::exp(-y);
                 }
-            }
+                const long cell = cellOf(x);
+                if (cell >= 0) {
+                    if (cell != lastCell && crossed[size_t(cell)] < 255)
+                        ++crossed[size_t(cell)];
+                    lastCell = cell;
+                    double g = 0.0, wsum = 0.0;
+                    for (size_t v = 0; v < phases.size(); ++v)
+                        if (pw[v] > 0.0f) {
+                            g += double(pw[v]) * double(nbPhaseMeanCos(phases[v]));
+                            wsum += double(pw[v]);
+                        }
+                    g = wsum > 0.0 ? g / wsum : 0.0;
+                    const double w = dOmega * double(tm) * double(tm);
+                    double* a = acc.data() + size_t(cell) * kAcc;
+                    double ssI = 0.0;
+                    for (int c = 0; c < 3; ++c) {
+                        a[kDr + c] += w * ss[c] * I[c];
+                        a[kSt] += w * st[c] * I[c] / 3.0;
+                        ssI += ss[c] * I[c] / 3.0;
+                    }
+                    a[kSs] += w * ssI;
+                    a[kStMax] = std::max(a[kStMax], (st[0] + st[1] + st[2]) / 3.0);
+                    a[kSg] += w * g * ssI;
+                }
+                return std::max(T[0], std::max(T[1], T[2])) >= double(kMinTransmittance);
+            });
         }
     }
     // The classification reads each cell's neighbourhood (kSkinRadius cells each side, the
