@@ -47,21 +47,29 @@ bool ShadowMapCache::sameVolumes(const RenderContext& ctx, const std::vector<std
     return true;
 }
 
+template <class List>
+typename List::iterator ShadowMapCache::find(List& list, const RenderContext& ctx, const std::string& key)
+{
+    for (auto it = list.begin(); it != list.end(); ++it)
+        if (it->key == key && sameVolumes(ctx, it->volumes))
+            return it;
+    return list.end();
+}
+
 bool ShadowMapCache::take(RenderContext& ctx, size_t i)
 {
     if (!ctx.scene->geometry.empty())
         return false;
-    const std::string key = keyOf(ctx, i);
-    for (auto it = mEntries.begin(); it != mEntries.end(); ++it)
-        if (it->key == key && sameVolumes(ctx, it->volumes)) {
-            ctx.lights[i].shadowMap = std::move(it->map);
-            ctx.lights[i].cache = std::move(it->cache);
-            mEntries.erase(it);
-            ++reused;
-            return true;
-        }
-    ++built;
-    return false;
+    const auto it = find(mEntries, ctx, keyOf(ctx, i));
+    if (it == mEntries.end()) {
+        ++built;
+        return false;
+    }
+    ctx.lights[i].shadowMap = std::move(it->map);
+    ctx.lights[i].cache = std::move(it->cache);
+    mEntries.erase(it);
+    ++reused;
+    return true;
 }
 
 bool ShadowMapCache::takeSky(RenderContext& ctx, size_t i, const SkyLight::Settings& settings)
@@ -70,16 +78,15 @@ bool ShadowMapCache::takeSky(RenderContext& ctx, size_t i, const SkyLight::Setti
         ++skyBuilt;
         return false;
     }
-    const std::string key = skyKeyOf(ctx, i, settings);
-    for (auto it = mSkies.begin(); it != mSkies.end(); ++it)
-        if (it->key == key && sameVolumes(ctx, it->volumes)) {
-            ctx.lights[i].sky = std::move(it->sky);
-            mSkies.erase(it);
-            ++skyReused;
-            return true;
-        }
-    ++skyBuilt;
-    return false;
+    const auto it = find(mSkies, ctx, skyKeyOf(ctx, i, settings));
+    if (it == mSkies.end()) {
+        ++skyBuilt;
+        return false;
+    }
+    ctx.lights[i].sky = std::move(it->sky);
+    mSkies.erase(it);
+    ++skyReused;
+    return true;
 }
 
 void ShadowMapCache::keep(RenderContext& ctx, const SkyLight::Settings& settings)

@@ -50,6 +50,9 @@ private:
     static std::string keyOf(const RenderContext& ctx, size_t i);
     static std::string skyKeyOf(const RenderContext& ctx, size_t i, const SkyLight::Settings& settings);
     static bool sameVolumes(const RenderContext& ctx, const std::vector<std::shared_ptr<VolumeData>>& kept);
+    // The kept entry of `list` (mEntries or mSkies) with `key` for ctx's volumes, or list.end().
+    template <class List>
+    static typename List::iterator find(List& list, const RenderContext& ctx, const std::string& key);
     std::vector<Entry> mEntries;
     std::vector<SkyEntry> mSkies;
 };
