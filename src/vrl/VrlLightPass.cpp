@@ -135,12 +135,14 @@ bool LightPass::emit(int i, NbRng& rng, float3& x, float3& dir, float3& W, float
         const float3 toFocus = aim.centre - x;
         const float dist = length(toFocus);
         // The cone subtending the aim: sin^2 = (R / dist)^2, 1 - cos = sin^2 / (1 + cos); aimed only
-        // where the light is outside it and the cone is narrower than the light's own.
+        // where the light is outside it, the cone is narrower than the light's own, and wide enough
+        // for float directions to tell its rim (1 - cos over 1e-5: half a degree; a lamp farther
+        // than about 200 radii of the aim is left as it is).
         const float s2 = dist > 0.0f ? (aim.radius / dist) * (aim.radius / dist) : 1.0f;
         const float cosMax = std::sqrt(std::fmax(0.0f, 1.0f - s2));
         const float oneMinusCos = s2 / (1.0f + cosMax);
         const float ownOneMinusCos = spot ? 1.0f - l.p0 : 2.0f;
-        if ((mFocus.active || mAimAtVolumes) && s2 < 0.9998f && oneMinusCos < ownOneMinusCos) {
+        if ((mFocus.active || mAimAtVolumes) && s2 < 0.9998f && oneMinusCos < ownOneMinusCos && oneMinusCos > 1e-5f) {
             const float3 axis = toFocus * (1.0f / dist);
             dir = nbRngNext(&rng) < kFocusDefensive ? ownSample(u0, u1) : nbSampleCone(axis, cosMax, u0, u1);
             const float pdf = kFocusDefensive * ownPdf(dir) + (1.0f - kFocusDefensive) * conePdf(dir, axis, oneMinusCos);
