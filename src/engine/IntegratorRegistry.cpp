@@ -52,7 +52,11 @@ IntegratorEntry wkbEntry()
             for (size_t i = 0; i < ctx.lights.size(); ++i)
                 o.perLightAovs[i] = !options.outputAovsOnly || wanted.empty() ||
                                     std::find(wanted.begin(), wanted.end(), ctx.lights[i].aov) != wanted.end();
-            orders3 = vrl::traceOrders3(ctx, o);
+            vrl::Orders3Report report;
+            orders3 = vrl::traceOrders3(ctx, o, &report);
+            stats.orders3Cells = report.cells;
+            stats.orders3SkinCells = report.skinCells;
+            stats.orders3FocusRadius = report.aimedAtView ? report.focusRadius : 0.0f;
             stats.addStage("orders 3+ light paths",
                            std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
         }

@@ -36,6 +36,10 @@ struct RenderStats {
     std::vector<LightStats> lights;
     std::vector<VolumeStats> volumes;
     size_t pyramidBytes = 0;  // wkb: all light pyramids as built
+    // wkb: the orders-3+ cache as traced (vrl::Orders3Report): cells, skin cells, and the radius of
+    // the sphere its light paths were aimed at (0: not aimed at the view).
+    size_t orders3Cells = 0, orders3SkinCells = 0;
+    float orders3FocusRadius = 0.0f;
 
     void addStage(const std::string& name, double seconds) { stageSeconds.push_back({name, seconds}); }
     // The seconds of the named stage, or 0 if it did not run.

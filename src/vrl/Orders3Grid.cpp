@@ -145,7 +145,8 @@ size_t orders3FillBytes(const RenderContext& ctx, const Orders3Options& options)
     return cells * size_t(wkb::RadianceGrid::kFloats) * sizeof(float) * worst + skinCellsBytes(cells);
 }
 
-std::shared_ptr<const wkb::RadianceGrid> traceOrders3(const RenderContext& ctx, const Orders3Options& options)
+std::shared_ptr<const wkb::RadianceGrid> traceOrders3(const RenderContext& ctx, const Orders3Options& options,
+                                                      Orders3Report* report)
 {
     if (ctx.volumes.empty() || options.paths <= 0)
         return nullptr;
@@ -187,9 +188,14 @@ std::shared_ptr<const wkb::RadianceGrid> traceOrders3(const RenderContext& ctx, 
         return nullptr;
     grid->setLayerLights(layerLight);
     const SkinCells skin = options.skinCells ? findSkinCells(ctx, *grid) : SkinCells{};
-    if (options.focus) {
-        pass.setFocus(findViewFocus(ctx, grid->cellSize(), pass.boundsRadius()));
-        pass.setAimAtVolumes(true);
+    const EmissionFocus focus = options.focus ? findViewFocus(ctx, grid->cellSize(), pass.boundsRadius()) : EmissionFocus{};
+    pass.setFocus(focus);
+    pass.setAimAtVolumes(options.focus);
+    if (report) {
+        report->cells = grid->cellCount();
+        report->skinCells = skin.count();
+        report->aimedAtView = focus.active;
+        report->focusRadius = focus.radius;
     }
     // Transmittance steps: at most the finest density voxel (each cell's stretch is split evenly).
     const float h = std::fmax(1e-6f, ctx.volumes.minVoxelSize());

@@ -34,11 +34,20 @@ struct Orders3Options {
     std::vector<char> perLightAovs;
 };
 
+// What traceOrders3 decided, for `nimbus render --explain` (RenderStats::orders3).
+struct Orders3Report {
+    size_t cells = 0;      // the cache's cells
+    size_t skinCells = 0;  // of those, skin cells (SkinCells.h)
+    bool aimedAtView = false;  // the paths aimed at a focus around the seen medium (ViewFocus.h)
+    float focusRadius = 0.0f;  // its radius (m)
+};
+
 // The grid of ctx's scene, or null where no light reaches a volume. Where a single light reaches the
 // volumes its one layer is that light's (layerLight 0 = its index). Deterministic for a seed on
 // any thread count: the segments are split into a fixed number of ranges (8 over the layer count, at least 2), each summed in order into
 // its own grid, and the partial grids are added in a fixed order.
-std::shared_ptr<const wkb::RadianceGrid> traceOrders3(const RenderContext& ctx, const Orders3Options& options);
+std::shared_ptr<const wkb::RadianceGrid> traceOrders3(const RenderContext& ctx, const Orders3Options& options,
+                                                      Orders3Report* report = nullptr);
 
 // The most memory traceOrders3 holds in grids while it fills ctx's cache (bytes): the cache and its
 // partial grids, for the layer count (at most one per light of ctx) that needs the most. The

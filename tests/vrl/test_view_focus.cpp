@@ -9,9 +9,11 @@
 // a point light aimed at the volumes' bounding sphere (setAimAtVolumes) without a focus.
 //
 // And findViewFocus: a narrow camera on a large slab gives a focus around what it sees; a camera
-// that sees the whole volume gives none.
+// that sees the whole volume gives none; traceOrders3 reports which (`--explain`'s line).
 #include "pathtracer/PathtraceScene.h"
 #include "render/RenderContext.h"
+#include "render/RenderStats.h"
+#include "vrl/Orders3Grid.h"
 #include "vrl/ViewFocus.h"
 #include "vrl/VrlLightPass.h"
 #include "vrl/VrlMedium.h"
@@ -195,4 +197,41 @@ TEST(ViewFocus, NarrowViewOfALargeSlabIsFocusedAndAWholeViewIsNot)
     s.camera.fov = 60;
     ctx = RenderContext::create(s, true);
     EXPECT_FALSE(vrl::findViewFocus(*ctx, 0.2f, 6.0f).active);
+}
+
+// What traceOrders3 reports for `nimbus render --explain` (RenderStats): aimed at the view on the
+// narrow view of the slab, with the focus's radius; not on the whole view; and the line printed.
+TEST(ViewFocus, TheCacheReportsWhetherItsPathsWereAimed)
+{
+    setenv("NIMBUS_CACHE_DIR", (std::string(::testing::TempDir()) + "nimbus-kernel-cache-focus").c_str(), 1);
+    Light sun;
+    sun.type = LightType::Distant;
+    Scene s = slabScene(sun);
+    vrl::Orders3Options o;
+    o.paths = 2048;
+    o.maxCells = 32;
+    vrl::Orders3Report narrow, wide;
+    {
+        const auto ctx = RenderContext::create(s, true);
+        const auto grid = vrl::traceOrders3(*ctx, o, &narrow);
+        ASSERT_TRUE(grid);
+        const vrl::EmissionFocus f = vrl::findViewFocus(*ctx, grid->cellSize(), 1e9f);
+        EXPECT_TRUE(narrow.aimedAtView);
+        EXPECT_NEAR(narrow.focusRadius, f.radius, 1e-4f);
+        EXPECT_GT(narrow.cells, 0u);
+    }
+    s.camera.from = make_float3(0.0f, 14.0f, 14.0f);
+    s.camera.fov = 60;
+    {
+        const auto ctx = RenderContext::create(s, true);
+        ASSERT_TRUE(vrl::traceOrders3(*ctx, o, &wide));
+        EXPECT_FALSE(wide.aimedAtView);
+    }
+    RenderStats stats;
+    stats.orders3Cells = narrow.cells;
+    stats.orders3SkinCells = narrow.skinCells;
+    stats.orders3FocusRadius = narrow.focusRadius;
+    EXPECT_NE(stats.describe(RenderPlan{}).find("light paths aimed at the view"), std::string::npos);
+    stats.orders3FocusRadius = 0.0f;
+    EXPECT_NE(stats.describe(RenderPlan{}).find("light paths over the whole medium"), std::string::npos);
 }
