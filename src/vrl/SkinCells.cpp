@@ -1,6 +1,7 @@
 #include "SkinCells.h"
 
 #include "../core/StepCount.h"
+#include "PhaseMixture.h"
 #include "../scene/KernelScene.h"
 
 #include <algorithm>
@@ -198,13 +199,7 @@ SkinCells findSkinCells(const RenderContext& ctx, const wkb::RadianceGrid& grid)
                     if (cell != lastCell && crossed[size_t(cell)] < 255)
                         ++crossed[size_t(cell)];
                     lastCell = cell;
-                    double g = 0.0, wsum = 0.0;
-                    for (size_t v = 0; v < phases.size(); ++v)
-                        if (pw[v] > 0.0f) {
-                            g += double(pw[v]) * double(nbPhaseMeanCos(phases[v]));
-                            wsum += double(pw[v]);
-                        }
-                    g = wsum > 0.0 ? g / wsum : 0.0;
+                    const double g = mixedMeanCosine(phases, pw.data());
                     const double w = dOmega * double(tm) * double(tm);
                     double* a = acc.data() + size_t(cell) * kAcc;
                     double ssI = 0.0;

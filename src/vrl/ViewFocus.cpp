@@ -1,6 +1,7 @@
 #include "ViewFocus.h"
 
 #include "../core/StepCount.h"
+#include "PhaseMixture.h"
 #include "../scene/KernelScene.h"
 
 #include <algorithm>
@@ -57,13 +58,7 @@ EmissionFocus findViewFocus(const RenderContext& ctx, float cellSize, float boun
                             const double t = double((&s.sigma_t.x)[c]);
                             omega = std::max(omega, t > 0.0 ? std::min(1.0, double((&s.sigma_s.x)[c]) / t) : 1.0);
                         }
-                        double g = 0.0, pwSum = 0.0;
-                        for (size_t v = 0; v < phases.size(); ++v)
-                            if (pw[v] > 0.0f) {
-                                g += double(pw[v]) * double(nbPhaseMeanCos(phases[v]));
-                                pwSum += double(pw[v]);
-                            }
-                        g = pwSum > 0.0 ? g / pwSum : 0.0;
+                        const double g = mixedMeanCosine(phases, pw.data());
                         const double w = ss * T * double(dt);
                         wSum += w;
                         omegaSum += w * omega;
