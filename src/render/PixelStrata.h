@@ -68,7 +68,9 @@ inline void stratifiedPixelPoint(int s, int spp, uint32_t key, float u0, float u
 // spp equal strata, perm a uniformly random permutation keyed by `key` (a Fisher-Yates shuffle
 // run up to s, kTimeStrataMax strata at most; above that the time is u itself). Not the pixel
 // point's rotation: two affine maps of s would tie each sample's time to its place in the pixel
-// (sideways camera motion then smeared along lines), and the shuffle is independent of it.
+// (sideways camera motion then smeared along lines), and the shuffle is independent of it. Its
+// cost grows with s: 0.006, 0.019, 0.097 and 0.37 us per sample at 4, 16, 64 and 256 spp
+// (measured on this project's machine, against several us for a sample's march).
 constexpr int kTimeStrataMax = 256;
 
 inline float stratifiedTime(int s, int spp, uint32_t key, float u)

@@ -10,6 +10,8 @@
 //
 // And findViewFocus: a narrow camera on a large slab gives a focus around what it sees; a camera
 // that sees the whole volume gives none; traceOrders3 reports which (`--explain`'s line).
+#include "../render/SceneBuilders.h"
+
 #include "pathtracer/PathtraceScene.h"
 #include "render/RenderContext.h"
 #include "render/RenderStats.h"
@@ -29,24 +31,16 @@ using namespace nimbus;
 
 namespace {
 
+// An 8 x 1 x 8 m slab (sigma_t 20 per m, albedo 0.8) seen through a 6 degree lens from 3.5 m above
+// its top face: the camera sees about 0.35 m of it.
 Scene slabScene(const Light& light)
 {
-    Scene s;
-    s.camera.width = 16;
-    s.camera.height = 16;
+    Scene s = test::emptyScene(16, 16);
     s.camera.from = make_float3(0.0f, 4.0f, 0.5f);
     s.camera.to = make_float3(0, 0.5f, 0);
     s.camera.fov = 6;
     s.lights.push_back(light);
-    Volume v;
-    v.name = "slab";
-    v.source.type = SourceType::Procedural;
-    v.source.generator = "box";
-    v.source.params = {{"size_x", 8.0}, {"size_y", 1.0}, {"size_z", 8.0}, {"voxel_size", 0.125}};
-    v.medium.sigma_s = splat(16.0f);
-    v.medium.sigma_a = splat(4.0f);
-    s.volumes.push_back(v);
-    s.output.file = "unused.exr";
+    s.volumes.push_back(test::homogeneousBox(8.0f, 1.0f, 8.0f, 0.125f, splat(16.0f), splat(4.0f)));
     return s;
 }
 
@@ -134,28 +128,17 @@ void checkLight(const char* name, const Light& light, bool aimAtVolumes = false)
 
 TEST(ViewFocus, AimedDistantLightKeepsItsExpectation)
 {
-    Light l;
-    l.type = LightType::Distant;
-    l.direction = normalize(make_float3(0.3f, -1.0f, 0.2f));
-    l.irradiance = splat(2.0f);
-    checkLight("distant", l);
+    checkLight("distant", test::distantLight("sun", make_float3(0.3f, -1.0f, 0.2f), splat(2.0f)));
 }
 
 TEST(ViewFocus, AimedEnvironmentLightKeepsItsExpectation)
 {
-    Light l;
-    l.type = LightType::Environment;
-    l.radiance = splat(1.0f);
-    checkLight("environment", l);
+    checkLight("environment", test::uniformSky("sky", splat(1.0f)));
 }
 
 TEST(ViewFocus, AimedPointLightKeepsItsExpectation)
 {
-    Light l;
-    l.type = LightType::Point;
-    l.position = make_float3(1.5f, 2.5f, 0.5f);
-    l.intensity = splat(4.0f);
-    checkLight("point", l);
+    checkLight("point", test::pointLight("lamp", make_float3(1.5f, 2.5f, 0.5f), splat(4.0f)));
 }
 
 TEST(ViewFocus, AimedSpotLightKeepsItsExpectation)
@@ -172,18 +155,13 @@ TEST(ViewFocus, AimedSpotLightKeepsItsExpectation)
 // A lamp far from a small volume, no view focus: aimed at the volumes' bounding sphere.
 TEST(ViewFocus, PointLightAimedAtTheVolumesKeepsItsExpectation)
 {
-    Light l;
-    l.type = LightType::Point;
-    l.position = make_float3(5.0f, 4.0f, -4.0f);
-    l.intensity = splat(40.0f);
-    checkLight("point aimed at the volumes", l, true);
+    checkLight("point aimed at the volumes", test::pointLight("lamp", make_float3(5.0f, 4.0f, -4.0f), splat(40.0f)),
+               true);
 }
 
 TEST(ViewFocus, NarrowViewOfALargeSlabIsFocusedAndAWholeViewIsNot)
 {
-    Light sun;
-    sun.type = LightType::Distant;
-    Scene s = slabScene(sun);
+    Scene s = slabScene(test::distantLight("sun", make_float3(0, -1, 0), splat(1.0f)));
     auto ctx = RenderContext::create(s, true);
     const vrl::EmissionFocus f = vrl::findViewFocus(*ctx, 0.2f, 6.0f);
     EXPECT_TRUE(f.active);
@@ -204,9 +182,7 @@ TEST(ViewFocus, NarrowViewOfALargeSlabIsFocusedAndAWholeViewIsNot)
 TEST(ViewFocus, TheCacheReportsWhetherItsPathsWereAimed)
 {
     setenv("NIMBUS_CACHE_DIR", (std::string(::testing::TempDir()) + "nimbus-kernel-cache-focus").c_str(), 1);
-    Light sun;
-    sun.type = LightType::Distant;
-    Scene s = slabScene(sun);
+    Scene s = slabScene(test::distantLight("sun", make_float3(0, -1, 0), splat(1.0f)));
     vrl::Orders3Options o;
     o.paths = 2048;
     o.maxCells = 32;
