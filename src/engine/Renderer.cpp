@@ -249,8 +249,14 @@ RenderResult render(const Scene& input, const RenderOptions& callerOptions)
     checkCancel();
     auto t = std::chrono::steady_clock::now();
     if (integrator->drive() == Integrator::Drive::CameraRays) {
-        renderTiles(ctx, *integrator, result.film, options);
+        TileSampleCounts counts;
+        renderTiles(ctx, *integrator, result.film, options, &counts);
         result.stats.addStage("march", secondsSince(t));
+        result.stats.cameraSamples = counts.samples;
+        result.stats.marchedPixels = counts.pixels;
+        result.stats.pixelsAtMostSpp = counts.pixelsAtMost;
+        result.stats.baseSpp = counts.baseSpp;
+        result.stats.maxSpp = counts.maxSpp;
     } else {
         integrator->renderImage(result.film, options);
         result.stats.addStage(methodName(scene.render.method), secondsSince(t));

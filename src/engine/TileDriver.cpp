@@ -2,6 +2,7 @@
 
 #include "TileCulling.h"
 
+#include "../render/AdaptiveSampling.h"
 #include "../render/PixelStrata.h"
 #include "../scene/KernelScene.h"
 
@@ -46,13 +47,21 @@ std::vector<float> deepSliceEdges(const NbCamera& cam, const Bbox& bounds, int s
     return edges;
 }
 
+// A pixel of a tile row's sampling round: its offset in the row, its first sample, its count.
+struct RoundPixel {
+    int offset, first, count;
+};
+
 }  // namespace
 
-void renderTiles(const RenderContext& ctx, const Integrator& integrator, Film& film, const RenderControl& control)
+void renderTiles(const RenderContext& ctx, const Integrator& integrator, Film& film, const RenderControl& control,
+                 TileSampleCounts* counts)
 {
     const Scene& scene = *ctx.scene;
     const NbCamera cam = makeNbCamera(scene.camera);
     const int spp = scene.render.spp > 0 ? scene.render.spp : kDefaultMarchSpp;
+    const AdaptiveSampling adaptive = adaptiveSamplingOf(scene.render, spp);
+    std::atomic<long long> samplesTaken{0}, pixelsMarched{0}, pixelsAtMost{0};
     const int filterType = nbFilterType(scene.render.pixelFilter);
     const float filterWidth = scene.render.filterWidth;
     const double margin = filterMargin(filterWidth);
@@ -77,21 +86,24 @@ void renderTiles(const RenderContext& ctx, const Integrator& integrator, Film& f
     for (size_t i = 0; i < nLights; ++i)
         perLightAov[i] = film.find(ctx.lights[i].aov);
 
-    // One pixel's samples, summed: the radiance terms, the opacity-weighted depth and the
-    // per-light L1.
+    // One pixel's samples, summed: the radiance terms, the opacity-weighted depth, the per-light
+    // L1, and the count, sum and sum of squares of the beauty's luminance (AdaptiveSampling.h).
     struct PixelSum {
         CameraSample sum;
         float depthSum = 0.0f, depthWeight = 0.0f;
         std::vector<float> perLight;
+        PixelMoments moments;
         void reset(size_t n)
         {
             sum = CameraSample();
             sum.transmittance = splat(0.0f);
             depthSum = depthWeight = 0.0f;
             perLight.assign(n, 0.0f);
+            moments = PixelMoments();
         }
         void add(const CameraSample& cs, const float* light)
         {
+            moments.add(nbAverage(cs.L0 + cs.L1 + cs.L2plus));
             sum.L0 += cs.L0;
             sum.L1 += cs.L1;
             sum.L2plus += cs.L2plus;
@@ -104,8 +116,8 @@ void renderTiles(const RenderContext& ctx, const Integrator& integrator, Film& f
                 perLight[i] += light[i];
         }
     };
-    const float inv = 1.0f / float(spp);
     auto store = [&](int x, int y, const PixelSum& px) {
+        const float inv = 1.0f / float(std::max(1, px.moments.n));
         Rgb l0 = px.sum.L0 * inv, l1 = px.sum.L1 * inv, l2 = px.sum.L2plus * inv;
         Rgb b = l0 + l1 + l2;
         float a = 1.0f - nbAverage(px.sum.transmittance * inv);
@@ -172,15 +184,18 @@ void renderTiles(const RenderContext& ctx, const Integrator& integrator, Film& f
     }
 
     // Camera sample s of pixel (x, y): its ray and its image position and time (as the holdout
-    // depth map reads them), the filter and time drawn from the pixel's sample stream.
-    auto cameraSample = [&](int x, int y, int s, NbRng& rng, float3& o, float3& d, float& px, float& py,
-                            float& time) {
+    // depth map reads them), the filter and time drawn from the pixel's sample stream. The
+    // sample belongs to the round of `count` samples that starts at sample `first` (the first
+    // spp, then each adaptive round): its random numbers are stratified over that round.
+    auto cameraSample = [&](int x, int y, int s, int first, int count, NbRng& rng, float3& o, float3& d, float& px,
+                            float& py, float& time) {
         const nb_uint pixelIndex = nb_uint(y) * nb_uint(film.width) + nb_uint(x);
         rng = nbRngStart(scene.render.seed, pixelIndex, nb_uint(s));
         // The pixel filter by importance sampling (filter.h): an offset from the centre, its two
-        // random numbers stratified over the pixel's samples, and the shutter time too
-        // (PixelStrata.h).
-        const PixelSampleNumbers u = pixelSampleNumbers(scene.render.seed, pixelIndex, s, spp, rng);
+        // random numbers stratified over the round's samples, and the shutter time too
+        // (PixelStrata.h); each round its own strata.
+        const uint32_t roundSeed = first == 0 ? scene.render.seed : scene.render.seed ^ nbPcgHash(nb_uint(first));
+        const PixelSampleNumbers u = pixelSampleNumbers(roundSeed, pixelIndex, s - first, count, rng);
         const float jx = nbFilterSample(filterType, filterWidth, u.ux);
         const float jy = nbFilterSample(filterType, filterWidth, u.uy);
         time = u.time;
@@ -190,17 +205,19 @@ void renderTiles(const RenderContext& ctx, const Integrator& integrator, Film& f
     // A pixel of an empty tile under an environment map: each sample what a march of a ray that
     // misses every volume gathers (the background along it), summed the same way.
     const std::vector<float> none(3 * nLights, 0.0f);  // no light's L1 (read only, shared)
+    // Its samples in the rounds a marched pixel's would take (AdaptiveSampling.h).
     auto emptyPixel = [&](int x, int y, PixelSum& sum) {
         sum.reset(3 * nLights);
-        for (int s = 0; s < spp; ++s) {
-            NbRng rng;
-            float3 o, d;
-            float px, py, time;
-            cameraSample(x, y, s, rng, o, d, px, py, time);
-            CameraSample miss;
-            miss.L0 = ctx.backgroundAlong(d);
-            sum.add(miss, none.data());
-        }
+        for (int first = 0, count = spp; count > 0; first = sum.moments.n, count = adaptive.moreSamples(sum.moments))
+            for (int s = first; s < first + count; ++s) {
+                NbRng rng;
+                float3 o, d;
+                float px, py, time;
+                cameraSample(x, y, s, first, count, rng, o, d, px, py, time);
+                CameraSample miss;
+                miss.L0 = ctx.backgroundAlong(d);
+                sum.add(miss, none.data());
+            }
     };
     // Deep output (DeepFilm.h): every camera sample is marched again up to each slice's back edge;
     // the pixel's sums there give its deep samples. What the background adds past the last edge is
@@ -224,7 +241,8 @@ void renderTiles(const RenderContext& ctx, const Integrator& integrator, Film& f
             T.assign(slices + 2, 0.0f);
         }
     };
-    auto storeDeep = [&](int x, int y, const DeepSum& sum) {
+    auto storeDeep = [&](int x, int y, const DeepSum& sum, int samples) {
+        const float inv = 1.0f / float(std::max(1, samples));
         DeepCurve curve;
         curve.edges = deepEdges;
         curve.L.resize(deepSlices + 2);
@@ -257,6 +275,8 @@ void renderTiles(const RenderContext& ctx, const Integrator& integrator, Film& f
         std::vector<CameraSample> deepSamples;
         std::vector<float> deepPerLight, deepTFar, cosAxis;
         std::vector<DeepSum> rowDeep;
+        std::vector<RoundPixel> roundPixels, nextPixels;
+        std::vector<uint32_t> sampleOwner;
         for (int tile = r.begin(); tile != r.end(); ++tile) {
             if (stopped())
                 return;
@@ -276,23 +296,27 @@ void renderTiles(const RenderContext& ctx, const Integrator& integrator, Film& f
                             store(x, y, rowSums[0]);
                             if (deep) {  // the pixel's own background behind the empty slices
                                 DeepSum own = deepBackground;
+                                const int n = rowSums[0].moments.n;
+                                std::fill(own.T.begin() + 1, own.T.end(), float(n));
                                 own.L[deepSlices + 1] = rowSums[0].sum.L0;
-                                storeDeep(x, y, own);
+                                storeDeep(x, y, own, n);
                             }
                         } else {
                             store(x, y, background);
                             if (deep)
-                                storeDeep(x, y, deepBackground);
+                                storeDeep(x, y, deepBackground, spp);
                         }
                     }
                     continue;
                 }
-                // The row's samples in batches of at most kBatchRays rays (a multiple of eight, so
-                // the eight-ray marches group the same rays as one batch would): the buffers do not
-                // grow with spp (issue 18, item 4), and each pixel's sum adds its samples in the
-                // same order as ever, so the image does not depend on the batch size.
+                // The row's samples in rounds: every pixel's spp, then (AdaptiveSampling.h) as many
+                // again for each pixel whose mean is still too noisy, until none is or each has
+                // reached the most. A round's samples go in batches of at most kBatchRays rays (a
+                // multiple of eight, so the eight-ray marches group the same rays as one batch
+                // would): the buffers do not grow with spp (issue 18, item 4), and each pixel's sum
+                // adds its samples in the same order as ever, so the image does not depend on the
+                // batch size.
                 const int width = tx1 - tx0;
-                const size_t rowRays = size_t(width) * size_t(spp);
                 rowSums.resize(size_t(width));
                 for (PixelSum& sum : rowSums)
                     sum.reset(3 * nLights);
@@ -301,81 +325,113 @@ void renderTiles(const RenderContext& ctx, const Integrator& integrator, Film& f
                     for (DeepSum& sum : rowDeep)
                         sum.reset(deepSlices);
                 }
-                for (size_t first = 0; first < rowRays; first += kBatchRays) {
-                    const size_t rays = std::min(kBatchRays, rowRays - first);
-                    origins.resize(rays), directions.resize(rays), rngs.resize(rays);
-                    samples.assign(rays, CameraSample());
-                    perLight.assign(rays * perLightStride, 0.0f);
-                    sampleTime.resize(rays);
-                    if (holdoutDepth || deep)
-                        sampleX.resize(rays), sampleY.resize(rays);
-                    for (size_t i = 0; i < rays; ++i) {
-                        const size_t k = first + i;  // the row's sample k: pixel k / spp, sample k % spp
-                        const int x = tx0 + int(k / size_t(spp)), s = int(k % size_t(spp));
-                        float px, py;
-                        cameraSample(x, y, s, rngs[i], origins[i], directions[i], px, py, sampleTime[i]);
+                // The round's pixels (offsets in the row) and each one's first sample and count.
+                roundPixels.clear();
+                for (int i = 0; i < width; ++i)
+                    roundPixels.push_back(RoundPixel{i, 0, spp});
+                while (!roundPixels.empty()) {
+                    // Sample k of the round: pixel roundPixels[p], its sample first + j.
+                    sampleOwner.clear();
+                    for (size_t p = 0; p < roundPixels.size(); ++p)
+                        for (int j = 0; j < roundPixels[p].count; ++j)
+                            sampleOwner.push_back(uint32_t(p));
+                    const size_t roundRays = sampleOwner.size();
+                    samplesTaken += (long long)roundRays;
+                    for (size_t first = 0, k0 = 0; first < roundRays; first += kBatchRays) {
+                        const size_t rays = std::min(kBatchRays, roundRays - first);
+                        origins.resize(rays), directions.resize(rays), rngs.resize(rays);
+                        samples.assign(rays, CameraSample());
+                        perLight.assign(rays * perLightStride, 0.0f);
+                        sampleTime.resize(rays);
                         if (holdoutDepth || deep)
-                            sampleX[i] = px, sampleY[i] = py;
-                    }
-                    if (holdouts) {
-                        tFar.assign(rays, INFINITY);
-                        if (holdoutGeometry)
-                            holdoutGeometry->holdoutHits(int(rays), origins.data(), directions.data(), tFar.data());
-                        if (holdoutDepth)
-                            for (size_t i = 0; i < rays; ++i) {
-                                // Z along the view axis to t along the ray (d unit).
-                                const float z = holdoutDepth->depthAt(sampleX[i], sampleY[i]);
-                                const float cosAxis = dot(directions[i], nbCameraViewAxis(cam, sampleTime[i]));
-                                if (z < INFINITY && cosAxis > 0.0f)
-                                    tFar[i] = std::min(tFar[i], z / cosAxis);
-                            }
-                    }
-                    if (deep)
-                        rngStarts.assign(rngs.begin(), rngs.end());  // each prefix march replays them
-                    integrator.marchRays(int(rays), origins.data(), directions.data(),
-                                         holdouts ? tFar.data() : nullptr, sampleTime.data(), rngs.data(), samples.data(),
-                                         perLight.data());
-                    if (stopped())  // the marches may have ended early: nothing of theirs is kept
-                        return;
-                    for (size_t i = 0; i < rays; ++i)
-                        rowSums[(first + i) / size_t(spp)].add(samples[i], perLight.data() + perLightStride * i);
-                    if (deep) {
-                        // The whole march, then the prefix up to each slice edge z_k: the ray stops
-                        // at t = z_k / cos(ray, view axis), as a depth-map holdout at z_k would stop
-                        // it (the marches cut there on their own lattice).
-                        cosAxis.resize(rays);
+                            sampleX.resize(rays), sampleY.resize(rays);
                         for (size_t i = 0; i < rays; ++i) {
-                            cosAxis[i] = dot(directions[i], nbCameraViewAxis(cam, sampleTime[i]));
-                            DeepSum& sum = rowDeep[(first + i) / size_t(spp)];
-                            sum.L[deepSlices + 1] += samples[i].L0 + samples[i].L1 + samples[i].L2plus;
-                            sum.T[deepSlices + 1] += nbAverage(samples[i].transmittance);
+                            const RoundPixel& rp = roundPixels[sampleOwner[first + i]];
+                            // the pixel's samples are consecutive: j counts from its first
+                            if (first + i == 0 || sampleOwner[first + i] != sampleOwner[first + i - 1])
+                                k0 = first + i;
+                            const int x = tx0 + rp.offset, s = rp.first + int(first + i - k0);
+                            float px, py;
+                            cameraSample(x, y, s, rp.first, rp.count, rngs[i], origins[i], directions[i], px, py,
+                                         sampleTime[i]);
+                            if (holdoutDepth || deep)
+                                sampleX[i] = px, sampleY[i] = py;
                         }
-                        deepTFar.resize(rays);
-                        for (size_t k = 1; k <= deepSlices; ++k) {
+                        if (holdouts) {
+                            tFar.assign(rays, INFINITY);
+                            if (holdoutGeometry)
+                                holdoutGeometry->holdoutHits(int(rays), origins.data(), directions.data(), tFar.data());
+                            if (holdoutDepth)
+                                for (size_t i = 0; i < rays; ++i) {
+                                    // Z along the view axis to t along the ray (d unit).
+                                    const float z = holdoutDepth->depthAt(sampleX[i], sampleY[i]);
+                                    const float cosAxis = dot(directions[i], nbCameraViewAxis(cam, sampleTime[i]));
+                                    if (z < INFINITY && cosAxis > 0.0f)
+                                        tFar[i] = std::min(tFar[i], z / cosAxis);
+                                }
+                        }
+                        if (deep)
+                            rngStarts.assign(rngs.begin(), rngs.end());  // each prefix march replays them
+                        integrator.marchRays(int(rays), origins.data(), directions.data(),
+                                             holdouts ? tFar.data() : nullptr, sampleTime.data(), rngs.data(),
+                                             samples.data(), perLight.data());
+                        if (stopped())  // the marches may have ended early: nothing of theirs is kept
+                            return;
+                        for (size_t i = 0; i < rays; ++i)
+                            rowSums[size_t(roundPixels[sampleOwner[first + i]].offset)].add(
+                                samples[i], perLight.data() + perLightStride * i);
+                        if (deep) {
+                            // The whole march, then the prefix up to each slice edge z_k: the ray stops
+                            // at t = z_k / cos(ray, view axis), as a depth-map holdout at z_k would stop
+                            // it (the marches cut there on their own lattice).
+                            cosAxis.resize(rays);
                             for (size_t i = 0; i < rays; ++i) {
-                                const float tEdge = cosAxis[i] > 0.0f ? deepEdges[k] / cosAxis[i] : INFINITY;
-                                deepTFar[i] = holdouts ? std::min(tFar[i], tEdge) : tEdge;
+                                cosAxis[i] = dot(directions[i], nbCameraViewAxis(cam, sampleTime[i]));
+                                DeepSum& sum = rowDeep[size_t(roundPixels[sampleOwner[first + i]].offset)];
+                                sum.L[deepSlices + 1] += samples[i].L0 + samples[i].L1 + samples[i].L2plus;
+                                sum.T[deepSlices + 1] += nbAverage(samples[i].transmittance);
                             }
-                            deepRngs.assign(rngStarts.begin(), rngStarts.end());
-                            deepSamples.assign(rays, CameraSample());
-                            deepPerLight.assign(rays * perLightStride, 0.0f);
-                            integrator.marchRays(int(rays), origins.data(), directions.data(), deepTFar.data(),
-                                                 sampleTime.data(), deepRngs.data(), deepSamples.data(),
-                                                 deepPerLight.data());
-                            if (stopped())
-                                return;
-                            for (size_t i = 0; i < rays; ++i) {
-                                DeepSum& sum = rowDeep[(first + i) / size_t(spp)];
-                                sum.L[k] += deepSamples[i].L0 + deepSamples[i].L1 + deepSamples[i].L2plus;
-                                sum.T[k] += nbAverage(deepSamples[i].transmittance);
+                            deepTFar.resize(rays);
+                            for (size_t k = 1; k <= deepSlices; ++k) {
+                                for (size_t i = 0; i < rays; ++i) {
+                                    const float tEdge = cosAxis[i] > 0.0f ? deepEdges[k] / cosAxis[i] : INFINITY;
+                                    deepTFar[i] = holdouts ? std::min(tFar[i], tEdge) : tEdge;
+                                }
+                                deepRngs.assign(rngStarts.begin(), rngStarts.end());
+                                deepSamples.assign(rays, CameraSample());
+                                deepPerLight.assign(rays * perLightStride, 0.0f);
+                                integrator.marchRays(int(rays), origins.data(), directions.data(), deepTFar.data(),
+                                                     sampleTime.data(), deepRngs.data(), deepSamples.data(),
+                                                     deepPerLight.data());
+                                if (stopped())
+                                    return;
+                                for (size_t i = 0; i < rays; ++i) {
+                                    DeepSum& sum = rowDeep[size_t(roundPixels[sampleOwner[first + i]].offset)];
+                                    sum.L[k] += deepSamples[i].L0 + deepSamples[i].L1 + deepSamples[i].L2plus;
+                                    sum.T[k] += nbAverage(deepSamples[i].transmittance);
+                                }
                             }
                         }
                     }
+                    // The next round: the pixels whose mean is still too noisy, as many samples again
+                    // (at most up to the most; AdaptiveSampling.h).
+                    nextPixels.clear();
+                    for (const RoundPixel& rp : roundPixels) {
+                        const PixelMoments& m = rowSums[size_t(rp.offset)].moments;
+                        const int more = adaptive.moreSamples(m);
+                        if (more > 0)
+                            nextPixels.push_back(RoundPixel{rp.offset, m.n, more});
+                    }
+                    roundPixels.swap(nextPixels);
                 }
                 for (int x = tx0; x < tx1; ++x) {
-                    store(x, y, rowSums[size_t(x - tx0)]);
+                    const PixelSum& sum = rowSums[size_t(x - tx0)];
+                    store(x, y, sum);
                     if (deep)
-                        storeDeep(x, y, rowDeep[size_t(x - tx0)]);
+                        storeDeep(x, y, rowDeep[size_t(x - tx0)], sum.moments.n);
+                    ++pixelsMarched;
+                    if (sum.moments.n >= adaptive.maxSpp)
+                        ++pixelsAtMost;
                 }
             }
             int finished = ++done;
@@ -385,6 +441,13 @@ void renderTiles(const RenderContext& ctx, const Integrator& integrator, Film& f
     });
     if (stopped())
         throw Cancelled();
+    if (counts) {
+        counts->samples = samplesTaken.load();
+        counts->pixels = pixelsMarched.load();
+        counts->pixelsAtMost = pixelsAtMost.load();
+        counts->baseSpp = spp;
+        counts->maxSpp = adaptive.enabled() ? adaptive.maxSpp : spp;
+    }
 }
 
 }  // namespace nimbus

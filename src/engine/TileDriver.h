@@ -13,7 +13,15 @@
 
 namespace nimbus {
 
+// How many camera samples renderTiles took (adaptive sampling, AdaptiveSampling.h): in all, over
+// the pixels it marched (not those of tiles that see no volume), and how many of those took the most.
+struct TileSampleCounts {
+    long long samples = 0, pixels = 0, pixelsAtMost = 0;
+    int baseSpp = 0, maxSpp = 0;
+};
+
 // Fills the film (sized, AOVs added) with the integrator's camera samples. Throws Cancelled.
-void renderTiles(const RenderContext& ctx, const Integrator& integrator, Film& film, const RenderControl& control);
+void renderTiles(const RenderContext& ctx, const Integrator& integrator, Film& film, const RenderControl& control,
+                 TileSampleCounts* counts = nullptr);
 
 }  // namespace nimbus

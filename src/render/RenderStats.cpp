@@ -59,6 +59,19 @@ std::string RenderStats::describe(const RenderPlan& plan) const
             s << "over the whole medium (the camera sees most of it)\n";
         }
     }
+    if (marchedPixels > 0) {
+        char buf[256];
+        if (maxSpp > baseSpp)
+            std::snprintf(buf, sizeof buf,
+                          "  camera samples: %.2f per marched pixel (adaptive: %d to %d; %.1f%% of %lld pixels took "
+                          "%d)\n",
+                          double(cameraSamples) / double(marchedPixels), baseSpp, maxSpp,
+                          100.0 * double(pixelsAtMostSpp) / double(marchedPixels), marchedPixels, maxSpp);
+        else
+            std::snprintf(buf, sizeof buf, "  camera samples: %d per pixel over %lld marched pixels\n", baseSpp,
+                          marchedPixels);
+        s << buf;
+    }
     if (!stageSeconds.empty()) {
         s << "  stages:";
         for (auto& st : stageSeconds) {

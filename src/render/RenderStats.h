@@ -40,6 +40,10 @@ struct RenderStats {
     // the sphere its light paths were aimed at (0: not aimed at the view).
     size_t orders3Cells = 0, orders3SkinCells = 0;
     float orders3FocusRadius = 0.0f;
+    // single, wkb: camera samples taken over the pixels marched (tiles that see no volume are not),
+    // the pixels that took the most, and the base and most samples per pixel (AdaptiveSampling.h).
+    long long cameraSamples = 0, marchedPixels = 0, pixelsAtMostSpp = 0;
+    int baseSpp = 0, maxSpp = 0;
 
     void addStage(const std::string& name, double seconds) { stageSeconds.push_back({name, seconds}); }
     // The seconds of the named stage, or 0 if it did not run.

@@ -208,6 +208,11 @@ struct RenderSettings {
     // default, kDefaultMarchSpp for single and wkb, and for pathtrace no sample count (it renders
     // until noiseTarget or timeLimit).
     int spp = 0;
+    // single, wkb: adaptive sampling (AdaptiveSampling.h): a pixel whose mean's relative standard
+    // error is above adaptiveThreshold takes more samples, up to adaptiveMaxSpp (0: 4 x spp).
+    // adaptiveThreshold 0: every pixel takes spp.
+    double adaptiveThreshold = 0.02;
+    int adaptiveMaxSpp = 0;
     PixelFilter pixelFilter = PixelFilter::Gaussian;
     float filterWidth = 2.0f;  // the filter's full support, pixels (radius width / 2)
     float step = 0.5f;         // primary march step as a fraction of the smallest voxel

@@ -285,6 +285,8 @@ void visitRender(V& v, R& r)
     v.field("fps", r.fps);
     v.field("threads", r.threads);
     v.field("spp", r.spp);
+    v.field("adaptive_threshold", r.adaptiveThreshold);
+    v.field("adaptive_max_spp", r.adaptiveMaxSpp);
     v.field("pixel_filter", r.pixelFilter);
     v.field("filter_width", r.filterWidth);
     v.field("step", r.step);

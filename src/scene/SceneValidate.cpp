@@ -349,6 +349,8 @@ void checkRender(const Checker& c, const RenderSettings& r)
     // spp 0 is the method's default: 4 samples for single and wkb; for the path tracer no sample
     // count, so the noise target or the time limit must end the render.
     c.atLeast("render.spp", r.spp, 0);
+    c.range("render.adaptive_threshold", r.adaptiveThreshold, Range{0, 1, false, false, "relative standard error"});
+    c.range("render.adaptive_max_spp", r.adaptiveMaxSpp, Range{0, 1 << 24, false, false, "samples per pixel"});
     c.range("render.filter_width", r.filterWidth, Range{0, 16, true, false, "pixels"});
     c.range("render.step", r.step, Range{0, 100, true, false, "voxels"});
     c.range("render.shadow_map_resolution", r.shadowMapResolution, Range{8, 16384, false, false, "texels"});

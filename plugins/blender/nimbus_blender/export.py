@@ -411,6 +411,8 @@ def scene_document(depsgraph, warnings=None, mesh_dir=None):
     doc["render"] = {
         "method": s.method,
         "spp": s.spp,
+        "adaptive_threshold": s.adaptive_threshold,
+        "adaptive_max_spp": s.adaptive_max_spp,
         "seed": s.seed,
         "step": s.step,
         "shadow_map_resolution": s.shadow_map_resolution,

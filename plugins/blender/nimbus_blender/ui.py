@@ -37,6 +37,13 @@ class NimbusSettings(bpy.types.PropertyGroup):
     spp: bpy.props.IntProperty(name="Samples", default=0, min=0, soft_max=1024,
                                description="Camera samples per pixel (path samples for path tracing); 0: the "
                                "method's default (4; path tracing: until the noise target)")
+    adaptive_threshold: bpy.props.FloatProperty(
+        name="Adaptive threshold", default=0.02, min=0.0, max=1.0, precision=3,
+        description="Single and WKB: a pixel whose mean has a relative standard error above this takes more "
+        "samples, up to Adaptive max samples (0: every pixel takes Samples)")
+    adaptive_max_spp: bpy.props.IntProperty(name="Adaptive max samples", default=0, min=0, soft_max=4096,
+                                            description="Single and WKB: the most samples a pixel takes "
+                                            "(0: 4 x Samples)")
     seed: bpy.props.IntProperty(name="Seed", default=1, min=0)
     step: bpy.props.FloatProperty(name="Step", default=0.5, min=0.001, max=100.0,
                                   description="March step, as a fraction of the smallest voxel")
@@ -73,7 +80,7 @@ class NIMBUS_PT_render(bpy.types.Panel):
     def draw(self, context):
         s = context.scene.nimbus
         col = self.layout.column()
-        for name in ("method", "spp", "seed", "step", "shadow_map_resolution", "max_depth", "threads",
+        for name in ("method", "spp", "adaptive_threshold", "adaptive_max_spp", "seed", "step", "shadow_map_resolution", "max_depth", "threads",
                      "backend", "export_json"):
             col.prop(s, name)
 
