@@ -87,7 +87,7 @@ void renderTiles(const RenderContext& ctx, const Integrator& integrator, Film& f
         perLightAov[i] = film.find(ctx.lights[i].aov);
 
     // One pixel's samples, summed: the radiance terms, the opacity-weighted depth, the per-light
-    // L1, and the count, sum and sum of squares of the beauty's luminance (AdaptiveSampling.h).
+    // L1, and the count, sum and sum of squares of the luminance of L0 + L1 (AdaptiveSampling.h).
     struct PixelSum {
         CameraSample sum;
         float depthSum = 0.0f, depthWeight = 0.0f;
@@ -103,7 +103,7 @@ void renderTiles(const RenderContext& ctx, const Integrator& integrator, Film& f
         }
         void add(const CameraSample& cs, const float* light)
         {
-            moments.add(nbAverage(cs.L0 + cs.L1 + cs.L2plus));
+            moments.add(nbAverage(cs.L0 + cs.L1));
             sum.L0 += cs.L0;
             sum.L1 += cs.L1;
             sum.L2plus += cs.L2plus;

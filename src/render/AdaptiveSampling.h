@@ -3,9 +3,14 @@
 //
 // Every pixel first takes `spp` samples. Then, in rounds, each pixel whose mean is still too noisy
 // takes as many samples again as it has (at most up to maxSpp): too noisy where the standard error
-// of its mean beauty luminance exceeds `threshold` times that mean,
+// of its mean luminance exceeds `threshold` times that mean,
 //
 //     sqrt(s^2 / n) > threshold * mean        (s^2: the unbiased variance of its n samples)
+//
+// of what the camera sees directly and by single scattering, L0 + L1: the terms `single` and `wkb`
+// share, so that both take the same samples in every pixel and wkb's L0 and L1 stay single's pixel
+// for pixel (wkb = single + L2+). Where a pixel's L1 is noisy (a cloud's edge across it, a
+// shadow's edge, thin wisps) its L2+ varies across it too.
 //
 // Arnold's AA_samples / AA_samples_max / AA_adaptive_threshold and Cycles' adaptive sampling are
 // the models. The decision is each pixel's own, from its own samples: a pixel's image does not
@@ -50,15 +55,15 @@ struct AdaptiveSampling {
     int maxSpp = 0;  // the most samples a pixel takes
 
     bool enabled() const { return threshold > 0.0; }
-    // The samples the pixel with moments m takes next (0: it is done): as many again as it has
-    // (one, with a single sample: no variance yet), up to maxSpp.
+    // The samples the pixel with moments m takes next (0: it is done): as many again as it has,
+    // up to maxSpp. One sample tells no variance: a pixel of spp 1 (a preview) is done.
     int moreSamples(const PixelMoments& m) const
     {
-        if (!enabled() || m.n >= maxSpp)
+        if (!enabled() || m.n < 2 || m.n >= maxSpp)
             return 0;
-        if (m.n >= 2 && !(m.varianceOfMean() > threshold * threshold * m.mean() * m.mean()))
+        if (!(m.varianceOfMean() > threshold * threshold * m.mean() * m.mean()))
             return 0;
-        return std::min(std::max(1, m.n), maxSpp - m.n);
+        return std::min(m.n, maxSpp - m.n);
     }
 };
 

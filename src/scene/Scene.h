@@ -211,7 +211,7 @@ struct RenderSettings {
     // single, wkb: adaptive sampling (AdaptiveSampling.h): a pixel whose mean's relative standard
     // error is above adaptiveThreshold takes more samples, up to adaptiveMaxSpp (0: 4 x spp).
     // adaptiveThreshold 0: every pixel takes spp.
-    double adaptiveThreshold = 0.02;
+    double adaptiveThreshold = 0.05;
     int adaptiveMaxSpp = 0;
     PixelFilter pixelFilter = PixelFilter::Gaussian;
     float filterWidth = 2.0f;  // the filter's full support, pixels (radius width / 2)

@@ -96,6 +96,9 @@ if mode == ["crosscheck"]:
     sys.exit(0)
 
 scene.nimbus.spp = 4
+# The test compares these renders pixel by pixel (with and without holdouts and shadow casters):
+# each pixel the same samples, so adaptive sampling off.
+scene.nimbus.adaptive_threshold = 0.0
 scene.render.film_transparent = True  # Combined's alpha is the coverage, as in the CLI's EXR
 # Every method in-process (the path tracer's OpenCL driver inside Blender's jemalloc process
 # included), each writing the scene it rendered for `nimbus render` to repeat.

@@ -24,7 +24,8 @@ The key list is written out here (each key needs a scene that reads it: a spot l
 `cone_angle`, a sphere for `geometry.radius`), and `test_every_documented_numeric_key_is_swept`
 fails when the docs' tables or `nimbus default-scene` gain a numeric key this list lacks.
 
-Keys with no upper end whose value is an amount of work (`render.spp`, `render.light_samples`)
+Keys with no upper end whose value is an amount of work (`render.spp`, `render.light_samples`,
+`render.adaptive_max_spp`)
 are swept up to 4096, not to 2^31: there a huge value is a long render, not a wrong one; its
 memory is item 5's estimate. So is `render.wkb_orders3_paths`, swept to 2^20 light paths (a few
 CPU seconds here) of its documented 2^26 (minutes: the traced orders-3+ cache's light pass).
@@ -210,7 +211,8 @@ def keys():
     # render.
     r = "render."
     rows = [("seed", 0, 4294967295, False, False, True), ("threads", 0, None, False, False, True),
-            ("spp", 0, 4096, False, False, True), ("filter_width", 0, 16, True, False, False),
+            ("spp", 0, 4096, False, False, True), ("adaptive_threshold", 0, 1, False, False, False),
+            ("adaptive_max_spp", 0, 4096, False, False, True), ("filter_width", 0, 16, True, False, False),
             ("step", 0, 100, True, False, False), ("shadow_map_resolution", 8, 16384, False, False, True),
             ("tolerance", 0, 0.5, True, False, False), ("shadow_step", 0, 100, True, False, False),
             ("light_samples", 1, 4096, False, False, True), ("emission_samples", 1, 1024, False, False, True),

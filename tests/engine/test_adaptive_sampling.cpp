@@ -95,7 +95,7 @@ TEST(AdaptiveSampling, NoisyPixelsDoubleTheirSamplesUpToTheMostAndQuietOnesStop)
     single.add(1.0);
     EXPECT_EQ(a.moreSamples(quiet), 0);
     EXPECT_EQ(a.moreSamples(noisy), 4);
-    EXPECT_EQ(a.moreSamples(single), 1);  // no variance from one sample: one more
+    EXPECT_EQ(a.moreSamples(single), 0);  // no variance from one sample: spp 1 stays a preview's 1
     for (int k = 0; k < 8; ++k)
         noisy.add(k % 2 ? 1.5 : 0.5);
     EXPECT_EQ(a.moreSamples(noisy), 4);  // 12 samples: 4 more reach the most
@@ -124,7 +124,7 @@ TEST(AdaptiveSampling, NoisyPixelsDoubleTheirSamplesUpToTheMostAndQuietOnesStop)
 TEST(AdaptiveSampling, TheScenesKeysTurnItOnAndOff)
 {
     RenderSettings r;
-    EXPECT_EQ(r.adaptiveThreshold, 0.02);  // on by default
+    EXPECT_EQ(r.adaptiveThreshold, 0.05);  // on by default
     AdaptiveSampling a = adaptiveSamplingOf(r, 4);
     EXPECT_TRUE(a.enabled());
     EXPECT_EQ(a.maxSpp, 16);  // 0: 4 x spp

@@ -225,6 +225,9 @@ struct ShadowedSlab {
         plain.camera.up = make_float3(0, 0, -1);
         plain.camera.fov = 30;
         plain.render.spp = 2;
+        // Compared sample for sample below: adaptive sampling off, since its decisions read the
+        // pixel's whole beauty, whose L2+ the board changes everywhere.
+        plain.render.adaptiveThreshold = 0.0;
         plain.render.method = m;
         shadowed = plain;
         shadowed.geometry.push_back(planeObject(-1.5f, 0.0f, -1.5f, 1.5f, 1.0f, false, true));

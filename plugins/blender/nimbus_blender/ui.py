@@ -38,7 +38,7 @@ class NimbusSettings(bpy.types.PropertyGroup):
                                description="Camera samples per pixel (path samples for path tracing); 0: the "
                                "method's default (4; path tracing: until the noise target)")
     adaptive_threshold: bpy.props.FloatProperty(
-        name="Adaptive threshold", default=0.02, min=0.0, max=1.0, precision=3,
+        name="Adaptive threshold", default=0.05, min=0.0, max=1.0, precision=3,
         description="Single and WKB: a pixel whose mean has a relative standard error above this takes more "
         "samples, up to Adaptive max samples (0: every pixel takes Samples)")
     adaptive_max_spp: bpy.props.IntProperty(name="Adaptive max samples", default=0, min=0, soft_max=4096,
