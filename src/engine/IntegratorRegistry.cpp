@@ -43,7 +43,7 @@ IntegratorEntry wkbEntry()
             // The traced radiance cache of orders 3+ (docs/wkb.md), from the VRL light pass.
             const auto start = std::chrono::steady_clock::now();
             vrl::Orders3Options o;
-            o.paths = rs.wkbOrders3Paths;
+            o.paths = vrl::orders3PathsFor(*ctx.scene);
             o.maxCells = rs.wkbOrders3Grid;
             o.seed = rs.seed;
             // Per-light layers where a light's AOV is in the film (setupFilm's rule).

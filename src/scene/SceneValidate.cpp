@@ -370,7 +370,7 @@ void checkRender(const Checker& c, const RenderSettings& r)
     c.range("render.wkb_order_max", r.wkbOrderMax, Range{0, 4096, false, false, ""});
     c.range("render.emission_samples", r.emissionSamples, Range{1, 1024, false, false, "per camera ray"});
     c.range("render.wkb_order2_samples", r.wkbOrder2Samples, Range{1, 1024, false, false, "per camera ray"});
-    c.range("render.wkb_orders3_paths", r.wkbOrders3Paths, Range{1, 1 << 26, false, false, "light paths"});
+    c.range("render.wkb_orders3_paths", r.wkbOrders3Paths, Range{0, 1 << 26, false, false, "light paths (0: from the image)"});
     c.range("render.wkb_orders3_grid", r.wkbOrders3Grid, Range{2, 512, false, false, "cells"});
     c.range("render.wkb_sh_order_max", r.wkbShOrderMax, Range{0, 8, false, false, ""});
     if (r.lightVolumeResolution != 0)

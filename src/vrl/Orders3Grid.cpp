@@ -134,6 +134,17 @@ void blur(wkb::RadianceGrid& grid, const SkinCells& skin, std::vector<float>& sc
 
 }  // namespace
 
+long long orders3PathsFor(const Scene& scene)
+{
+    const RenderSettings& r = scene.render;
+    if (r.wkbOrders3Paths > 0)
+        return r.wkbOrders3Paths;
+    const double spp = r.spp > 0 ? r.spp : kDefaultMarchSpp;
+    const double samples = double(std::max(1, scene.camera.width)) * double(std::max(1, scene.camera.height)) * spp;
+    const double p = 1024.0 * std::sqrt(samples);
+    return (long long)std::llround(std::clamp(p, 16384.0, double(1 << 24)));
+}
+
 size_t orders3FillBytes(const RenderContext& ctx, const Orders3Options& options)
 {
     if (ctx.volumes.empty() || options.paths <= 0)

@@ -34,6 +34,18 @@ struct Orders3Options {
     std::vector<char> perLightAovs;
 };
 
+// The cache's light paths for `scene`: render.wkb_orders3_paths, or where it is 0 (the default)
+//
+//     P = 1024 sqrt(pixels x spp),   clamped to [16384, 2^24]
+//
+// (spp: the scene's, or the march's default 4: 131072 paths at 64x64, 524288 at 256x256, 2.95 M
+// at 1920x1080; docs/wkb.md "How many light paths"). The error of a WKB image is roughly e0 + A / P (its cache's variance falls as 1 / P)
+// and its time t0 + a P (t0 the march, which grows with pixels x spp); the product that the
+// path tracer's equal-error time divides by, (e0 + A / P)(t0 + a P), is least at
+// P = sqrt(A t0 / (a e0)): paths growing as the square root of the camera's samples. The constant
+// is that optimum measured on a cloud of the calibration and validation suites at 64x64.
+long long orders3PathsFor(const Scene& scene);
+
 // What traceOrders3 decided, for `nimbus render --explain` (RenderStats::orders3).
 struct Orders3Report {
     size_t cells = 0;      // the cache's cells

@@ -73,12 +73,18 @@ bool RadianceGrid::fetch(float3 x, float* out) const
 
 bool RadianceGrid::inScatter(float3 x, float3 wo, const double* p, double (*out)[3]) const
 {
+    double y[kCoeffs];
+    shEvaluate(kOrder, wo, y);
+    return inScatterY(x, y, p, out);
+}
+
+bool RadianceGrid::inScatterY(float3 x, const double* y, const double* p, double (*out)[3]) const
+{
     thread_local std::vector<float> L;
     L.resize(size_t(floatsPerCell()));
     if (!fetch(x, L.data()))
         return false;
-    double y[kCoeffs], f[kCoeffs];
-    shEvaluate(kOrder, wo, y);
+    double f[kCoeffs];
     for (int j = 0; j <= kOrder; ++j)
         for (int m = -j; m <= j; ++m)
             f[shIndex(j, m)] = p[j] * y[shIndex(j, m)];
@@ -112,6 +118,8 @@ float3 marchOrders3(const VolumeSet& volumes, const std::vector<NbPhase>& phases
     stencils.resize(nv);
     double T[3] = {1, 1, 1};
     auto* S3 = reinterpret_cast<double(*)[3]>(S.data());
+    double yWo[RadianceGrid::kCoeffs];  // the harmonics toward the camera, one direction per ray
+    shEvaluate(RadianceGrid::kOrder, wo, yWo);
     for (const Span& sp : spans) {
         const float len = sp.t1 - sp.t0;
         if (!(len > 0.0f))
@@ -145,7 +153,7 @@ float3 marchOrders3(const VolumeSet& volumes, const std::vector<NbPhase>& phases
                         pj /= wsum;
                     // Not clamped here: the cache's noise makes the truncated sum dip below zero
                     // where the radiance is small, and clamping each step would bias the ray up.
-                    if (grid.inScatter(lp, wo, p, S3))
+                    if (grid.inScatterY(lp, yWo, p, S3))
                         for (int layer = 0; layer < layers; ++layer)
                             for (int c = 0; c < 3; ++c)
                                 sums[size_t(3 * layer + c)] += T[c] * ss[c] * S3[layer][c] * integral[c];

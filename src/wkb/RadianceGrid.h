@@ -2,7 +2,7 @@
 // docs/wkb.md "Orders 3 and up, traced").
 //
 // A regular world-space grid over the volumes' box. Each cell holds, per RGB channel, the projection
-// onto the real orthonormal spherical harmonics y_jm (SphericalHarmonics.h), j <= 3, of the radiance
+// onto the real orthonormal spherical harmonics y_jm (SphericalHarmonics.h), j <= kOrder (5), of the radiance
 // that has scattered at least twice, averaged over the cell's volume:
 //
 //     L_jm(cell) = (1 / V_cell) int_cell dx int dw L(x, w) y_jm(w)        (w: the light's travel direction)
@@ -48,8 +48,12 @@ namespace nimbus::wkb {
 
 class RadianceGrid {
 public:
-    static constexpr int kOrder = 3;            // SH order j <= 3
-    static constexpr int kCoeffs = 16;          // (kOrder + 1)^2
+    // SH order j <= 5: at HG g 0.9 (p_j = 0.9^j) order 3 left a sunlit cumulus's orders 3+ 13% low
+    // seen from the side; order 5 takes the calibration suite's L2plus energy errors from -3.9% to
+    // +1.0% (cumulus_lit) and -4.3% to -0.5% (haze_box_against) at 1.25x the light pass's time
+    // (docs/validation.md "Cache paths from the image, SH order 5").
+    static constexpr int kOrder = 5;
+    static constexpr int kCoeffs = 36;          // (kOrder + 1)^2
     static constexpr int kFloats = 3 * kCoeffs;  // per cell and layer: [jm][rgb]
 
     // A grid over `box` with cubic cells no smaller than `minCell` (metres) and at most `maxCells`
@@ -90,6 +94,8 @@ public:
     // phase-weighted radiance arriving at x, scattered into wo; p: the phase moments p_0..p_kOrder.
     // Multiply by sigma_s for L_s. False (out untouched) outside the box.
     bool inScatter(float3 x, float3 wo, const double* p, double (*out)[3]) const;
+    // The same with the harmonics of wo given: y[jm] = y_jm(wo) (shEvaluate), kCoeffs of them.
+    bool inScatterY(float3 x, const double* y, const double* p, double (*out)[3]) const;
 
 private:
     // The cell size and counts of init's grid; false for an empty box.
