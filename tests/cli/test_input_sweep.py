@@ -217,7 +217,7 @@ def keys():
             ("tolerance", 0, 0.5, True, False, False), ("shadow_step", 0, 100, True, False, False),
             ("light_samples", 1, 4096, False, False, True), ("emission_samples", 1, 1024, False, False, True),
             ("wkb_order2_samples", 1, 1024, False, False, True), ("wkb_blur_k", 0, 1000, True, False, False),
-            ("wkb_orders3_paths", 1, 1 << 20, False, False, True), ("wkb_orders3_grid", 2, 512, False, False, True),
+            ("wkb_orders3_paths", 0, 1 << 20, False, False, True), ("wkb_orders3_grid", 2, 512, False, False, True),
             ("wkb_l_step", 0, 10, True, False, False), ("wkb_order_max", 0, 4096, False, False, True),
             ("wkb_sh_order_max", 0, 8, False, False, True), ("light_volume_resolution", 4, 4096, False, False, True),
             ("wkb_memory_budget", 0, 100, True, False, False), ("memory_limit", 0, None, False, False, False),

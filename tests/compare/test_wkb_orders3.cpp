@@ -173,7 +173,7 @@ double wkbOrders3(const Scene& s, const RenderContext& ctx, int firstOrder, bool
     vrl::Orders3Options o;
     o.skinCells = skin;
     o.focus = focus;
-    o.paths = s.render.wkbOrders3Paths;
+    o.paths = vrl::orders3PathsFor(s);
     o.maxCells = s.render.wkbOrders3Grid;
     o.seed = 5;
     o.firstOrder = firstOrder;
@@ -308,7 +308,7 @@ TEST(WkbOrders3, PerLightLayersMatchEachLightsPathTracedOrders3)
 
     const auto ctx = RenderContext::create(s, true);
     vrl::Orders3Options o;
-    o.paths = s.render.wkbOrders3Paths;
+    o.paths = vrl::orders3PathsFor(s);
     o.maxCells = s.render.wkbOrders3Grid;
     o.seed = 5;
     const auto summed = vrl::traceOrders3(*ctx, o);
