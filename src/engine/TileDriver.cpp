@@ -276,7 +276,7 @@ void renderTiles(const RenderContext& ctx, const Integrator& integrator, Film& f
         std::vector<float> deepPerLight, deepTFar, cosAxis;
         std::vector<DeepSum> rowDeep;
         std::vector<RoundPixel> roundPixels, nextPixels;
-        std::vector<uint32_t> sampleOwner;
+        std::vector<int> batchPixel;  // each batch sample's pixel (offset in the row)
         for (int tile = r.begin(); tile != r.end(); ++tile) {
             if (stopped())
                 return;
@@ -330,14 +330,14 @@ void renderTiles(const RenderContext& ctx, const Integrator& integrator, Film& f
                 for (int i = 0; i < width; ++i)
                     roundPixels.push_back(RoundPixel{i, 0, spp});
                 while (!roundPixels.empty()) {
-                    // Sample k of the round: pixel roundPixels[p], its sample first + j.
-                    sampleOwner.clear();
-                    for (size_t p = 0; p < roundPixels.size(); ++p)
-                        for (int j = 0; j < roundPixels[p].count; ++j)
-                            sampleOwner.push_back(uint32_t(p));
-                    const size_t roundRays = sampleOwner.size();
+                    size_t roundRays = 0;
+                    for (const RoundPixel& rp : roundPixels)
+                        roundRays += size_t(rp.count);
                     samplesTaken += (long long)roundRays;
-                    for (size_t first = 0, k0 = 0; first < roundRays; first += kBatchRays) {
+                    // The round's next sample: pixel roundPixels[p], its sample first + j.
+                    size_t p = 0;
+                    int j = 0;
+                    for (size_t first = 0; first < roundRays; first += kBatchRays) {
                         const size_t rays = std::min(kBatchRays, roundRays - first);
                         origins.resize(rays), directions.resize(rays), rngs.resize(rays);
                         samples.assign(rays, CameraSample());
@@ -345,12 +345,13 @@ void renderTiles(const RenderContext& ctx, const Integrator& integrator, Film& f
                         sampleTime.resize(rays);
                         if (holdoutDepth || deep)
                             sampleX.resize(rays), sampleY.resize(rays);
+                        batchPixel.resize(rays);
                         for (size_t i = 0; i < rays; ++i) {
-                            const RoundPixel& rp = roundPixels[sampleOwner[first + i]];
-                            // the pixel's samples are consecutive: j counts from its first
-                            if (first + i == 0 || sampleOwner[first + i] != sampleOwner[first + i - 1])
-                                k0 = first + i;
-                            const int x = tx0 + rp.offset, s = rp.first + int(first + i - k0);
+                            while (j >= roundPixels[p].count)
+                                ++p, j = 0;
+                            const RoundPixel& rp = roundPixels[p];
+                            batchPixel[i] = rp.offset;
+                            const int x = tx0 + rp.offset, s = rp.first + j++;
                             float px, py;
                             cameraSample(x, y, s, rp.first, rp.count, rngs[i], origins[i], directions[i], px, py,
                                          sampleTime[i]);
@@ -378,7 +379,7 @@ void renderTiles(const RenderContext& ctx, const Integrator& integrator, Film& f
                         if (stopped())  // the marches may have ended early: nothing of theirs is kept
                             return;
                         for (size_t i = 0; i < rays; ++i)
-                            rowSums[size_t(roundPixels[sampleOwner[first + i]].offset)].add(
+                            rowSums[size_t(batchPixel[i])].add(
                                 samples[i], perLight.data() + perLightStride * i);
                         if (deep) {
                             // The whole march, then the prefix up to each slice edge z_k: the ray stops
@@ -387,7 +388,7 @@ void renderTiles(const RenderContext& ctx, const Integrator& integrator, Film& f
                             cosAxis.resize(rays);
                             for (size_t i = 0; i < rays; ++i) {
                                 cosAxis[i] = dot(directions[i], nbCameraViewAxis(cam, sampleTime[i]));
-                                DeepSum& sum = rowDeep[size_t(roundPixels[sampleOwner[first + i]].offset)];
+                                DeepSum& sum = rowDeep[size_t(batchPixel[i])];
                                 sum.L[deepSlices + 1] += samples[i].L0 + samples[i].L1 + samples[i].L2plus;
                                 sum.T[deepSlices + 1] += nbAverage(samples[i].transmittance);
                             }
@@ -406,7 +407,7 @@ void renderTiles(const RenderContext& ctx, const Integrator& integrator, Film& f
                                 if (stopped())
                                     return;
                                 for (size_t i = 0; i < rays; ++i) {
-                                    DeepSum& sum = rowDeep[size_t(roundPixels[sampleOwner[first + i]].offset)];
+                                    DeepSum& sum = rowDeep[size_t(batchPixel[i])];
                                     sum.L[k] += deepSamples[i].L0 + deepSamples[i].L1 + deepSamples[i].L2plus;
                                     sum.T[k] += nbAverage(deepSamples[i].transmittance);
                                 }
