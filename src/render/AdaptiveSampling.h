@@ -24,6 +24,7 @@
 #include "../scene/Scene.h"
 
 #include <algorithm>
+#include <climits>
 #include <cmath>
 
 namespace nimbus {
@@ -72,7 +73,7 @@ struct AdaptiveSampling {
 inline AdaptiveSampling adaptiveSamplingOf(const RenderSettings& r, int spp)
 {
     AdaptiveSampling a;
-    a.maxSpp = r.adaptiveMaxSpp > 0 ? r.adaptiveMaxSpp : 4 * spp;
+    a.maxSpp = r.adaptiveMaxSpp > 0 ? r.adaptiveMaxSpp : int(std::min(4LL * spp, (long long)INT_MAX));
     a.threshold = a.maxSpp > spp ? r.adaptiveThreshold : 0.0;
     return a;
 }

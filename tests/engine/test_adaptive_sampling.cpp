@@ -10,6 +10,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <climits>
 #include <cmath>
 #include <cstdio>
 
@@ -132,6 +133,8 @@ TEST(AdaptiveSampling, TheScenesKeysTurnItOnAndOff)
     EXPECT_FALSE(adaptiveSamplingOf(r, 4).enabled());  // at spp: off
     r.adaptiveMaxSpp = 9;
     EXPECT_EQ(adaptiveSamplingOf(r, 4).maxSpp, 9);
+    r.adaptiveMaxSpp = 0;
+    EXPECT_EQ(adaptiveSamplingOf(r, 1 << 30).maxSpp, INT_MAX);  // 4 x spp without overflow
     r.adaptiveThreshold = 0.0;
     EXPECT_FALSE(adaptiveSamplingOf(r, 4).enabled());
 }
