@@ -43,7 +43,8 @@ IntegratorEntry wkbEntry()
             // The traced radiance cache of orders 3+ (docs/wkb.md), from the VRL light pass.
             const auto start = std::chrono::steady_clock::now();
             vrl::Orders3Options o;
-            o.paths = vrl::orders3PathsFor(*ctx.scene);
+            o.paths = rs.wkbOrders3Paths;  // 0: adaptive, up to the cap
+            o.maxPaths = vrl::orders3PathCap(*ctx.scene);
             o.maxCells = rs.wkbOrders3Grid;
             o.seed = rs.seed;
             // Per-light layers where a light's AOV is in the film (setupFilm's rule).
@@ -57,6 +58,10 @@ IntegratorEntry wkbEntry()
             stats.orders3Cells = report.cells;
             stats.orders3SkinCells = report.skinCells;
             stats.orders3FocusRadius = report.aimedAtView ? report.focusRadius : 0.0f;
+            stats.orders3Paths = report.paths;
+            stats.orders3MaxPaths = report.adaptive ? o.maxPaths : 0;
+            stats.orders3Noise = report.noiseMeasured;
+            stats.orders3NoisePaths = report.noisePaths;
             stats.addStage("orders 3+ light paths",
                            std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
         }

@@ -202,7 +202,8 @@ MemoryPlan estimateMemory(const Scene& scene, const RenderContext& ctx, const Re
     const auto* wkbSetup = dynamic_cast<const wkb::WkbSetup*>(plan.integrator.get());
     if (wkbSetup && wkbSetup->active && wkbSetup->tracedOrders3) {  // IntegratorRegistry.cpp builds it then
         vrl::Orders3Options o;
-        o.paths = vrl::orders3PathsFor(*ctx.scene);
+        o.paths = r.wkbOrders3Paths;
+        o.maxPaths = vrl::orders3PathCap(*ctx.scene);
         o.maxCells = r.wkbOrders3Grid;
         m.items.push_back({"orders-3+ radiance cache, while filled", vrl::orders3FillBytes(ctx, o)});
     }

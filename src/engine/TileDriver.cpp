@@ -159,8 +159,10 @@ void renderTiles(const RenderContext& ctx, const Integrator& integrator, Film& f
     const bool holdouts = holdoutGeometry || holdoutDepth;
 
     // Tiles whose rays can meet an occupied brick of some volume (density or emission); the
-    // others see only the background, where the integrator allows it (not wkb, which keeps its
-    // own per-ray path). A holdout hides the background, so with both, every tile is marched.
+    // others see only the background, where the integrator allows it (single and wkb: wkb's L2+
+    // is sigma_s times in-scattered light at camera points, none outside the bricks; its images
+    // are bit-identical to marching those tiles). A holdout hides the background, so with both,
+    // every tile is marched.
     // With an environment map each ray of an empty tile sees its own texel: the rays are made,
     // as a march would make them, and read the map without marching (emptyPixel).
     const bool backgroundVaries = ctx.backgroundVaries();

@@ -54,10 +54,24 @@ std::string RenderStats::describe(const RenderPlan& plan) const
             char buf[96];
             std::snprintf(buf, sizeof buf, "aimed at the view (a sphere of radius %.3g m around the seen medium)",
                           double(orders3FocusRadius));
-            s << buf << "\n";
+            s << buf;
         } else {
-            s << "over the whole medium (the camera sees most of it)\n";
+            s << "over the whole medium (the camera sees most of it)";
         }
+        if (orders3Paths > 0) {
+            s << "; " << orders3Paths << " of them";
+            char buf[192];
+            if (orders3MaxPaths > 0 && orders3NoisePaths > 0)
+                std::snprintf(buf, sizeof buf,
+                              " (adaptive, at most %lld; the cache's noise measured at relMSE %.2g in the image at %lld)",
+                              orders3MaxPaths, orders3Noise, orders3NoisePaths);
+            else if (orders3MaxPaths > 0)
+                std::snprintf(buf, sizeof buf, " (adaptive, at most %lld)", orders3MaxPaths);
+            else
+                buf[0] = 0;
+            s << buf;
+        }
+        s << "\n";
     }
     if (marchedPixels > 0) {
         char buf[256];

@@ -2,6 +2,8 @@
 
 #include "../pathtracer/PathtraceScene.h"
 #include "../render/SphericalHarmonics.h"
+#include "../scene/KernelScene.h"
+#include "../single/SingleScatter.h"
 #include "SkinCells.h"
 #include "ViewFocus.h"
 #include "VrlLightPass.h"
@@ -31,6 +33,28 @@ constexpr float kRoulette = 0.05f;
 constexpr int kBlurPasses = 1;
 // The deposits' random stream, keyed apart from the light paths'.
 constexpr uint32_t kDepositKey = 0x64657030u;
+
+// The adaptive count (render.wkb_orders3_paths 0): the first round's light paths, the pilot camera
+// rays that read the cache's noise (a lattice of at most kPilotSide on the image's longer side),
+// the rounds at most, and the noise the cache may add to the image: its relMSE there, fitted on the
+// calibration suite (docs/validation.md "The cache's paths from its measured noise").
+constexpr long long kFirstRoundPaths = 65536;
+constexpr int kPilotSide = 32;
+constexpr int kMaxRounds = 3;
+// kCacheNoiseTarget on calibration: 0.001, 0.002 and 0.004 all meet 9 of 9 (both suites rendered
+// in 46.7, 41.2 and 36.8 s); 0.002 is the cheapest that keeps every scene at least 15% under the
+// relMSE target of 0.01 (at 0.004 cumulus_lit is at 0.0092; docs/validation.md).
+constexpr double kCacheNoiseTarget = 0.002;
+// P = kBalance sqrt(A x camera samples): the count least in error x time (docs/wkb.md "How many
+// light paths"), kBalance = sqrt(t0 / (samples a e0)) measured on the calibration suite's
+// cumulus_lit (A 1364, e0 0.0059, t0 / samples 24 us, a 3.6 us per path).
+constexpr double kBalance = 34.0;
+// A round is not taken for fewer than this many times the paths already traced.
+constexpr double kRoundMargin = 1.25;
+// The march's step over the L1 step: WkbIntegrator's read of the cache (kFineStepScale there).
+constexpr float kReadStepScale = 2.0f;
+// The pilot rays' random stream, keyed apart from the others.
+constexpr uint32_t kPilotKey = 0x70696c6fu;
 
 // Deposits one segment into grid data `out`, in the cells' layer `layer`: its expected track
 // length in each cell it crosses (W/m^2 once divided by the cell's volume), or in a skin cell
@@ -132,34 +156,126 @@ void blur(wkb::RadianceGrid& grid, const SkinCells& skin, std::vector<float>& sc
     }
 }
 
+
+// The image's camera samples: pixels x spp (the scene's, or the march's default).
+double cameraSamples(const Scene& scene)
+{
+    const double spp = scene.render.spp > 0 ? scene.render.spp : kDefaultMarchSpp;
+    return double(std::max(1, scene.camera.width)) * double(std::max(1, scene.camera.height)) * spp;
+}
+
+// The adaptive count's pilot camera rays: a lattice of pixel centres over the image (at most
+// kPilotSide on its longer side, at mid-shutter) and each ray's L0 + L1 per channel, marchSingle's,
+// the part of the pixel the cache's noise is measured against.
+struct PilotRays {
+    std::vector<float3> o, d;
+    std::vector<float> base;  // [ray][rgb]
+};
+
+PilotRays pilotRays(const RenderContext& ctx)
+{
+    PilotRays p;
+    if (!ctx.scene)
+        return p;
+    const Camera& cam = ctx.scene->camera;
+    const NbCamera nc = makeNbCamera(cam);
+    const int W = std::max(1, cam.width), H = std::max(1, cam.height);
+    const double scale = double(std::min(kPilotSide, std::max(W, H))) / double(std::max(W, H));
+    const int nx = std::max(1, int(std::lround(double(W) * scale))), ny = std::max(1, int(std::lround(double(H) * scale)));
+    for (int py = 0; py < ny; ++py)
+        for (int px = 0; px < nx; ++px) {
+            float3 o, d;
+            nbCameraRay(nc, (float(px) + 0.5f) * float(W) / float(nx), (float(py) + 0.5f) * float(H) / float(ny), W, H,
+                        0.5f, &o, &d);
+            p.o.push_back(o);
+            p.d.push_back(d);
+        }
+    const size_t n = p.o.size();
+    p.base.assign(3 * n, 0.0f);
+    const size_t stride = 3 * ctx.lights.size();
+    tbb::parallel_for(size_t(0), n, [&](size_t r) {
+        throwIfStopped(&ctx.stop);
+        std::vector<float> perLight(stride, 0.0f);
+        NbRng rng = nbRngStart(kPilotKey, uint32_t(r), 0u);
+        CameraSample s;
+        marchSingle(ctx, p.o[r], p.d[r], rng, s, perLight.data());
+        const Rgb L = s.L0 + s.L1;
+        p.base[3 * r + 0] = L.x, p.base[3 * r + 1] = L.y, p.base[3 * r + 2] = L.z;
+    });
+    return p;
+}
+
+// The relMSE the cache's noise adds to the image, as the validation suite measures an image's
+// (the mean over pixels and channels of e^2 / (v^2 + eps), eps = (0.1 mean v)^2), from two
+// independent half estimates a and b of the cache (each from half the paths, scaled by 2): their
+// mean's variance at a pixel is ((A - B) / 2)^2 in expectation, A and B what the pilot ray reads
+// from each, v the pixel's L0 + L1 + (A + B) / 2. Order 2 is left out of v: the estimate errs
+// high.
+double cacheNoise(const RenderContext& ctx, const PilotRays& pilots, const wkb::RadianceGrid& a,
+                  const wkb::RadianceGrid& b)
+{
+    const size_t n = pilots.o.size();
+    if (n == 0)
+        return 0.0;
+    std::vector<NbPhase> phases;
+    for (const auto& v : ctx.volumes.volumes())
+        phases.push_back(v->medium.phase);
+    const float step = ctx.scene ? ctx.scene->render.step : 0.5f;
+    std::vector<double> e2(3 * n, 0.0), v(3 * n, 0.0);
+    tbb::parallel_for(size_t(0), n, [&](size_t r) {
+        throwIfStopped(&ctx.stop);
+        // The same quadrature through both halves: their difference is the cache's alone.
+        const float jitter = 0.5f;
+        const float3 A = wkb::marchOrders3(ctx.volumes, phases, a, pilots.o[r], pilots.d[r], -pilots.d[r], INFINITY,
+                                           0.0f, jitter, step, kReadStepScale);
+        const float3 B = wkb::marchOrders3(ctx.volumes, phases, b, pilots.o[r], pilots.d[r], -pilots.d[r], INFINITY,
+                                           0.0f, jitter, step, kReadStepScale);
+        const float dA[3] = {A.x, A.y, A.z}, dB[3] = {B.x, B.y, B.z};
+        for (int c = 0; c < 3; ++c) {
+            const double diff = 0.5 * (double(dA[c]) - double(dB[c]));
+            e2[3 * r + c] = diff * diff;
+            v[3 * r + c] = double(pilots.base[3 * r + c]) + 0.5 * (double(dA[c]) + double(dB[c]));
+        }
+    });
+    double mean = 0.0;
+    for (double x : v)
+        mean += x;
+    mean /= double(v.size());
+    const double eps = std::max((0.1 * mean) * (0.1 * mean), 1e-20);
+    double sum = 0.0;
+    for (size_t i = 0; i < v.size(); ++i)
+        sum += e2[i] / (v[i] * v[i] + eps);
+    return sum / double(v.size());
+}
+
 }  // namespace
 
-long long orders3PathsFor(const Scene& scene)
+long long orders3PathCap(const Scene& scene)
 {
     const RenderSettings& r = scene.render;
     if (r.wkbOrders3Paths > 0)
         return r.wkbOrders3Paths;
-    const double spp = r.spp > 0 ? r.spp : kDefaultMarchSpp;
-    const double samples = double(std::max(1, scene.camera.width)) * double(std::max(1, scene.camera.height)) * spp;
-    const double p = 1024.0 * std::sqrt(samples);
-    return (long long)std::llround(std::clamp(p, 16384.0, double(1 << 24)));
+    const double p = 4096.0 * std::sqrt(cameraSamples(scene));
+    return (long long)std::llround(std::clamp(p, 65536.0, double(1 << 24)));
 }
 
 size_t orders3FillBytes(const RenderContext& ctx, const Orders3Options& options)
 {
-    if (ctx.volumes.empty() || options.paths <= 0)
+    if (ctx.volumes.empty() || (options.paths <= 0 && options.maxPaths <= 0))
         return 0;
     const size_t cells = wkb::RadianceGrid::cellCountFor(ctx.volumes.worldBounds(), 0.0f, options.maxCells);
     size_t worst = 0;  // over the layer counts traceOrders3 can choose: the grid plus its partials
     for (int layers = 1; layers <= std::max(1, int(ctx.lights.size())); ++layers)
-        worst = std::max(worst, size_t(layers) * size_t(1 + std::max(2, kPartials / layers)));
+        // The grid and its partials, and while the adaptive count measures the noise a second
+        // half grid and the blur's buffer.
+        worst = std::max(worst, size_t(layers) * size_t((options.paths > 0 ? 1 : 3) + std::max(2, kPartials / layers)));
     return cells * size_t(wkb::RadianceGrid::kFloats) * sizeof(float) * worst + skinCellsBytes(cells);
 }
 
 std::shared_ptr<const wkb::RadianceGrid> traceOrders3(const RenderContext& ctx, const Orders3Options& options,
                                                       Orders3Report* report)
 {
-    if (ctx.volumes.empty() || options.paths <= 0)
+    if (ctx.volumes.empty() || (options.paths <= 0 && options.maxPaths <= 0))
         return nullptr;
     PathtraceScene ps = buildPathtraceScene(ctx);
     VrlMedium medium(ps);
@@ -210,28 +326,23 @@ std::shared_ptr<const wkb::RadianceGrid> traceOrders3(const RenderContext& ctx, 
     }
     // Transmittance steps: at most the finest density voxel (each cell's stretch is split evenly).
     const float h = std::fmax(1e-6f, ctx.volumes.minVoxelSize());
-
-    const long long batches = (options.paths + kBatch - 1) / kBatch;
-    const int perBatch = int((options.paths + batches - 1) / batches);
-    const float scale = 1.0f / float(batches);  // each batch's flux is divided by its own path count
     const size_t floats = grid->data().size();
     // Fewer partial grids with more layers: the partials' memory stays that of kPartials one-layer
     // grids (a fixed count for a scene: deterministic).
     const int partials = std::max(2, kPartials / grid->layers());
     std::vector<std::vector<float>> partial(size_t(partials), std::vector<float>(floats, 0.0f));
     std::vector<Vrl> kept;
-    for (long long b = 0; b < batches; ++b) {
+    // Batch b's paths, deposited at their own flux: the grid is divided by the batch count at the end.
+    auto traceBatch = [&](long long b, int paths) {
         // A stopped render (RenderControl.h): the paths end early, the deposits stop within a few
         // hundred segments, and the grid is dropped with the render.
         throwIfStopped(&ctx.stop);
-        std::vector<Vrl> all = pass.trace(options.seed, uint32_t(b), perBatch);
+        std::vector<Vrl> all = pass.trace(options.seed, uint32_t(b), paths);
         throwIfStopped(&ctx.stop);
         kept.clear();
         for (const Vrl& v : all)
-            if (v.order >= options.firstOrder) {
+            if (v.order >= options.firstOrder)
                 kept.push_back(v);
-                kept.back().flux = kept.back().flux * scale;
-            }
         const size_t n = kept.size();
         tbb::parallel_for(0, partials, [&](int p) {
             const size_t lo = n * size_t(p) / size_t(partials), hi = n * size_t(p + 1) / size_t(partials);
@@ -242,15 +353,74 @@ std::shared_ptr<const wkb::RadianceGrid> traceOrders3(const RenderContext& ctx, 
                 deposit(ctx, *grid, skin, kept[i], layerOf[size_t(kept[i].light)], h, rng, partial[size_t(p)].data());
             }
         });
+    };
+    // The cache from partials [p0, p1) over `batches` batches, scaled by `gain`, into `out`
+    // (the grid's shape): their sum, the skin cells resolved, blurred (scratch: the blur's buffer,
+    // which may be a partial once they are summed).
+    auto finish = [&](int p0, int p1, long long batches, float gain, wkb::RadianceGrid& out,
+                      std::vector<float>& scratch) {
+        std::vector<float>& data = out.data();
+        std::fill(data.begin(), data.end(), 0.0f);
+        for (int p = p0; p < p1; ++p)
+            for (size_t i = 0; i < floats; ++i)
+                data[i] += partial[size_t(p)][i];
+        const float scale = gain / float(batches);
+        for (float& v : data)
+            v *= scale;
+        resolveSkinCells(skin, out, scratch);
+        for (int k = 0; k < kBlurPasses; ++k)
+            blur(out, skin, scratch, ctx.stop);
+    };
+
+    long long batches = 0;
+    if (options.paths > 0) {
+        const long long n = (options.paths + kBatch - 1) / kBatch;
+        const int perBatch = int((options.paths + n - 1) / n);
+        for (; batches < n; ++batches)
+            traceBatch(batches, perBatch);
+        if (report)
+            report->paths = n * perBatch;
+    } else {
+        // The adaptive count (docs/wkb.md "How many light paths"): a first round, then the count
+        // the cache's measured noise asks for. Each half of the partials holds half of every
+        // batch's segments, an independent estimate of the cache; pilot rays read both halves, and
+        // their difference gives A, the relMSE the cache adds to the image times its paths.
+        const long long cap = std::max<long long>(kBatch, options.maxPaths);
+        const double samples = ctx.scene ? cameraSamples(*ctx.scene) : 1.0;
+        const PilotRays pilots = pilotRays(ctx);
+        wkb::RadianceGrid half = *grid;  // the shape; the data is overwritten
+        std::vector<float> scratch;
+        long long target = std::min(cap, kFirstRoundPaths);
+        double noise = -1.0;
+        long long noisePaths = 0;  // the paths at which `noise` was measured
+        for (int round = 0;; ++round) {
+            for (; batches * kBatch < target; ++batches)
+                traceBatch(batches, int(kBatch));
+            const long long traced = batches * kBatch;
+            if (traced >= cap || round + 1 == kMaxRounds)
+                break;
+            finish(0, partials / 2, batches, 2.0f, *grid, scratch);
+            finish(partials / 2, partials, batches, 2.0f, half, scratch);
+            noise = cacheNoise(ctx, pilots, *grid, half);
+            noisePaths = traced;
+            const double A = noise * double(traced);
+            // Enough that the cache's noise is under kCacheNoiseTarget, and the count that makes
+            // error x time least where the march's time grows with the camera's samples.
+            const double want = std::max(A / kCacheNoiseTarget, kBalance * std::sqrt(A * samples));
+            if (want <= double(traced) * kRoundMargin)
+                break;
+            target = std::min<long long>(cap, (long long)std::ceil(want));
+        }
+        if (report) {
+            report->adaptive = true;
+            report->noiseMeasured = noise;
+            report->noisePaths = noisePaths;
+        }
     }
+    if (report)
+        report->paths = batches * kBatch;
     throwIfStopped(&ctx.stop);
-    std::vector<float>& data = grid->data();
-    for (int p = 0; p < partials; ++p)
-        for (size_t i = 0; i < floats; ++i)
-            data[i] += partial[size_t(p)][i];
-    resolveSkinCells(skin, *grid, partial[1]);
-    for (int k = 0; k < kBlurPasses; ++k)
-        blur(*grid, skin, partial[0], ctx.stop);
+    finish(0, partials, batches, 1.0f, *grid, partial[0]);
     return grid;
 }
 

@@ -14,7 +14,10 @@
 namespace nimbus::vrl {
 
 struct Orders3Options {
-    long long paths = 0;   // light paths in all (render.wkb_orders3_paths)
+    // Light paths in all (render.wkb_orders3_paths); 0: as many as the cache's measured noise asks
+    // (traceOrders3), at most maxPaths.
+    long long paths = 0;
+    long long maxPaths = 1 << 24;
     int maxCells = 64;     // cells along the box's longest side (render.wkb_orders3_grid)
     uint32_t seed = 0;     // render.seed
     // The first segment order deposited: 2 (a segment leaving the second scattering vertex) gives
@@ -34,17 +37,16 @@ struct Orders3Options {
     std::vector<char> perLightAovs;
 };
 
-// The cache's light paths for `scene`: render.wkb_orders3_paths, or where it is 0 (the default)
+// The most light paths the cache of `scene` may take: render.wkb_orders3_paths, or where it is 0
+// (the default: the count adapts to the cache's noise, traceOrders3)
 //
-//     P = 1024 sqrt(pixels x spp),   clamped to [16384, 2^24]
+//     P_max = 4096 sqrt(pixels x spp),   clamped to [65536, 2^24]
 //
-// (spp: the scene's, or the march's default 4: 131072 paths at 64x64, 524288 at 256x256, 2.95 M
-// at 1920x1080; docs/wkb.md "How many light paths"). The error of a WKB image is roughly e0 + A / P (its cache's variance falls as 1 / P)
-// and its time t0 + a P (t0 the march, which grows with pixels x spp); the product that the
-// path tracer's equal-error time divides by, (e0 + A / P)(t0 + a P), is least at
-// P = sqrt(A t0 / (a e0)): paths growing as the square root of the camera's samples. The constant
-// is that optimum measured on a cloud of the calibration and validation suites at 64x64.
-long long orders3PathsFor(const Scene& scene);
+// (spp: the scene's, or the march's default 4: 524288 at 64x64, 2.1 M at 256x256, 11.8 M at
+// 1920x1080; docs/wkb.md "How many light paths"): four times the count that minimises the product
+// of error and time on the cloud the first rule was fitted on, so that a noisier scene may take
+// more and a cap still bounds the pass's time for the image's size.
+long long orders3PathCap(const Scene& scene);
 
 // What traceOrders3 decided, for `nimbus render --explain` (RenderStats::orders3).
 struct Orders3Report {
@@ -52,12 +54,24 @@ struct Orders3Report {
     size_t skinCells = 0;  // of those, skin cells (SkinCells.h)
     bool aimedAtView = false;  // the paths aimed at a focus around the seen medium (ViewFocus.h)
     float focusRadius = 0.0f;  // its radius (m)
+    long long paths = 0;       // the light paths traced
+    bool adaptive = false;     // their count adapted to the measured noise (Orders3Options::paths 0)
+    // Adaptive: the relMSE the cache added to the image as last measured, at noisePaths paths
+    // (-1 and 0 where nothing was measured: the first round already reached the cap).
+    double noiseMeasured = -1.0;
+    long long noisePaths = 0;
 };
 
 // The grid of ctx's scene, or null where no light reaches a volume. Where a single light reaches the
 // volumes its one layer is that light's (layerLight 0 = its index). Deterministic for a seed on
 // any thread count: the segments are split into a fixed number of ranges (8 over the layer count, at least 2), each summed in order into
 // its own grid, and the partial grids are added in a fixed order.
+//
+// With options.paths 0 the count adapts to the scene: rounds of light paths (16384 first) until the
+// relMSE the cache's noise adds to the image is under a target fitted on the calibration suite. The
+// noise is measured on pilot camera rays (a lattice of pixels) reading two caches, each from half of
+// every batch's segments; each next round's count is where that noise, falling as one over the
+// paths, meets the target; at most options.maxPaths paths and four rounds.
 std::shared_ptr<const wkb::RadianceGrid> traceOrders3(const RenderContext& ctx, const Orders3Options& options,
                                                       Orders3Report* report = nullptr);
 

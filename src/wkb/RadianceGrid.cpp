@@ -71,13 +71,6 @@ bool RadianceGrid::fetch(float3 x, float* out) const
     return true;
 }
 
-bool RadianceGrid::inScatter(float3 x, float3 wo, const double* p, double (*out)[3]) const
-{
-    double y[kCoeffs];
-    shEvaluate(kOrder, wo, y);
-    return inScatterY(x, y, p, out);
-}
-
 bool RadianceGrid::inScatterY(float3 x, const double* y, const double* p, double (*out)[3]) const
 {
     thread_local std::vector<float> L;

@@ -91,10 +91,9 @@ public:
     bool fetch(float3 x, float* out) const;
 
     // sum_jm p_j L_jm(x) y_jm(wo) per channel (W / (m^2 sr)) of each layer into out[layers()]: the
-    // phase-weighted radiance arriving at x, scattered into wo; p: the phase moments p_0..p_kOrder.
-    // Multiply by sigma_s for L_s. False (out untouched) outside the box.
-    bool inScatter(float3 x, float3 wo, const double* p, double (*out)[3]) const;
-    // The same with the harmonics of wo given: y[jm] = y_jm(wo) (shEvaluate), kCoeffs of them.
+    // phase-weighted radiance arriving at x, scattered into wo; y[jm] = y_jm(wo) (shEvaluate, kCoeffs
+    // of them: one direction per camera ray), p the phase moments p_0..p_kOrder. Multiply by sigma_s
+    // for L_s. False (out untouched) outside the box.
     bool inScatterY(float3 x, const double* y, const double* p, double (*out)[3]) const;
 
 private:

@@ -46,8 +46,6 @@ public:
     void marchRays(int n, const float3* o, const float3* d, const float* tFar, const float* time, NbRng* rng,
                    CameraSample* out,
                    float* perLight) const override;
-    // Tiles that see no brick are marched too: L2+ keeps its own per-ray path there.
-    bool skipsEmptyTiles() const override { return false; }
 
     bool active() const { return mSetup.active; }
     const WkbSetup& setup() const { return mSetup; }

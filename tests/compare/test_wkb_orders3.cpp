@@ -17,6 +17,7 @@
 #include "engine/Renderer.h"
 #include "render/RenderContext.h"
 #include "scene/KernelScene.h"
+#include "single/SingleScatter.h"
 #include "vrl/Orders3Grid.h"
 #include "vrl/SkinCells.h"
 #include "wkb/RadianceGrid.h"
@@ -173,7 +174,7 @@ double wkbOrders3(const Scene& s, const RenderContext& ctx, int firstOrder, bool
     vrl::Orders3Options o;
     o.skinCells = skin;
     o.focus = focus;
-    o.paths = vrl::orders3PathsFor(s);
+    o.maxPaths = vrl::orders3PathCap(s);  // paths 0: the adaptive count, as a render has it
     o.maxCells = s.render.wkbOrders3Grid;
     o.seed = 5;
     o.firstOrder = firstOrder;
@@ -308,7 +309,7 @@ TEST(WkbOrders3, PerLightLayersMatchEachLightsPathTracedOrders3)
 
     const auto ctx = RenderContext::create(s, true);
     vrl::Orders3Options o;
-    o.paths = vrl::orders3PathsFor(s);
+    o.maxPaths = vrl::orders3PathCap(s);  // paths 0: the adaptive count, as a render has it
     o.maxCells = s.render.wkbOrders3Grid;
     o.seed = 5;
     const auto summed = vrl::traceOrders3(*ctx, o);
@@ -463,7 +464,8 @@ TEST(WkbOrders3, ObliqueForwardLitFaceMatchesThePathTracerWithAimedPaths)
 // cache (its own data) and max(2, 8 / layers) partial grids of the same size, and the skin pass's
 // per-cell accumulators (docs/wkb.md
 // "Per-light AOVs"); with two lights the worst layer count is 2 (2 + 4 x 2 one-layer grids, over
-// 1 + 8 for one layer).
+// 1 + 8 for one layer). The adaptive count (paths 0) holds two grids more while it measures the
+// noise: the second half's cache and the blur's buffer.
 TEST(WkbOrders3, FillMemoryModelIsTheGridsItAllocates)
 {
     Scene s = twoLights();
@@ -476,4 +478,82 @@ TEST(WkbOrders3, FillMemoryModelIsTheGridsItAllocates)
     EXPECT_EQ(wkb::RadianceGrid::cellCountFor(ctx->volumes.worldBounds(), 0.0f, o.maxCells), grid->cellCount());
     const size_t gridBytes = grid->data().size() * sizeof(float);
     EXPECT_EQ(vrl::orders3FillBytes(*ctx, o), gridBytes * (1 + 4) + vrl::skinCellsBytes(grid->cellCount()));
+    vrl::Orders3Options adaptive = o;
+    adaptive.paths = 0;
+    EXPECT_EQ(vrl::orders3FillBytes(*ctx, adaptive), gridBytes * (3 + 4) + vrl::skinCellsBytes(grid->cellCount()));
+}
+
+// The adaptive count (Orders3Options::paths 0) measures the relMSE the cache's noise adds to the
+// image from two halves of one cache. Held against the same quantity measured without it: two
+// caches of independent seeds at the count it chose, read by the camera's pixel centres, whose
+// difference has twice one cache's variance. The two estimates are sample means over 1024
+// pixels of a skewed quantity (a cell lit by one rare bright path moves both), so they are held to
+// a factor of 2 of each other; an estimator off by the half's scale (4x) or reading the sum's
+// spread as a half's (2x the other way, squared) fails. The count is deterministic for a seed.
+TEST(WkbOrders3, AdaptivePathCountMeasuresTheCachesNoise)
+{
+    Scene s = cloudFromTheSide();
+    useTempKernelCache();
+    const auto ctx = RenderContext::create(s, true);
+    vrl::Orders3Options o;
+    o.maxCells = s.render.wkbOrders3Grid;
+    o.maxPaths = vrl::orders3PathCap(s);
+    o.seed = 5;
+    vrl::Orders3Report report, again;
+    const auto grid = vrl::traceOrders3(*ctx, o, &report);
+    const auto grid2 = vrl::traceOrders3(*ctx, o, &again);
+    ASSERT_TRUE(grid && grid2);
+    ASSERT_TRUE(report.adaptive);
+    ASSERT_GT(report.noisePaths, 0);
+    EXPECT_EQ(report.paths, again.paths);
+    EXPECT_EQ(grid->data(), grid2->data());
+    // The noise it measured, at the count it chose (noise falls as one over the paths).
+    const double predicted = report.noiseMeasured * double(report.noisePaths) / double(report.paths);
+
+    vrl::Orders3Options fixed = o;
+    fixed.paths = report.paths;
+    fixed.seed = 7;
+    const auto a = vrl::traceOrders3(*ctx, fixed);
+    fixed.seed = 8;
+    const auto b = vrl::traceOrders3(*ctx, fixed);
+    ASSERT_TRUE(a && b);
+    std::vector<NbPhase> phases;
+    for (const auto& v : ctx->volumes.volumes())
+        phases.push_back(v->medium.phase);
+    const NbCamera cam = makeNbCamera(s.camera);
+    const int W = s.camera.width, H = s.camera.height;
+    std::vector<double> e2, v;
+    std::vector<float> perLight(3 * ctx->lights.size());
+    for (int y = 0; y < H; ++y)
+        for (int x = 0; x < W; ++x) {
+            float3 org, d;
+            nbCameraRay(cam, x + 0.5f, y + 0.5f, W, H, 0.5f, &org, &d);
+            const float3 A = wkb::marchOrders3(ctx->volumes, phases, *a, org, d, -d, INFINITY, 0.0f, 0.5f,
+                                               s.render.step, 2.0f);
+            const float3 B = wkb::marchOrders3(ctx->volumes, phases, *b, org, d, -d, INFINITY, 0.0f, 0.5f,
+                                               s.render.step, 2.0f);
+            CameraSample single;
+            NbRng rng = nbRngStart(3, uint32_t(y * W + x), 0);
+            std::fill(perLight.begin(), perLight.end(), 0.0f);
+            marchSingle(*ctx, org, d, rng, single, perLight.data());
+            const float a3[3] = {A.x, A.y, A.z}, b3[3] = {B.x, B.y, B.z};
+            const float s3[3] = {single.L0.x + single.L1.x, single.L0.y + single.L1.y, single.L0.z + single.L1.z};
+            for (int c = 0; c < 3; ++c) {
+                const double diff = double(a3[c]) - double(b3[c]);
+                e2.push_back(0.5 * diff * diff);  // one cache's variance
+                v.push_back(double(s3[c]) + 0.5 * (double(a3[c]) + double(b3[c])));
+            }
+        }
+    double mean = 0;
+    for (double x : v)
+        mean += x / double(v.size());
+    const double eps = (0.1 * mean) * (0.1 * mean);
+    double measured = 0;
+    for (size_t i = 0; i < v.size(); ++i)
+        measured += e2[i] / (v[i] * v[i] + eps) / double(v.size());
+    std::printf("adaptive count %lld paths: noise measured %.3g at %lld, %.3g predicted at the count; two seeds %.3g\n",
+                report.paths, report.noiseMeasured, report.noisePaths, predicted, measured);
+    EXPECT_GT(measured, 0.0);
+    EXPECT_LT(predicted, 2.0 * measured);
+    EXPECT_GT(predicted, 0.5 * measured);
 }
