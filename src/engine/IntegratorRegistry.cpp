@@ -62,6 +62,7 @@ IntegratorEntry wkbEntry()
             stats.orders3MaxPaths = report.adaptive ? o.maxPaths : 0;
             stats.orders3Noise = report.noiseMeasured;
             stats.orders3NoisePaths = report.noisePaths;
+            stats.orders3Blurred = report.blurred;
             stats.addStage("orders 3+ light paths",
                            std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
         }

@@ -63,8 +63,9 @@ std::string RenderStats::describe(const RenderPlan& plan) const
             char buf[192];
             if (orders3MaxPaths > 0 && orders3NoisePaths > 0)
                 std::snprintf(buf, sizeof buf,
-                              " (adaptive, at most %lld; the cache's noise measured at relMSE %.2g in the image at %lld)",
-                              orders3MaxPaths, orders3Noise, orders3NoisePaths);
+                              " (adaptive, at most %lld; the cache's noise measured at relMSE %.2g in the image at %lld; %s)",
+                              orders3MaxPaths, orders3Noise, orders3NoisePaths,
+                              orders3Blurred ? "blurred" : "sharp: the noise target reached without the blur");
             else if (orders3MaxPaths > 0)
                 std::snprintf(buf, sizeof buf, " (adaptive, at most %lld)", orders3MaxPaths);
             else

@@ -56,6 +56,7 @@ struct Orders3Report {
     float focusRadius = 0.0f;  // its radius (m)
     long long paths = 0;       // the light paths traced
     bool adaptive = false;     // their count adapted to the measured noise (Orders3Options::paths 0)
+    bool blurred = true;       // the cache blurred (the adaptive count leaves it sharp where it can)
     // Adaptive: the relMSE the cache added to the image as last measured, at noisePaths paths
     // (-1 and 0 where nothing was measured: the first round already reached the cap).
     double noiseMeasured = -1.0;

@@ -489,7 +489,9 @@ TEST(WkbOrders3, FillMemoryModelIsTheGridsItAllocates)
 // difference has twice one cache's variance. The two estimates are sample means over 1024
 // pixels of a skewed quantity (a cell lit by one rare bright path moves both), so they are held to
 // a factor of 2 of each other; an estimator off by the half's scale (4x) or reading the sum's
-// spread as a half's (2x the other way, squared) fails. The count is deterministic for a seed.
+// spread as a half's (2x the other way, squared) fails. The count is deterministic for a seed. The
+// cloud's sharp cache asks for more paths than its blurred one, so it is blurred, as the fixed
+// counts' caches are.
 TEST(WkbOrders3, AdaptivePathCountMeasuresTheCachesNoise)
 {
     Scene s = cloudFromTheSide();
@@ -504,6 +506,7 @@ TEST(WkbOrders3, AdaptivePathCountMeasuresTheCachesNoise)
     const auto grid2 = vrl::traceOrders3(*ctx, o, &again);
     ASSERT_TRUE(grid && grid2);
     ASSERT_TRUE(report.adaptive);
+    ASSERT_TRUE(report.blurred);
     ASSERT_GT(report.noisePaths, 0);
     EXPECT_EQ(report.paths, again.paths);
     EXPECT_EQ(grid->data(), grid2->data());
@@ -556,4 +559,34 @@ TEST(WkbOrders3, AdaptivePathCountMeasuresTheCachesNoise)
     EXPECT_GT(measured, 0.0);
     EXPECT_LT(predicted, 2.0 * measured);
     EXPECT_GT(predicted, 0.5 * measured);
+}
+
+// The blur is left out where the sharp cache meets the noise target at the first round's 65536
+// paths (an optically thin sphere: few paths scatter twice, and those spread evenly), and kept
+// where it does not (the cloud above). Sharp, the cache is the sum of the partials alone.
+TEST(WkbOrders3, AdaptiveCountLeavesAQuietCacheSharp)
+{
+    Scene s = baseScene(make_float3(0.0f, 0.3f, -4.0f), make_float3(0, -0.08f, -1));
+    s.volumes.push_back(greyVolume("thin", "sphere", {{"radius", 1.0}, {"voxel_size", 0.05}, {"falloff", 0.05}},
+                                   0.25f, 0.9f, 0.3f));  // optical diameter 0.5
+    useTempKernelCache();
+    const auto ctx = RenderContext::create(s, true);
+    vrl::Orders3Options o;
+    o.maxCells = s.render.wkbOrders3Grid;
+    o.maxPaths = vrl::orders3PathCap(s);
+    o.seed = 5;
+    vrl::Orders3Report report;
+    const auto grid = vrl::traceOrders3(*ctx, o, &report);
+    ASSERT_TRUE(grid);
+    std::printf("thin sphere: %lld paths, noise %.3g at %lld, %s\n", report.paths, report.noiseMeasured,
+                report.noisePaths, report.blurred ? "blurred" : "sharp");
+    EXPECT_FALSE(report.blurred);
+    EXPECT_EQ(report.paths, 65536);
+    EXPECT_LE(report.noiseMeasured, 0.002);
+    // The same paths at the fixed count are blurred: the two caches differ.
+    vrl::Orders3Options fixed = o;
+    fixed.paths = report.paths;
+    const auto blurred = vrl::traceOrders3(*ctx, fixed);
+    ASSERT_TRUE(blurred);
+    EXPECT_NE(grid->data(), blurred->data());
 }
