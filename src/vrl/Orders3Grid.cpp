@@ -3,6 +3,7 @@
 #include "../pathtracer/PathtraceScene.h"
 #include "../render/SphericalHarmonics.h"
 #include "../scene/KernelScene.h"
+#include "../single/ScatterPoints.h"
 #include "../single/SingleScatter.h"
 #include "SkinCells.h"
 #include "ViewFocus.h"
@@ -217,9 +218,7 @@ double cacheNoise(const RenderContext& ctx, const PilotRays& pilots, const wkb::
     const size_t n = pilots.o.size();
     if (n == 0)
         return 0.0;
-    std::vector<NbPhase> phases;
-    for (const auto& v : ctx.volumes.volumes())
-        phases.push_back(v->medium.phase);
+    const std::vector<NbPhase> phases = PhaseMix::phasesOf(ctx);
     const float step = ctx.scene ? ctx.scene->render.step : 0.5f;
     std::vector<double> e2(3 * n, 0.0), v(3 * n, 0.0);
     tbb::parallel_for(size_t(0), n, [&](size_t r) {
@@ -437,14 +436,13 @@ std::shared_ptr<const wkb::RadianceGrid> traceOrders3(const RenderContext& ctx, 
                 break;
         }
         if (report) {
+            report->paths = batches * kBatch;
             report->adaptive = true;
             report->blurred = blurred;
             report->noiseMeasured = noise;
             report->noisePaths = noisePaths;
         }
     }
-    if (report)
-        report->paths = batches * kBatch;
     throwIfStopped(&ctx.stop);
     finish(0, partials, batches, 1.0f, *grid, partial[0]);
     if (blurred)

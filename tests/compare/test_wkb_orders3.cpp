@@ -472,8 +472,12 @@ TEST(WkbOrders3, FillMemoryModelIsTheGridsItAllocates)
     useTempKernelCache();
     const auto ctx = RenderContext::create(s, true);
     const vrl::Orders3Options o = smallCache(4096, 20, {1, 1});
-    const auto grid = vrl::traceOrders3(*ctx, o);
+    vrl::Orders3Report report;
+    const auto grid = vrl::traceOrders3(*ctx, o, &report);
     ASSERT_TRUE(grid);
+    EXPECT_EQ(report.paths, 4096);  // a fixed count: the paths asked for, blurred
+    EXPECT_FALSE(report.adaptive);
+    EXPECT_TRUE(report.blurred);
     ASSERT_EQ(grid->layers(), 2);
     EXPECT_EQ(wkb::RadianceGrid::cellCountFor(ctx->volumes.worldBounds(), 0.0f, o.maxCells), grid->cellCount());
     const size_t gridBytes = grid->data().size() * sizeof(float);
