@@ -268,6 +268,16 @@ Scene twoLights()
 
 // A small cache over the two lights' scene: `paths` light paths, at most `maxCells` cells across,
 // perLightAovs as the film asks.
+// The adaptive count as a render of `s` has it (Orders3Options::paths 0), seed 5.
+vrl::Orders3Options adaptiveCache(const Scene& s)
+{
+    vrl::Orders3Options o;
+    o.maxCells = s.render.wkbOrders3Grid;
+    o.maxPaths = vrl::orders3PathCap(s);
+    o.seed = 5;
+    return o;
+}
+
 vrl::Orders3Options smallCache(int paths, int maxCells, std::vector<char> perLightAovs)
 {
     vrl::Orders3Options o;
@@ -501,10 +511,7 @@ TEST(WkbOrders3, AdaptivePathCountMeasuresTheCachesNoise)
     Scene s = cloudFromTheSide();
     useTempKernelCache();
     const auto ctx = RenderContext::create(s, true);
-    vrl::Orders3Options o;
-    o.maxCells = s.render.wkbOrders3Grid;
-    o.maxPaths = vrl::orders3PathCap(s);
-    o.seed = 5;
+    const vrl::Orders3Options o = adaptiveCache(s);
     vrl::Orders3Report report, again;
     const auto grid = vrl::traceOrders3(*ctx, o, &report);
     const auto grid2 = vrl::traceOrders3(*ctx, o, &again);
@@ -575,10 +582,7 @@ TEST(WkbOrders3, AdaptiveCountLeavesAQuietCacheSharp)
                                    0.25f, 0.9f, 0.3f));  // optical diameter 0.5
     useTempKernelCache();
     const auto ctx = RenderContext::create(s, true);
-    vrl::Orders3Options o;
-    o.maxCells = s.render.wkbOrders3Grid;
-    o.maxPaths = vrl::orders3PathCap(s);
-    o.seed = 5;
+    const vrl::Orders3Options o = adaptiveCache(s);
     vrl::Orders3Report report;
     const auto grid = vrl::traceOrders3(*ctx, o, &report);
     ASSERT_TRUE(grid);
