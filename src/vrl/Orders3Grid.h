@@ -68,11 +68,13 @@ struct Orders3Report {
 // any thread count: the segments are split into a fixed number of ranges (8 over the layer count, at least 2), each summed in order into
 // its own grid, and the partial grids are added in a fixed order.
 //
-// With options.paths 0 the count adapts to the scene: rounds of light paths (16384 first) until the
-// relMSE the cache's noise adds to the image is under a target fitted on the calibration suite. The
+// With options.paths 0 the count adapts to the scene: a first round of 65536 light paths, then
+// the count where the relMSE the cache's noise adds to the image, falling as one over the paths,
+// is under a target fitted on the calibration suite (and at least the error x time optimum). The
 // noise is measured on pilot camera rays (a lattice of pixels) reading two caches, each from half of
-// every batch's segments; each next round's count is where that noise, falling as one over the
-// paths, meets the target; at most options.maxPaths paths and four rounds.
+// every batch's segments; at most options.maxPaths paths and three rounds. The cache is left
+// unblurred where, at the first round, its sharp noise asks for no more paths than its blurred
+// noise (Orders3Report::blurred).
 std::shared_ptr<const wkb::RadianceGrid> traceOrders3(const RenderContext& ctx, const Orders3Options& options,
                                                       Orders3Report* report = nullptr);
 
