@@ -52,8 +52,6 @@ constexpr double kCacheNoiseTarget = 0.002;
 constexpr double kBalance = 34.0;
 // A round is not taken for fewer than this many times the paths already traced.
 constexpr double kRoundMargin = 1.25;
-// The march's step over the L1 step: WkbIntegrator's read of the cache (kFineStepScale there).
-constexpr float kReadStepScale = 2.0f;
 // The pilot rays' random stream, keyed apart from the others.
 constexpr uint32_t kPilotKey = 0x70696c6fu;
 
@@ -226,9 +224,9 @@ double cacheNoise(const RenderContext& ctx, const PilotRays& pilots, const wkb::
         // The same quadrature through both halves: their difference is the cache's alone.
         const float jitter = 0.5f;
         const float3 A = wkb::marchOrders3(ctx.volumes, phases, a, pilots.o[r], pilots.d[r], -pilots.d[r], INFINITY,
-                                           0.0f, jitter, step, kReadStepScale);
+                                           0.0f, jitter, step, wkb::kOrders3StepScale);
         const float3 B = wkb::marchOrders3(ctx.volumes, phases, b, pilots.o[r], pilots.d[r], -pilots.d[r], INFINITY,
-                                           0.0f, jitter, step, kReadStepScale);
+                                           0.0f, jitter, step, wkb::kOrders3StepScale);
         const float dA[3] = {A.x, A.y, A.z}, dB[3] = {B.x, B.y, B.z};
         for (int c = 0; c < 3; ++c) {
             const double diff = 0.5 * (double(dA[c]) - double(dB[c]));

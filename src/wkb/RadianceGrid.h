@@ -119,6 +119,10 @@ private:
 // light is (VolumeSet::sampleAt's lightPoint). Stops where T < 1e-4 in every channel; each layer's
 // sum is clamped at 0 per channel. Returns the layers' sum; perLayer (grid.layers() entries, or
 // null) gets each layer's own.
+// The step of the renders' read of the cache (marchOrders3's stepScale), in L1 steps: the camera
+// march's (WkbIntegrator) and the pilot rays' that measure the cache's noise (vrl::traceOrders3).
+constexpr float kOrders3StepScale = 2.0f;
+
 float3 marchOrders3(const VolumeSet& volumes, const std::vector<NbPhase>& phases, const RadianceGrid& grid, float3 o,
                     float3 d, float3 wo, float tFar, float seconds, float jitter, float stepFraction,
                     float stepScale, float3* perLayer = nullptr);

@@ -423,7 +423,7 @@ void WkbIntegrator::march(float3 o, float3 d, NbRng& rng, CameraSample& out, flo
         thread_local std::vector<float3> layers;
         layers.resize(size_t(mOrders3->layers()));
         const float3 L3 = marchOrders3(mCtx->volumes, mPhase, *mOrders3, o, d, -d, tFar, seconds, nbRngNext(&rng),
-                                       mCtx->scene->render.step, float(kFineStepScale), layers.data());
+                                       mCtx->scene->render.step, kOrders3StepScale, layers.data());
         out.L2plus += L3;
         for (int k = 0; k < mOrders3->layers(); ++k) {
             const int li = mOrders3->layerLight(k);
