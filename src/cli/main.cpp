@@ -13,7 +13,7 @@
 //   nimbus farm plan SCENE.json --frames 1-24 [--tiles N] [--sample-splits K]   the job as JSON
 //   nimbus farm submit SCENE.json --frames 1-24 ... --engine slurm              Slurm job arrays
 //   nimbus default-scene               prints the default scene as JSON
-//   nimbus compare SCENE.json [--out DIR] [--minutes M] [--seeds K] [--full]   WKB vs path tracer
+//   nimbus compare SCENE.json [--out DIR] [--minutes M] [--reference-minutes R] [--seeds K] [--full]   WKB vs path tracer
 //
 // Exit codes: 0 success, 1 render failure, 2 bad input (a missing file or grid, bad JSON, an
 // unknown key, a value out of range, a bad flag). Errors are one line on stderr.
@@ -603,6 +603,10 @@ int main(int argc, char** argv)
     compare
         ->add_option("--minutes", compareOptions.minutes,
                      "Scales the reference's 45 s and the path tracer's 0.5..8 s ladder")
+        ->check(CLI::PositiveNumber);
+    compare
+        ->add_option("--reference-minutes", compareOptions.referenceMinutes,
+                     "Scales the reference's 45 s alone (default: --minutes); a longer reference lowers the floor")
         ->check(CLI::PositiveNumber);
     compare->add_option("--seeds", compareOptions.seeds, "Independent path-tracer seeds per ladder step")
         ->check(CLI::Range(1, 64));

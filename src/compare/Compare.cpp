@@ -62,7 +62,7 @@ CompareResult runCompare(const Scene& input, const CompareOptions& opt)
     refScene.render.method = Method::Pathtrace;
     refScene.render.spp = 1 << 24;
     refScene.render.maxDepth = 0;  // unbounded whatever the scene says: a depth cap biases the reference
-    refScene.render.timeLimit = 45.0 * opt.minutes;
+    refScene.render.timeLimit = 45.0 * (opt.referenceMinutes > 0.0 ? opt.referenceMinutes : opt.minutes);
     refScene.render.seed = 0x5eed0001u;
     refScene.output.preview.clear();
     const std::string cachePath = referenceCachePath(refScene, opt.cacheDir);
@@ -184,7 +184,7 @@ CompareResult runCompare(const Scene& input, const CompareOptions& opt)
     RenderResult eqVrl = render(vrl);
     rows.push_back(makeRow("vrl", "equal-time", vrl, eqVrl, ref));
 
-    writeCsv(rows, opt.outDir + "/compare.csv");
+    writeCsv(rows, opt.outDir + "/compare.csv", result.referenceNoise);
     writeSheetPanels(ref, baseWkb, eq.film, opt.outDir + "/panels");
     writePreview(eqVrl.film, opt.outDir + "/panels/vrl.png");
     writeSummary(input, ref, result, opt.outDir + "/summary.md");

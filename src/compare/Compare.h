@@ -43,6 +43,7 @@ struct CompareRow {
 struct CompareOptions {
     std::string outDir = "compare";
     double minutes = 1.0;     // scales the reference's time and the path tracer's time ladder
+    double referenceMinutes = 0.0;  // scales the reference's time alone when > 0 (else `minutes`)
     int seeds = 2;            // independent path-tracer seeds per ladder step
     std::string cacheDir;     // empty: $NIMBUS_CACHE_DIR, $XDG_CACHE_HOME/nimbus, ~/.cache/nimbus
     bool fullLadder = false;  // more WKB quality steps
@@ -64,8 +65,10 @@ struct CompareResult {
 // reported in CompareResult::chartsError, not thrown.
 CompareResult runCompare(const Scene& scene, const CompareOptions& options);
 
-// Path-tracer time to reach a relMSE, from the path tracer's rows (log-log interpolation of the
-// seed-averaged beauty relMSE against time; beyond the measured range, relMSE ~ 1/t).
-double ptTimeToError(const std::vector<CompareRow>& rows, double relMse);
+// Path-tracer time to reach a relMSE against the reference, from the path tracer's rows: log-log
+// interpolation of the seed-averaged beauty relMSE against time; beyond the measured range
+// floor + c / t, floor the reference's own relMSE (referenceNoiseRelMse; 0: relMSE ~ 1/t), and
+// infinity for a relMSE at or under the floor.
+double ptTimeToError(const std::vector<CompareRow>& rows, double relMse, double floor = 0.0);
 
 }  // namespace nimbus

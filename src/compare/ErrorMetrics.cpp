@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <map>
 
 namespace nimbus {
@@ -69,7 +70,7 @@ double referenceNoiseRelMse(const Film& ref)
     return s / std::max(1, n);
 }
 
-double ptTimeToError(const std::vector<CompareRow>& rows, double relMse)
+double ptTimeToError(const std::vector<CompareRow>& rows, double relMse, double floor)
 {
     // Seed-averaged (time, relMSE) per ladder label.
     std::map<std::string, std::pair<double, double>> sum;
@@ -96,8 +97,17 @@ double ptTimeToError(const std::vector<CompareRow>& rows, double relMse)
             return std::exp(std::log(t0) + f * (std::log(t1) - std::log(t0)));
         }
     }
-    // Outside the measured range: relMSE of an unbiased estimator falls as 1/t.
+    // Outside the measured range. Against a reference of its own noise `floor` (independent of
+    // the render's), the path tracer's relMSE is floor + c / t: its own noise falls as 1/t, the
+    // reference's stays. c from the nearest ladder step; a relMSE at or under the floor is one the
+    // path tracer reaches only as t -> infinity. With no floor (or a ladder step under it, where
+    // the floor was overestimated) the whole relMSE falls as 1/t.
     const auto& end = relMse < pts.back().second ? pts.back() : pts.front();
+    if (floor > 0.0 && end.second > floor) {
+        if (relMse <= floor)
+            return std::numeric_limits<double>::infinity();
+        return end.first * (end.second - floor) / (relMse - floor);
+    }
     return end.first * end.second / relMse;
 }
 

@@ -5,6 +5,7 @@
 #include "../core/Error.h"
 #include "../io/AtomicFile.h"
 
+#include <cmath>
 #include <cstdio>
 #include <sstream>
 
@@ -20,7 +21,13 @@ void writeAtomic(const std::string& path, const std::string& text)
     file.commit();  // checks the stream's errors and its close too
 }
 
-std::string rowsToCsv(const std::vector<CompareRow>& rows)
+// The summary's "PT time to equal beauty relMSE": infinite where the relMSE is under the reference's floor.
+std::string ptSeconds(double t)
+{
+    return std::isinf(t) ? std::string("never (under the reference's floor)") : fmt("%.2f", t);
+}
+
+std::string rowsToCsv(const std::vector<CompareRow>& rows, double floor)
 {
     std::ostringstream o;
     o << "method,label,source,kernel,seed,seconds,spp";
@@ -32,7 +39,7 @@ std::string rowsToCsv(const std::vector<CompareRow>& rows)
           << fmt("%.4f", r.seconds) << "," << r.spp;
         for (const ErrorMetrics* m : {&r.beauty, &r.L1, &r.L2plus})
             o << "," << fmt("%.6g", m->relMse) << "," << fmt("%.6g", m->meanRel) << "," << fmt("%.6g", m->energyRel);
-        o << "," << (r.method == "wkb" ? fmt("%.4g", ptTimeToError(rows, r.beauty.relMse)) : std::string()) << "\n";
+        o << "," << (r.method == "wkb" ? fmt("%.4g", ptTimeToError(rows, r.beauty.relMse, floor)) : std::string()) << "\n";
     }
     return o.str();
 }
@@ -46,9 +53,9 @@ std::string fmt(const char* format, double v)
     return buf;
 }
 
-void writeCsv(const std::vector<CompareRow>& rows, const std::string& path)
+void writeCsv(const std::vector<CompareRow>& rows, const std::string& path, double referenceNoise)
 {
-    writeAtomic(path, rowsToCsv(rows));
+    writeAtomic(path, rowsToCsv(rows, referenceNoise));
 }
 
 void writeSummary(const Scene& input, const Film& ref, const CompareResult& result, const std::string& path)
@@ -59,7 +66,9 @@ void writeSummary(const Scene& input, const Film& ref, const CompareResult& resu
     md << "Reference: path tracer, " << sppOf(ref) << " spp"
        << (result.referenceCached ? " (cached)" : ", " + fmt("%.1f", result.referenceSeconds) + " s")
        << "; its own beauty relMSE (from its variance) " << fmt("%.3g", result.referenceNoise)
-       << ", the floor under every error below.\n\n";
+       << ", the floor under every error below. The path tracer's time to a WKB row's relMSE is "
+          "interpolated on its ladder, and beyond it extrapolated as floor + c / t (its own noise falls as "
+          "1/t, the reference's stays).\n\n";
     md << "| method | step | source | kernel | time s | beauty relMSE | beauty energy | L1 energy | L2plus energy | "
           "L2plus meanRel | PT time to equal beauty relMSE s |\n|---|---|---|---|---|---|---|---|---|---|---|\n";
     for (const CompareRow& r : rows) {
@@ -69,7 +78,8 @@ void writeSummary(const Scene& input, const Film& ref, const CompareResult& resu
            << fmt("%.2f", r.seconds) << " | " << fmt("%.3g", r.beauty.relMse) << " | "
            << fmt("%+.3f", r.beauty.energyRel) << " | " << fmt("%+.3f", r.L1.energyRel) << " | "
            << fmt("%+.3f", r.L2plus.energyRel) << " | " << fmt("%.3f", r.L2plus.meanRel) << " | "
-           << (r.method == "wkb" ? fmt("%.2f", ptTimeToError(rows, r.beauty.relMse)) : std::string("")) << " |\n";
+           << (r.method == "wkb" ? ptSeconds(ptTimeToError(rows, r.beauty.relMse, result.referenceNoise)) : std::string())
+           << " |\n";
     }
     md << "\nFiles: compare.csv (every run, every seed), error_vs_time.png, sheet.png (reference | WKB "
        << wkbSourceName(input.render.wkbSource) << "/" << wkbKernelName(input.render.wkbKernel)

@@ -5,6 +5,8 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
+
 using namespace nimbus;
 
 namespace {
@@ -53,6 +55,30 @@ TEST(CompareMetrics, PathtracerTimeToErrorInterpolatesAndExtrapolatesAsOneOverT)
     EXPECT_NEAR(ptTimeToError(rows, 0.05), 2.0, 1e-9);
     EXPECT_NEAR(ptTimeToError(rows, 0.0025), 40.0, 1e-9);
     EXPECT_NEAR(ptTimeToError(rows, 0.2), 0.5, 1e-9);
+}
+
+// Against a reference of its own noise `floor`, the path tracer's relMSE is floor + c / t: the
+// extrapolation beyond the ladder takes c from the ladder's end and keeps the floor, so a ladder
+// made of that law gives back its exact times, and an error under the floor is never reached.
+TEST(CompareMetrics, PathtracerTimeToErrorKeepsTheReferencesFloor)
+{
+    const double floor = 0.01, c = 0.1;
+    std::vector<CompareRow> rows;
+    for (double t : {1.0, 2.0, 4.0}) {
+        CompareRow r;
+        r.method = "pathtrace";
+        r.label = "t=" + std::to_string(t);
+        r.seconds = t;
+        r.beauty.relMse = floor + c / t;
+        rows.push_back(r);
+    }
+    EXPECT_NEAR(ptTimeToError(rows, floor + c / 10.0, floor), 10.0, 1e-9);
+    EXPECT_NEAR(ptTimeToError(rows, floor + c / 0.5, floor), 0.5, 1e-9);
+    // The same ladder read as 1/t overall (no floor) reaches 0.02 at 4 x 0.035 / 0.02 = 7 s, not 10.
+    EXPECT_NEAR(ptTimeToError(rows, 0.02), 7.0, 1e-9);
+    EXPECT_TRUE(std::isinf(ptTimeToError(rows, 0.5 * floor, floor)));
+    // A floor over the ladder's last step (overestimated): the 1/t law of the whole relMSE.
+    EXPECT_NEAR(ptTimeToError(rows, 0.0175, 0.04), 4.0 * 0.035 / 0.0175, 1e-9);
 }
 
 // The reference is the path tracer's: keys only WKB or vrl read must not key a new reference
