@@ -1,7 +1,6 @@
 #include "Orders3Grid.h"
 
 #include "../pathtracer/PathtraceScene.h"
-#include "../render/SphericalHarmonics.h"
 #include "../scene/KernelScene.h"
 #include "../single/ScatterPoints.h"
 #include "../single/SingleScatter.h"
@@ -55,23 +54,44 @@ constexpr double kRoundMargin = 1.25;
 // The pilot rays' random stream, keyed apart from the others.
 constexpr uint32_t kPilotKey = 0x70696c6fu;
 
+// The phase function toward the viewer at a point: the one volume's, or the sigma_s-weighted
+// mixture where there are several (PhaseMix; where none scatters, the first volume's stands in:
+// the read multiplies by sigma_s there, which is 0).
+struct ViewerPhase {
+    float3 viewer;
+    std::vector<NbPhase> phases;
+    // p(w . wo(x)), wo(x) the unit direction from x to the viewer (1/sr).
+    float operator()(const VolumeSet& volumes, PhaseMix& mix, float3 x, float3 w) const
+    {
+        const float3 toViewer = viewer - x;
+        const float len = length(toViewer);
+        const float c = len > 0.0f ? dot(w, toViewer) / len : 1.0f;
+        if (phases.size() == 1)
+            return nbPhaseEval(phases[0], c);
+        mix.at(volumes, x);
+        return mix.eval(c);
+    }
+};
+
 // Deposits one segment into grid data `out`, in the cells' layer `layer`: its expected track
-// length in each cell it crosses (W/m^2 once divided by the cell's volume), or in a skin cell
-// (SkinCells.h) one point's estimate of int sigma_s T T_cam dt (W, until resolveSkinCells).
-void deposit(const RenderContext& ctx, const wkb::RadianceGrid& grid, const SkinCells& skin, const Vrl& v, int layer,
-             float h, NbRng& rng, float* out)
+// length in each cell it crosses, each step weighted by the phase function toward the viewer
+// (W/(m^2 sr) once divided by the cell's volume), or in a skin cell (SkinCells.h) one point's
+// estimate of int sigma_s T T_cam p dt (W/sr, until resolveSkinCells).
+void deposit(const RenderContext& ctx, const wkb::RadianceGrid& grid, const SkinCells& skin, const ViewerPhase& phase,
+             const Vrl& v, int layer, float h, NbRng& rng, float* out)
 {
     const size_t F = size_t(grid.floatsPerCell());
     out += size_t(layer) * wkb::RadianceGrid::kFloats;
-    double y[wkb::RadianceGrid::kCoeffs];
-    shEvaluate(wkb::RadianceGrid::kOrder, v.dir, y);
+    thread_local PhaseMix mix;
+    mix.use(phase.phases);
     const float invV = 1.0f / grid.cellVolume();
     float T[3] = {1.0f, 1.0f, 1.0f};
     float r = 1.0f;  // the roulette's weight
     const float flux[3] = {v.flux.x, v.flux.y, v.flux.z};
     grid.walk(v.origin, v.dir, v.t0, v.t1, [&](size_t cell, float ta, float tb) {
-        // int T dt over [ta, tb], the extinction piecewise constant over steps of at most h
-        // (sampled at each step's midpoint), each step's integral exact: T (1 - e^{-s dt}) / s.
+        // int T p dt over [ta, tb], the extinction and the phase value piecewise constant over
+        // steps of at most h (sampled at each step's midpoint), each step's integral of T exact:
+        // T (1 - e^{-s dt}) / s.
         const int skinSlot = skin.slotOf(cell);
         int n = std::max(1, int(std::ceil((tb - ta) / h)));
         if (skinSlot >= 0)
@@ -84,16 +104,18 @@ void deposit(const RenderContext& ctx, const wkb::RadianceGrid& grid, const Skin
         bool alive = true;
         SkinPoint point;
         for (int k = 0; k < n && alive; ++k) {
-            const MediumSample m = ctx.volumes.sample(v.origin + v.dir * (ta + (float(k) + 0.5f) * dt));
+            const float3 x = v.origin + v.dir * (ta + (float(k) + 0.5f) * dt);
+            const MediumSample m = ctx.volumes.sample(x);
             const float st[3] = {m.sigma_t.x, m.sigma_t.y, m.sigma_t.z};
             if (skinSlot >= 0) {
                 const float rT[3] = {r * T[0], r * T[1], r * T[2]};
                 point.offer(ta + float(k) * dt, dt, rT, m.sigma_s, m.sigma_t, nbRngNext(&rng));
             }
+            const float p = skinSlot < 0 ? phase(ctx.volumes, mix, x, v.dir) : 0.0f;
             for (int c = 0; c < 3; ++c) {
-                const float x = st[c] * dt;
-                const float e = std::exp(-x);
-                I[c] += r * T[c] * (x > 1e-4f ? (1.0f - e) / st[c] : dt * (1.0f - 0.5f * x));
+                const float y = st[c] * dt;
+                const float e = std::exp(-y);
+                I[c] += p * r * T[c] * (y > 1e-4f ? (1.0f - e) / st[c] : dt * (1.0f - 0.5f * y));
                 T[c] *= e;
             }
             const float tr = r * std::max(T[0], std::max(T[1], T[2]));
@@ -107,18 +129,16 @@ void deposit(const RenderContext& ctx, const wkb::RadianceGrid& grid, const Skin
         }
         float* d = out + cell * F;
         if (skinSlot < 0) {
-            for (int jm = 0; jm < wkb::RadianceGrid::kCoeffs; ++jm)
-                for (int c = 0; c < 3; ++c)
-                    d[3 * jm + c] += float(y[jm]) * flux[c] * I[c] * invV;
+            for (int c = 0; c < 3; ++c)
+                d[c] += flux[c] * I[c] * invV;
         } else if (point.any()) {
             float e[3];
-            const float3 p = point.draw(v.origin, v.dir, nbRngNext(&rng), e);
-            const Rgb Tc = skin.inView(p) ? cameraTransmittance(ctx.volumes, p, skin.camera) : splat(0.0f);
+            const float3 x = point.draw(v.origin, v.dir, nbRngNext(&rng), e);
+            const Rgb Tc = skin.inView(x) ? cameraTransmittance(ctx.volumes, x, skin.camera) : splat(0.0f);
+            const float p = phase(ctx.volumes, mix, x, v.dir);
             const float w[3] = {flux[0] * e[0] * Tc.x, flux[1] * e[1] * Tc.y, flux[2] * e[2] * Tc.z};
-            if (w[0] > 0.0f || w[1] > 0.0f || w[2] > 0.0f)
-                for (int jm = 0; jm < wkb::RadianceGrid::kCoeffs; ++jm)
-                    for (int c = 0; c < 3; ++c)
-                        d[3 * jm + c] += float(y[jm]) * w[c];
+            for (int c = 0; c < 3; ++c)
+                d[c] += p * w[c];
         }
         return alive;
     });
@@ -155,6 +175,19 @@ void blur(wkb::RadianceGrid& grid, const SkinCells& skin, std::vector<float>& sc
     }
 }
 
+
+// The point the cache is projected toward: the camera's eye at the shutter's centre (the origin
+// of the camera rays, as marchOrders3 requires), unless the options set one.
+float3 viewerOf(const RenderContext& ctx, const Orders3Options& options)
+{
+    if (options.hasViewer || !ctx.scene)
+        return options.viewer;
+    const Camera& cam = ctx.scene->camera;
+    const int W = std::max(1, cam.width), H = std::max(1, cam.height);
+    float3 o, d;
+    nbCameraRay(makeNbCamera(cam), 0.5f * float(W), 0.5f * float(H), W, H, 0.5f, &o, &d);
+    return o;
+}
 
 // The image's camera samples: pixels x spp (the scene's, or the march's default).
 double cameraSamples(const Scene& scene)
@@ -216,16 +249,15 @@ double cacheNoise(const RenderContext& ctx, const PilotRays& pilots, const wkb::
     const size_t n = pilots.o.size();
     if (n == 0)
         return 0.0;
-    const std::vector<NbPhase> phases = PhaseMix::phasesOf(ctx);
     const float step = ctx.scene ? ctx.scene->render.step : 0.5f;
     std::vector<double> e2(3 * n, 0.0), v(3 * n, 0.0);
     tbb::parallel_for(size_t(0), n, [&](size_t r) {
         throwIfStopped(&ctx.stop);
         // The same quadrature through both halves: their difference is the cache's alone.
         const float jitter = 0.5f;
-        const float3 A = wkb::marchOrders3(ctx.volumes, phases, a, pilots.o[r], pilots.d[r], -pilots.d[r], INFINITY,
+        const float3 A = wkb::marchOrders3(ctx.volumes, a, pilots.o[r], pilots.d[r], INFINITY,
                                            0.0f, jitter, step, wkb::kOrders3StepScale);
-        const float3 B = wkb::marchOrders3(ctx.volumes, phases, b, pilots.o[r], pilots.d[r], -pilots.d[r], INFINITY,
+        const float3 B = wkb::marchOrders3(ctx.volumes, b, pilots.o[r], pilots.d[r], INFINITY,
                                            0.0f, jitter, step, wkb::kOrders3StepScale);
         const float dA[3] = {A.x, A.y, A.z}, dB[3] = {B.x, B.y, B.z};
         for (int c = 0; c < 3; ++c) {
@@ -312,6 +344,7 @@ std::shared_ptr<const wkb::RadianceGrid> traceOrders3(const RenderContext& ctx, 
         return nullptr;
     grid->setLayerLights(layerLight);
     const SkinCells skin = options.skinCells ? findSkinCells(ctx, *grid) : SkinCells{};
+    const ViewerPhase phase{viewerOf(ctx, options), PhaseMix::phasesOf(ctx)};
     const EmissionFocus focus = options.focus ? findViewFocus(ctx, grid->cellSize(), pass.boundsRadius()) : EmissionFocus{};
     pass.setFocus(focus);
     pass.setAimAtVolumes(options.focus);
@@ -347,7 +380,8 @@ std::shared_ptr<const wkb::RadianceGrid> traceOrders3(const RenderContext& ctx, 
                 if ((i - lo) % kStopPollInterval == kStopPollInterval - 1)
                     throwIfStopped(&ctx.stop);
                 NbRng rng = nbRngStart(options.seed ^ kDepositKey, uint32_t(i), uint32_t(b));
-                deposit(ctx, *grid, skin, kept[i], layerOf[size_t(kept[i].light)], h, rng, partial[size_t(p)].data());
+                deposit(ctx, *grid, skin, phase, kept[i], layerOf[size_t(kept[i].light)], h, rng,
+                        partial[size_t(p)].data());
             }
         });
     };

@@ -2,7 +2,8 @@
 // render.wkb_orders3 = "traced", docs/wkb.md "Orders 3 and up, traced") from the VRL light pass
 // (VrlLightPass.h): the same light paths (lights chosen by power, delta tracking on the path
 // tracer's brick majorants, its Russian roulette), each segment that leaves a path's second or
-// later scattering vertex deposited along the cells it crosses with its expected track length.
+// later scattering vertex deposited along the cells it crosses with its expected track length,
+// weighted by the phase function toward the camera.
 #pragma once
 
 #include "../render/RenderContext.h"
@@ -35,6 +36,11 @@ struct Orders3Options {
     // one layer per such light (and one for the others, if any): RadianceGrid "Layers". Empty or
     // all zero: one layer, all lights summed.
     std::vector<char> perLightAovs;
+    // The point the cache is projected toward (RadianceGrid.h): where unset, the camera's eye at
+    // the shutter's centre, which the camera rays that read it start from. Tests move it to show
+    // that a cache projected toward another point fails.
+    bool hasViewer = false;
+    float3 viewer = make_float3(0, 0, 0);
 };
 
 // The most light paths the cache of `scene` may take: render.wkb_orders3_paths, or where it is 0

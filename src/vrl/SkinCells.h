@@ -10,20 +10,21 @@
 // out 23-45% dark). There the cell holds the mean weighted by the camera's in-scattering
 // importance,
 //
-//     L_jm(cell) = int_cell sigma_s T_cam L_jm dV / int_cell sigma_s T_cam dV,
+//     S(cell) = int_cell sigma_s T_cam S dV / int_cell sigma_s T_cam dV,
 //
 // T_cam(x) the transmittance from x to the camera: the camera ray's own integrand, so that a ray
 // through the cell gathers from it what it would gather from the radiance's profile under the
 // face (exactly so where the radiance, the medium and T_cam vary along one direction). Units:
-// the numerator W (a segment's flux times its expected track length times sigma_s, per unit
-// solid-angle basis), the denominator m^2, the ratio W/m^2 as every cell's L_jm.
+// the numerator W/sr (a segment's flux times its expected track length times sigma_s times the
+// phase function toward the camera), the denominator m^2, the ratio W/(m^2 sr) as every cell's S
+// (RadianceGrid.h).
 //
 // - The denominator is measured by camera rays (findSkinCells): a regular grid of rays over the
 //   image, each of solid angle dOmega standing for the volume t^2 dOmega dt along it.
 // - The numerator by the light paths (Orders3Grid.cpp): a segment crossing a skin cell deposits,
-//   instead of its track length, y_jm Phi int sigma_s T T_cam dt over its stretch there, estimated
-//   without bias by one point drawn by sigma_s T along the stretch (SkinPoint) and T_cam marched
-//   from it to the camera (cameraTransmittance); points outside the camera's view count 0, as the
+//   instead of its track length, Phi int sigma_s T T_cam p dt over its stretch there, estimated
+//   without bias by one point drawn by sigma_s T along the stretch (SkinPoint), the phase function
+//   toward the camera there, and T_cam marched from it to the camera (cameraTransmittance); points outside the camera's view count 0, as the
 //   camera rays do not see them.
 // - A cell is a skin cell where the camera sees its neighbourhood (kSkinRadius cells each side)
 //   and the diffusion length there, 1 / (sigma_t sqrt(3 (1 - omega)(1 - g omega))), is at most the

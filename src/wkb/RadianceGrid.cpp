@@ -2,8 +2,6 @@
 
 #include "../core/StepCount.h"
 
-#include "../render/SphericalHarmonics.h"
-
 namespace nimbus::wkb {
 
 void RadianceGrid::init(const Bbox& box, float minCell, int maxCells, int layers)
@@ -71,38 +69,15 @@ bool RadianceGrid::fetch(float3 x, float* out) const
     return true;
 }
 
-bool RadianceGrid::inScatterY(float3 x, const double* y, const double* p, double (*out)[3]) const
-{
-    thread_local std::vector<float> L;
-    L.resize(size_t(floatsPerCell()));
-    if (!fetch(x, L.data()))
-        return false;
-    double f[kCoeffs];
-    for (int j = 0; j <= kOrder; ++j)
-        for (int m = -j; m <= j; ++m)
-            f[shIndex(j, m)] = p[j] * y[shIndex(j, m)];
-    for (int layer = 0; layer < mLayers; ++layer) {
-        const float* Ll = L.data() + size_t(layer) * kFloats;
-        double s[3] = {0, 0, 0};
-        for (int jm = 0; jm < kCoeffs; ++jm)
-            for (int c = 0; c < 3; ++c)
-                s[c] += f[jm] * double(Ll[3 * jm + c]);
-        for (int c = 0; c < 3; ++c)
-            out[layer][c] = s[c];
-    }
-    return true;
-}
-
-float3 marchOrders3(const VolumeSet& volumes, const std::vector<NbPhase>& phases, const RadianceGrid& grid, float3 o,
-                    float3 d, float3 wo, float tFar, float seconds, float jitter, float stepFraction, float stepScale,
-                    float3* perLayer)
+float3 marchOrders3(const VolumeSet& volumes, const RadianceGrid& grid, float3 o, float3 d, float tFar, float seconds,
+                    float jitter, float stepFraction, float stepScale, float3* perLayer)
 {
     thread_local std::vector<Span> spans;
     thread_local std::vector<double> sums;  // [layer][rgb]
-    thread_local std::vector<double> S;     // one step's inScatter, [layer][rgb]
+    thread_local std::vector<float> S;      // one step's S, [layer][rgb]
     const int layers = grid.layers();
     sums.assign(size_t(3 * layers), 0.0);
-    S.resize(size_t(3 * layers));
+    S.resize(size_t(grid.floatsPerCell()));
     thread_local std::vector<float> weights;
     thread_local std::vector<BrickGrid::Stencil> stencils;
     volumes.spansAt(seconds, o, d, 0.0f, std::min(tFar, 1e30f), stepFraction, spans);
@@ -110,9 +85,6 @@ float3 marchOrders3(const VolumeSet& volumes, const std::vector<NbPhase>& phases
     weights.assign(nv, 0.0f);
     stencils.resize(nv);
     double T[3] = {1, 1, 1};
-    auto* S3 = reinterpret_cast<double(*)[3]>(S.data());
-    double yWo[RadianceGrid::kCoeffs];  // the harmonics toward the camera, one direction per ray
-    shEvaluate(RadianceGrid::kOrder, wo, yWo);
     for (const Span& sp : spans) {
         const float len = sp.t1 - sp.t0;
         if (!(len > 0.0f))
@@ -134,24 +106,10 @@ float3 marchOrders3(const VolumeSet& volumes, const std::vector<NbPhase>& phases
                 decay[c] = std::exp(-y);
                 integral[c] = y > 1e-6 ? -std::expm1(-y) / st[c] : double(dt) * (1.0 - 0.5 * y);  // int_0^dt e^{-st u} du
             }
-            if (ss[0] + ss[1] + ss[2] > 0.0) {
-                double p[RadianceGrid::kOrder + 1] = {}, wsum = 0.0;
-                for (size_t v = 0; v < nv; ++v)
-                    if (weights[v] > 0.0f) {
-                        nbPhaseAddMoments(phases[v], double(weights[v]), RadianceGrid::kOrder, p);
-                        wsum += double(weights[v]);
-                    }
-                if (wsum > 0.0) {
-                    for (double& pj : p)
-                        pj /= wsum;
-                    // Not clamped here: the cache's noise makes the truncated sum dip below zero
-                    // where the radiance is small, and clamping each step would bias the ray up.
-                    if (grid.inScatterY(lp, yWo, p, S3))
-                        for (int layer = 0; layer < layers; ++layer)
-                            for (int c = 0; c < 3; ++c)
-                                sums[size_t(3 * layer + c)] += T[c] * ss[c] * S3[layer][c] * integral[c];
-                }
-            }
+            if (ss[0] + ss[1] + ss[2] > 0.0 && grid.fetch(lp, S.data()))
+                for (int layer = 0; layer < layers; ++layer)
+                    for (int c = 0; c < 3; ++c)
+                        sums[size_t(3 * layer + c)] += T[c] * ss[c] * double(S[size_t(3 * layer + c)]) * integral[c];
             for (int c = 0; c < 3; ++c)
                 T[c] *= decay[c];
             if (std::max(T[0], std::max(T[1], T[2])) < 1e-4)
@@ -160,12 +118,10 @@ float3 marchOrders3(const VolumeSet& volumes, const std::vector<NbPhase>& phases
         if (std::max(T[0], std::max(T[1], T[2])) < 1e-4)
             break;
     }
-    // Radiance cannot be negative: each layer's sum along the ray is clamped (a truncated sum can
-    // ring below zero), and the total is the clamped layers' sum (so the per-light AOVs add up to it).
     float3 total = make_float3(0, 0, 0);
     for (int layer = 0; layer < layers; ++layer) {
         const double* q = sums.data() + 3 * layer;
-        const float3 v = make_float3(float(std::max(0.0, q[0])), float(std::max(0.0, q[1])), float(std::max(0.0, q[2])));
+        const float3 v = make_float3(float(q[0]), float(q[1]), float(q[2]));
         if (perLayer)
             perLayer[layer] = v;
         total += v;

@@ -1,34 +1,38 @@
 // RadianceGrid.h: a traced radiance cache for WKB's orders 3 and up (render.wkb_orders3 = "traced";
 // docs/wkb.md "Orders 3 and up, traced").
 //
-// A regular world-space grid over the volumes' box. Each cell holds, per RGB channel, the projection
-// onto the real orthonormal spherical harmonics y_jm (SphericalHarmonics.h), j <= kOrder (5), of the radiance
-// that has scattered at least twice, averaged over the cell's volume:
+// A regular world-space grid over the volumes' box. Each cell holds, per RGB channel, the radiance
+// that has scattered at least twice, scattered once more toward the viewer (the camera's eye at the
+// shutter's centre, e) and averaged over the cell's volume:
 //
-//     L_jm(cell) = (1 / V_cell) int_cell dx int dw L(x, w) y_jm(w)        (w: the light's travel direction)
+//     S(cell) = (1 / V_cell) int_cell dx int dw p(x; w . wo(x)) L(x, w),    wo(x) = (e - x) / |e - x|
 //
-// Units: L is W / (m^2 sr); dw in sr and y_jm dimensionless per sr^(1/2) * sr^(1/2) (orthonormal on the
-// sphere), so L_jm is W / m^2 (an angular moment of radiance, L_00 = fluence / sqrt(4 pi)).
+// (w: the light's travel direction; p the phase function at x, normalised to 1 over the sphere,
+// the sigma_s-weighted mixture where volumes overlap.) Units: L is W / (m^2 sr) and p 1/sr, so S
+// is W / (m^2 sr): the in-scattered radiance per unit sigma_s. A camera sees each point along one
+// direction only, so the cache holds that direction's in-scattering exactly instead of L's angular
+// moments: no truncation of the phase function (spherical harmonics to order 5 left a sunlit
+// cumulus at HG g 0.9 +6% bright in orders 3+, order 9 +0.4%: docs/validation.md "The cache
+// projected toward the camera"), 3 floats per cell and layer instead of 108.
 //
 // The estimator (filled by vrl::traceOrders3, a layer above): light paths as the VRL light pass traces
 // them (VrlLightPass.h). A segment leaving a path's k-th scattering vertex with flux Phi (W) along w,
-// k >= 2, contributes to int_cell dx L(x, w') y(w') dw' the expected track length it spends in the
-// cell, int_{cell} T(origin, t) dt (m), times Phi y_jm(w): the track-length estimator of fluence
-// (Phi * length / V is W / m^2) with the free flight's length replaced by its expectation given the
-// segment (the transmittance, integrated exactly over piecewise-constant extinction). Dividing by
-// V_cell gives L_jm in W / m^2.
+// k >= 2, contributes to int_cell dx int dw p L the expected track length it spends in the cell,
+// int_{cell} T(origin, t) p(w . wo(x(t))) dt (m / sr), times Phi: the track-length estimator of
+// fluence (Phi * length / V is W / m^2) with the free flight's length replaced by its expectation
+// given the segment (the transmittance, integrated exactly over piecewise-constant extinction), each
+// step weighted by its phase value toward the viewer. Dividing by V_cell gives S.
 //
-// In-scattering from it at a camera point x toward the camera (direction wo = -d, the direction the
-// scattered light travels), with p the phase function normalised to 1 over the sphere and
-// p(w . wo) its value for light travelling along w scattered into wo:
+// In-scattering from it at a camera point x (sigma_s(x) > 0) toward the camera:
 //
-//     L_s(x, wo) = sigma_s(x) int dw p(w . wo) L(x, w)
-//                = sigma_s(x) sum_jm p_j L_jm(x) y_jm(wo)        (Funk-Hecke; p_j = 2 pi int p P_j, g^j for HG)
+//     L_s(x, wo) = sigma_s(x) S(x)                      (S trilinear between cell centres)
 //
-// so forward scattering (p_1 > 0) favours radiance travelling toward the camera, y evaluated at wo
-// (tests/compare/test_wkb_orders3.cpp fails with wo flipped to d).
+// The viewer is a point, so within a cell wo varies by the cell's angular size seen from it
+// (under a degree for a cloud a few metres away at the default 48 cells); where the camera is
+// inside the cache's box the cells next to it see wo turn across them, and the read there averages
+// the directions.
 //
-// Layers. A cell holds `layers` such sets, side by side ([layer][jm][rgb]): each light's own paths
+// Layers. A cell holds `layers` such sets, side by side ([layer][rgb]): each light's own paths
 // where per-light AOVs are written (a light's layer holds its paths' deposits only; the light pass
 // already picks lights by power and divides by that probability, so each layer is an unbiased
 // estimate of its light's part and the layers sum to the one-layer cache), else one layer summing
@@ -36,7 +40,6 @@
 // lights whose AOVs are not written, summed; or all lights).
 #pragma once
 
-#include "../../kernels/shared/phase.h"
 #include "../render/VolumeSet.h"
 
 #include <algorithm>
@@ -48,13 +51,7 @@ namespace nimbus::wkb {
 
 class RadianceGrid {
 public:
-    // SH order j <= 5: at HG g 0.9 (p_j = 0.9^j) order 3 left a sunlit cumulus's orders 3+ 13% low
-    // seen from the side; order 5 takes the calibration suite's L2plus energy errors from -3.9% to
-    // +1.0% (cumulus_lit) and -4.3% to -0.5% (haze_box_against) at 1.25x the light pass's time
-    // (docs/validation.md "Cache paths from the image, SH order 5").
-    static constexpr int kOrder = 5;
-    static constexpr int kCoeffs = 36;          // (kOrder + 1)^2
-    static constexpr int kFloats = 3 * kCoeffs;  // per cell and layer: [jm][rgb]
+    static constexpr int kFloats = 3;  // per cell and layer: rgb
 
     // A grid over `box` with cubic cells no smaller than `minCell` (metres) and at most `maxCells`
     // cells along the box's longest side, with `layers` layers (at least 1).
@@ -63,7 +60,7 @@ public:
     static size_t cellCountFor(const Bbox& box, float minCell, int maxCells);
 
     int layers() const { return mLayers; }
-    int floatsPerCell() const { return mLayers * kFloats; }  // [layer][jm][rgb]
+    int floatsPerCell() const { return mLayers * kFloats; }  // [layer][rgb]
     // The light index (RenderContext::lights) of each layer, -1 for a layer of several lights.
     void setLayerLights(std::vector<int> lights) { mLayerLight = std::move(lights); }
     int layerLight(int layer) const
@@ -85,16 +82,10 @@ public:
     template <class F>
     void walk(float3 o, float3 d, float t0, float t1, F&& f) const;
 
-    // The kCoeffs L_jm per channel and layer at world point x, trilinear between cell centres
-    // (clamped at the box's edge cells), into out[floatsPerCell()] ([layer][jm][rgb]); false (and
-    // nothing written) outside the box.
+    // S per channel and layer at world point x (W / (m^2 sr)), trilinear between cell centres
+    // (clamped at the box's edge cells), into out[floatsPerCell()] ([layer][rgb]); false (and
+    // nothing written) outside the box. Multiply by sigma_s for L_s.
     bool fetch(float3 x, float* out) const;
-
-    // sum_jm p_j L_jm(x) y_jm(wo) per channel (W / (m^2 sr)) of each layer into out[layers()]: the
-    // phase-weighted radiance arriving at x, scattered into wo; y[jm] = y_jm(wo) (shEvaluate, kCoeffs
-    // of them: one direction per camera ray), p the phase moments p_0..p_kOrder. Multiply by sigma_s
-    // for L_s. False (out untouched) outside the box.
-    bool inScatterY(float3 x, const double* y, const double* p, double (*out)[3]) const;
 
 private:
     // The cell size and counts of init's grid; false for an empty box.
@@ -109,23 +100,20 @@ private:
 
 // Orders 3 and up along the camera ray o + t d (d unit), t in [0, tFar), from `grid`:
 //
-//     L = int dt T(0, t) sigma_s(t) sum_jm p_j(t) L_jm(x(t)) y_jm(wo)
+//     L = int dt T(0, t) sigma_s(t) S(x(t))
 //
 // marched over the volumes' spans in steps of stepScale times each span's step (jittered by
-// `jitter` in [0, 1)), the coefficients constant over a step and T's decay integrated exactly
-// within it, per channel. p_j(t): the sigma_s-weighted mixture of the volumes' phase moments
-// (two-lobe phases included, nbPhaseAddMoments). wo is the direction toward the camera, -d; tests
-// pass others to show that only -d matches the path tracer. The grid is read where the frame's
-// light is (VolumeSet::sampleAt's lightPoint). Stops where T < 1e-4 in every channel; each layer's
-// sum is clamped at 0 per channel. Returns the layers' sum; perLayer (grid.layers() entries, or
-// null) gets each layer's own.
+// `jitter` in [0, 1)), S constant over a step and T's decay integrated exactly within it, per
+// channel. The ray must start at the viewer the grid was projected toward (a camera ray). The grid
+// is read where the frame's light is (VolumeSet::sampleAt's lightPoint). Stops where T < 1e-4 in
+// every channel. Returns the layers' sum; perLayer (grid.layers() entries, or null) gets each
+// layer's own.
 // The step of the renders' read of the cache (marchOrders3's stepScale), in L1 steps: the camera
 // march's (WkbIntegrator) and the pilot rays' that measure the cache's noise (vrl::traceOrders3).
 constexpr float kOrders3StepScale = 2.0f;
 
-float3 marchOrders3(const VolumeSet& volumes, const std::vector<NbPhase>& phases, const RadianceGrid& grid, float3 o,
-                    float3 d, float3 wo, float tFar, float seconds, float jitter, float stepFraction,
-                    float stepScale, float3* perLayer = nullptr);
+float3 marchOrders3(const VolumeSet& volumes, const RadianceGrid& grid, float3 o, float3 d, float tFar, float seconds,
+                    float jitter, float stepFraction, float stepScale, float3* perLayer = nullptr);
 
 template <class F>
 void RadianceGrid::walk(float3 o, float3 d, float t0, float t1, F&& f) const

@@ -418,11 +418,11 @@ void WkbIntegrator::march(float3 o, float3 d, NbRng& rng, CameraSample& out, flo
     if (mOrder2)
         mOrder2->add(o, d, rng, out, perLight, tFar, seconds);
     if (mOrders3) {
-        // The lights' orders 3+ from the traced radiance cache, read toward the camera (-d).
+        // The lights' orders 3+ from the traced radiance cache, projected toward the camera.
         // Each layer of the cache is one light's (its AOV gets it) or several lights' (L2plus only).
         thread_local std::vector<float3> layers;
         layers.resize(size_t(mOrders3->layers()));
-        const float3 L3 = marchOrders3(mCtx->volumes, mPhase, *mOrders3, o, d, -d, tFar, seconds, nbRngNext(&rng),
+        const float3 L3 = marchOrders3(mCtx->volumes, *mOrders3, o, d, tFar, seconds, nbRngNext(&rng),
                                        mCtx->scene->render.step, kOrders3StepScale, layers.data());
         out.L2plus += L3;
         for (int k = 0; k < mOrders3->layers(); ++k) {
