@@ -242,13 +242,18 @@ PilotRays pilotRays(const RenderContext& ctx)
 // independent half estimates a and b of the cache (each from half the paths, scaled by 2): their
 // mean's variance at a pixel is ((A - B) / 2)^2 in expectation, A and B what the pilot ray reads
 // from each, v the pixel's L0 + L1 + (A + B) / 2. Order 2 is left out of v: the estimate errs
-// high.
-double cacheNoise(const RenderContext& ctx, const PilotRays& pilots, const wkb::RadianceGrid& a,
-                  const wkb::RadianceGrid& b)
+// high. Its standard error from the spread of the pilots' own terms (each the mean of its three
+// channels': the channels of a pixel are not independent).
+struct NoiseEstimate {
+    double mean = 0.0, stdErr = 0.0;
+};
+
+NoiseEstimate cacheNoise(const RenderContext& ctx, const PilotRays& pilots, const wkb::RadianceGrid& a,
+                         const wkb::RadianceGrid& b)
 {
     const size_t n = pilots.o.size();
     if (n == 0)
-        return 0.0;
+        return {};
     const float step = ctx.scene ? ctx.scene->render.step : 0.5f;
     std::vector<double> e2(3 * n, 0.0), v(3 * n, 0.0);
     tbb::parallel_for(size_t(0), n, [&](size_t r) {
@@ -271,10 +276,18 @@ double cacheNoise(const RenderContext& ctx, const PilotRays& pilots, const wkb::
         mean += x;
     mean /= double(v.size());
     const double eps = std::max((0.1 * mean) * (0.1 * mean), 1e-20);
-    double sum = 0.0;
-    for (size_t i = 0; i < v.size(); ++i)
-        sum += e2[i] / (v[i] * v[i] + eps);
-    return sum / double(v.size());
+    NoiseEstimate out;
+    std::vector<double> term(n, 0.0);
+    for (size_t r = 0; r < n; ++r) {
+        for (size_t c = 0; c < 3; ++c)
+            term[r] += e2[3 * r + c] / (v[3 * r + c] * v[3 * r + c] + eps) / 3.0;
+        out.mean += term[r] / double(n);
+    }
+    double ss = 0.0;
+    for (double t : term)
+        ss += (t - out.mean) * (t - out.mean);
+    out.stdErr = n > 1 ? std::sqrt(ss / double(n - 1) / double(n)) : 0.0;
+    return out;
 }
 
 }  // namespace
@@ -425,7 +438,7 @@ std::shared_ptr<const wkb::RadianceGrid> traceOrders3(const RenderContext& ctx, 
         wkb::RadianceGrid half = *grid;  // the shape; the data is overwritten
         std::vector<float> scratch;
         long long target = std::min(cap, kFirstRoundPaths);
-        double noise = -1.0;
+        NoiseEstimate noise{-1.0, 0.0};
         long long noisePaths = 0;  // the paths at which `noise` was measured
         for (int round = 0;; ++round) {
             for (; batches * kBatch < target; ++batches)
@@ -444,7 +457,7 @@ std::shared_ptr<const wkb::RadianceGrid> traceOrders3(const RenderContext& ctx, 
                 return want <= double(traced) * kRoundMargin ? traced
                                                                : std::min<long long>(cap, (long long)std::ceil(want));
             };
-            double sharp = -1.0;
+            NoiseEstimate sharp{-1.0, 0.0};
             if (round == 0 || !blurred)
                 sharp = cacheNoise(ctx, pilots, *grid, half);
             if (round == 0 || blurred) {
@@ -459,11 +472,12 @@ std::shared_ptr<const wkb::RadianceGrid> traceOrders3(const RenderContext& ctx, 
                 // cache's noise is heavy-tailed (a few bright paths), and a count extrapolated from
                 // it falls short (at 256x256 a sunlit cumulus's, 0.048 at 65536 paths, was 0.048
                 // again at 1.6 M).
-                blurred = sharp * double(traced) / kCacheNoiseTarget > double(cap) || pathsFor(sharp) > pathsFor(noise);
+                blurred = sharp.mean * double(traced) / kCacheNoiseTarget > double(cap) ||
+                          pathsFor(sharp.mean) > pathsFor(noise.mean);
             if (!blurred)
                 noise = sharp;
             noisePaths = traced;
-            target = pathsFor(noise);
+            target = pathsFor(noise.mean);
             if (target <= traced)
                 break;
         }
@@ -471,7 +485,8 @@ std::shared_ptr<const wkb::RadianceGrid> traceOrders3(const RenderContext& ctx, 
             report->paths = batches * kBatch;
             report->adaptive = true;
             report->blurred = blurred;
-            report->noiseMeasured = noise;
+            report->noiseMeasured = noise.mean;
+            report->noiseStdErr = noise.stdErr;
             report->noisePaths = noisePaths;
         }
     }

@@ -66,6 +66,7 @@ struct Orders3Report {
     // Adaptive: the relMSE the cache added to the image as last measured, at noisePaths paths
     // (-1 and 0 where nothing was measured: the first round already reached the cap).
     double noiseMeasured = -1.0;
+    double noiseStdErr = 0.0;  // its standard error, from the spread of the pilot rays' terms
     long long noisePaths = 0;
 };
 
