@@ -77,21 +77,16 @@ public:
         std::vector<openvdb::Index32> leafActive;  // each leaf's active voxels, in file order
         start(topology, blocks ? blocks : end, "topology");
         skip(4, "buffer count");  // checked by readGrid
-        skip(sizeof(ValueT), "background");
+        value<ValueT>("the background");
         const uint32_t tiles = read<uint32_t>("root tile count");
         const uint32_t children = read<uint32_t>("root child count");
         // Each tile: its origin (3 int32), its value, its active flag, which RootNode::readTopology
         // reads straight into a bool: a byte other than 0 or 1 is undefined behaviour there.
         need(uint64_t(tiles) * (12 + sizeof(ValueT) + 1), "root tiles");
         for (uint32_t i = 0; i < tiles; ++i) {
-            skip(12 + sizeof(ValueT), "root tile origin and value");
-            const uint8_t active = read<uint8_t>("root tile active flag");
-            if (active > 1) {
-                mPos -= 1;  // name the flag's own byte
-                char hex[8];
-                std::snprintf(hex, sizeof hex, "0x%02X", unsigned(active));
-                damaged("root tile " + std::to_string(i) + "'s active flag is byte " + hex + ", not 0 or 1");
-            }
+            skip(12, "root tile origin");
+            value<ValueT>("root tile " + std::to_string(i) + "'s value");
+            boolByte("root tile " + std::to_string(i) + "'s active flag");
         }
         for (uint32_t i = 0; i < children; ++i) {
             skip(12, "root child origin");
@@ -163,6 +158,30 @@ private:
         return value;
     }
 
+    // A byte OpenVDB reads straight into a bool (a tile's active flag; every value of a bool or
+    // mask tree): one other than 0 or 1 is undefined behaviour there (UBSan: "not a valid value
+    // for type 'bool'"), so it is refused first.
+    void boolByte(const std::string& what)
+    {
+        const uint8_t b = read<uint8_t>("bool");
+        if (b > 1) {
+            mPos -= 1;  // name the byte itself
+            char hex[8];
+            std::snprintf(hex, sizeof hex, "0x%02X", unsigned(b));
+            damaged(what + " is byte " + hex + ", not 0 or 1");
+        }
+    }
+
+    // One value of the tree's type as OpenVDB reads it: a bool's byte checked, others skipped.
+    template <class ValueT>
+    void value(const std::string& what)
+    {
+        if constexpr (std::is_same_v<ValueT, bool>)
+            boolByte(what);
+        else
+            skip(sizeof(ValueT), "value");
+    }
+
     template <class NodeT>
     void node(std::vector<openvdb::Index32>& leafActive)
     {
@@ -192,7 +211,8 @@ private:
         const int8_t metadata = read<int8_t>("compression metadata");
         if (metadata == io::NO_MASK_AND_ONE_INACTIVE_VAL || metadata == io::MASK_AND_ONE_INACTIVE_VAL ||
             metadata == io::MASK_AND_TWO_INACTIVE_VALS)
-            skip(sizeof(ValueT) * (metadata == io::MASK_AND_TWO_INACTIVE_VALS ? 2 : 1), "inactive values");
+            for (int k = 0; k < (metadata == io::MASK_AND_TWO_INACTIVE_VALS ? 2 : 1); ++k)
+                value<ValueT>("an inactive value");
         if (metadata == io::MASK_AND_NO_INACTIVE_VALS || metadata == io::MASK_AND_ONE_INACTIVE_VAL ||
             metadata == io::MASK_AND_TWO_INACTIVE_VALS)
             skip(maskBytes, "selection mask");
@@ -205,15 +225,23 @@ private:
                 return;
             }
         }
-        block(uint64_t(n) * sizeof(ValueT));
+        block(uint64_t(n) * sizeof(ValueT), std::is_same_v<ValueT, bool>);
     }
 
-    // io::readData: `size` bytes, stored as the grid's compression says.
-    void block(uint64_t size)
+    // io::readData: `size` bytes, stored as the grid's compression says. bools: the values are
+    // bools, each byte checked where it is stored uncompressed (a compressed block's bytes are
+    // OpenVDB's to unpack: not checked).
+    void block(uint64_t size, bool bools = false)
     {
         namespace io = openvdb::io;
         if (!(mCompression & (io::COMPRESS_BLOSC | io::COMPRESS_ZIP))) {
-            skip(size, "values");
+            if (!bools) {
+                skip(size, "values");
+                return;
+            }
+            need(size, "values");
+            for (uint64_t k = 0; k < size; ++k)
+                boolByte("a node value");
             return;
         }
         const bool blosc = mCompression & io::COMPRESS_BLOSC;

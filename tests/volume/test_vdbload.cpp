@@ -602,6 +602,52 @@ TEST(VdbFileReader, RootTileActiveFlagOtherThan0Or1IsRefused)
     }
 }
 
+// The same for the other bytes OpenVDB reads straight into a bool: a bool tree's background and
+// its tiles' values (and, stored uncompressed, its internal nodes' values). Each damaged in turn
+// in an uncompressed BoolGrid file is refused with the byte named; the intact file reads.
+TEST(VdbFileReader, BoolTreeValuesOtherThan0Or1AreRefused)
+{
+    openvdb::initialize();
+    ScratchDir dir;
+    openvdb::BoolGrid::Ptr grid = openvdb::BoolGrid::create(false);
+    grid->setName("density");
+    grid->tree().addTile(3, Coord(-4096, 0, 0), true, true);
+    grid->tree().addTile(3, Coord(4096, 0, 0), true, false);
+    const std::string good = dir / "good.vdb";
+    {
+        openvdb::io::File file(good);
+        file.setCompression(openvdb::io::COMPRESS_NONE);
+        file.write({grid});
+    }
+    EXPECT_EQ(readError(good, "density"), "");
+    const std::string data = readBytes(good);
+    // The root's header: buffer count 1, the background (false), 2 tiles, 0 children.
+    const char header[13] = {1, 0, 0, 0, 0, 2, 0, 0, 0, 0, 0, 0, 0};
+    const size_t background = data.find(std::string(header, sizeof header));
+    ASSERT_NE(background, std::string::npos);
+    // The second tile (in file order, by origin): origin, value (true), active flag (false).
+    const int32_t origin[3] = {4096, 0, 0};
+    const size_t tile = data.find(std::string(reinterpret_cast<const char*>(origin), sizeof origin));
+    ASSERT_NE(tile, std::string::npos);
+    ASSERT_EQ(data.at(tile + sizeof origin), '\1');
+    ASSERT_EQ(data.at(tile + sizeof origin + 1), '\0');
+    const struct {
+        size_t at;
+        const char* named;
+    } damages[] = {{background + 4, "the background is byte 0x30"},
+                   {tile + sizeof origin, "root tile 1's value is byte 0x30"},
+                   {tile + sizeof origin + 1, "root tile 1's active flag is byte 0x30"}};
+    for (const auto& d : damages) {
+        std::string bad = data;
+        bad[d.at] = '0';  // 0x30
+        const std::string path = dir / "bad.vdb";
+        writeText(path, bad);
+        const std::string message = readError(path, "density");
+        EXPECT_NE(message.find(std::string(d.named) + ", not 0 or 1"), std::string::npos) << message;
+        EXPECT_NE(message.find("(damaged)"), std::string::npos) << message;
+    }
+}
+
 // Issue 18, item 5: OpenVDB reads a metadata value by its type, not by the size word before it
 // (a fixed-size type reads its own size; the delayed-load table walks counts of its own and
 // allocates them first). A fuzzed file whose 'file_bbox_max' said type 'int32' with 12 bytes
