@@ -1,10 +1,10 @@
 // bench_vrl: virtual ray lights against the path tracer at equal time (issue 15).
 //
-//   bench_vrl equal-time [docs/benchmarks.md] [--quick]
+//   bench_vrl equal-time [docs/benchmarks.md] [--quick] [--seeds N]
 //       Thin-to-medium media lit by point and spot lights, and a thick cloud under a sun (where
 //       the path tracer is expected to win): beauty and L2plus relMSE (nimbus compare's metric,
 //       src/compare/ErrorMetrics.cpp) against a long path-traced reference, for `pathtrace` and
-//       `vrl` at the same time limit, seed-averaged; then vrl_paths in {1, 4, 16, 64} on two of
+//       `vrl` at the same time limit, averaged over N seeds (default 2); then vrl_paths in {1, 4, 16, 64} on two of
 //       the scenes (the default's justification). Into <!-- bench:vrl --> of docs/benchmarks.md.
 //   bench_vrl oppitz [docs/validation.md] [--quick]
 //       Oppitz 2018 ch. 9 in kind: a point light in a large homogeneous medium, g in
@@ -36,6 +36,7 @@ using namespace nimbus;
 namespace {
 
 bool gQuick = false;
+int gSeeds = 0;  // --seeds N: seeds per render in equal-time (0: 2, or 1 with --quick)
 
 Scene baseScene(float3 from, float3 to, int size)
 {
@@ -206,7 +207,7 @@ std::string fmt(const char* f, double v)
 int equalTime(const std::string& out)
 {
     const double refSeconds = gQuick ? 6 : 40, budget = gQuick ? 1 : 4;
-    const int seeds = gQuick ? 1 : 2;
+    const int seeds = gSeeds > 0 ? gSeeds : gQuick ? 1 : 2;
     std::ostringstream md;
     md << "Equal time " << budget << " s (each render's time_limit), mean of " << seeds
        << " seeds, 48 x 48 pixels; reference: the path tracer for " << refSeconds
@@ -360,6 +361,8 @@ int main(int argc, char** argv)
         const std::string a = argv[i];
         if (a == "--quick")
             gQuick = true;
+        else if (a == "--seeds" && i + 1 < argc)
+            gSeeds = std::max(1, std::atoi(argv[++i]));
         else if (mode.empty())
             mode = a;
         else
@@ -370,6 +373,6 @@ int main(int argc, char** argv)
         return equalTime(out);
     if (mode == "oppitz")
         return oppitz(out);
-    std::fprintf(stderr, "usage: bench_vrl equal-time|oppitz [DOC.md] [--quick]\n");
+    std::fprintf(stderr, "usage: bench_vrl equal-time|oppitz [DOC.md] [--quick] [--seeds N]\n");
     return 2;
 }
