@@ -559,6 +559,26 @@ TEST(VdbFileReader, DamagedCompressedBlocksAreRefusedBeforeOpenVdbReadsThem)
     }
 }
 
+// A grid 'density' of background `background` with two root tiles, an active one of value `a` at
+// x = -4096 and an inactive one of value `b` at x = 4096, written uncompressed to `path`; checks
+// that it reads, and returns the file's bytes.
+template <class GridT>
+std::string twoRootTilesUncompressed(const std::string& path, typename GridT::ValueType background,
+                                     typename GridT::ValueType a, typename GridT::ValueType b)
+{
+    typename GridT::Ptr grid = GridT::create(background);
+    grid->setName("density");
+    grid->tree().addTile(3, Coord(-4096, 0, 0), a, true);
+    grid->tree().addTile(3, Coord(4096, 0, 0), b, false);
+    {
+        openvdb::io::File file(path);
+        file.setCompression(openvdb::io::COMPRESS_NONE);
+        file.write({grid});
+    }
+    EXPECT_EQ(readError(path, "density"), "");
+    return readBytes(path);
+}
+
 // Fuzz bug 5 (docs/robustness.md): RootNode::readTopology reads a root tile's active flag
 // straight into a bool, so a byte other than 0 or 1 is undefined behaviour in OpenVDB (UBSan:
 // "not a valid value for type 'bool'"). VdbFileReader's topology walk refuses it first.
@@ -566,18 +586,8 @@ TEST(VdbFileReader, RootTileActiveFlagOtherThan0Or1IsRefused)
 {
     openvdb::initialize();
     ScratchDir dir;
-    openvdb::Int32Grid::Ptr grid = openvdb::Int32Grid::create(0);
-    grid->setName("density");
-    grid->tree().addTile(3, Coord(-4096, 0, 0), 77, true);
-    grid->tree().addTile(3, Coord(4096, 0, 0), 78, false);
     const std::string good = dir / "good.vdb";
-    {
-        openvdb::io::File file(good);
-        file.setCompression(openvdb::io::COMPRESS_NONE);
-        file.write({grid});
-    }
-    EXPECT_EQ(readError(good, "density"), "");
-    const std::string data = readBytes(good);
+    const std::string data = twoRootTilesUncompressed<openvdb::Int32Grid>(good, 0, 77, 78);
     // The second tile (in file order, by origin): origin, value, active flag.
     const int32_t tile[4] = {4096, 0, 0, 78};
     const size_t at = data.find(std::string(reinterpret_cast<const char*>(tile), sizeof tile));
@@ -609,18 +619,8 @@ TEST(VdbFileReader, BoolTreeValuesOtherThan0Or1AreRefused)
 {
     openvdb::initialize();
     ScratchDir dir;
-    openvdb::BoolGrid::Ptr grid = openvdb::BoolGrid::create(false);
-    grid->setName("density");
-    grid->tree().addTile(3, Coord(-4096, 0, 0), true, true);
-    grid->tree().addTile(3, Coord(4096, 0, 0), true, false);
     const std::string good = dir / "good.vdb";
-    {
-        openvdb::io::File file(good);
-        file.setCompression(openvdb::io::COMPRESS_NONE);
-        file.write({grid});
-    }
-    EXPECT_EQ(readError(good, "density"), "");
-    const std::string data = readBytes(good);
+    const std::string data = twoRootTilesUncompressed<openvdb::BoolGrid>(good, false, true, true);
     // The root's header: buffer count 1, the background (false), 2 tiles, 0 children.
     const char header[13] = {1, 0, 0, 0, 0, 2, 0, 0, 0, 0, 0, 0, 0};
     const size_t background = data.find(std::string(header, sizeof header));
