@@ -4,6 +4,7 @@
 #include "../scene/KernelScene.h"
 #include "../single/ScatterPoints.h"
 #include "../single/SingleScatter.h"
+#include "CameraLattice.h"
 #include "SkinCells.h"
 #include "ViewFocus.h"
 #include "VrlLightPass.h"
@@ -182,11 +183,7 @@ float3 viewerOf(const RenderContext& ctx, const Orders3Options& options)
 {
     if (options.hasViewer || !ctx.scene)
         return options.viewer;
-    const Camera& cam = ctx.scene->camera;
-    const int W = std::max(1, cam.width), H = std::max(1, cam.height);
-    float3 o, d;
-    nbCameraRay(makeNbCamera(cam), 0.5f * float(W), 0.5f * float(H), W, H, 0.5f, &o, &d);
-    return o;
+    return CameraLattice(ctx.scene->camera, 1).eye();
 }
 
 // The image's camera samples: pixels x spp (the scene's, or the march's default).
@@ -210,15 +207,11 @@ PilotRays pilotRays(const RenderContext& ctx)
     if (!ctx.scene)
         return p;
     const Camera& cam = ctx.scene->camera;
-    const NbCamera nc = makeNbCamera(cam);
-    const int W = std::max(1, cam.width), H = std::max(1, cam.height);
-    const double scale = double(std::min(kPilotSide, std::max(W, H))) / double(std::max(W, H));
-    const int nx = std::max(1, int(std::lround(double(W) * scale))), ny = std::max(1, int(std::lround(double(H) * scale)));
-    for (int py = 0; py < ny; ++py)
-        for (int px = 0; px < nx; ++px) {
+    const CameraLattice lattice(cam, std::min(kPilotSide, std::max(std::max(1, cam.width), std::max(1, cam.height))));
+    for (int py = 0; py < lattice.ny; ++py)
+        for (int px = 0; px < lattice.nx; ++px) {
             float3 o, d;
-            nbCameraRay(nc, (float(px) + 0.5f) * float(W) / float(nx), (float(py) + 0.5f) * float(H) / float(ny), W, H,
-                        0.5f, &o, &d);
+            lattice.ray(px, py, o, d);
             p.o.push_back(o);
             p.d.push_back(d);
         }

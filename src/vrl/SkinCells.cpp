@@ -1,7 +1,9 @@
 #include "SkinCells.h"
 
 #include "../core/StepCount.h"
+#include "CameraLattice.h"
 #include "PhaseMixture.h"
+#include "../single/ScatterPoints.h"
 #include "../scene/KernelScene.h"
 
 #include <algorithm>
@@ -122,14 +124,15 @@ SkinCells findSkinCells(const RenderContext& ctx, const wkb::RadianceGrid& grid)
             return skin;
     }
     const Camera& cam = ctx.scene->camera;
-    const NbCamera nc = makeNbCamera(cam);
-    const int W = std::max(1, cam.width), H = std::max(1, cam.height);
-    const float shutter = 0.5f;
+    const CameraLattice view(cam, 1);  // for its camera; the rays' lattice is sized below
+    const NbCamera& nc = view.nc;
+    const int W = view.W, H = view.H;
+    const float shutter = CameraLattice::kShutter;
     {
         float3 f, dr, du;
-        nbCameraRay(nc, 0.5f * float(W), 0.5f * float(H), W, H, shutter, &skin.camera, &f);
-        nbCameraRay(nc, float(W), 0.5f * float(H), W, H, shutter, &skin.camera, &dr);
-        nbCameraRay(nc, 0.5f * float(W), 0.0f, W, H, shutter, &skin.camera, &du);
+        view.rayAt(0.5f * float(W), 0.5f * float(H), skin.camera, f);
+        view.rayAt(float(W), 0.5f * float(H), skin.camera, dr);
+        view.rayAt(0.5f * float(W), 0.0f, skin.camera, du);
         // d / (d . f) - f reaches the image's edge at the edge's ray: scaled by its squared length,
         // dot(v, right) / dot(v, f) is 1 there.
         const float3 er = dr * (1.0f / dot(dr, f)) - f, eu = du * (1.0f / dot(du, f)) - f;
@@ -148,8 +151,8 @@ SkinCells findSkinCells(const RenderContext& ctx, const wkb::RadianceGrid& grid)
         const double width = 2.0 * near * tanHalf * std::max(aspect, 1.0);
         rays = int(std::clamp(std::ceil(2.0 * width / double(grid.cellSize())), double(kMinRays), double(kMaxRays)));
     }
-    const double scale = double(rays) / double(std::max(W, H));
-    const int nx = std::max(1, int(std::lround(double(W) * scale))), ny = std::max(1, int(std::lround(double(H) * scale)));
+    const CameraLattice lattice(cam, rays);
+    const int nx = lattice.nx, ny = lattice.ny;
     // Each ray's share of the image plane at distance 1 (2 tan(fov/2) aspect by 2 tan(fov/2)).
     const double planeArea = (2.0 * tanHalf * aspect) * (2.0 * tanHalf) / (double(nx) * double(ny));
     const float3 axis = nbCameraViewAxis(nc, shutter);
@@ -166,17 +169,14 @@ SkinCells findSkinCells(const RenderContext& ctx, const wkb::RadianceGrid& grid)
             return -1;
         return long((size_t(k) * size_t(grid.size(1)) + size_t(j)) * size_t(grid.size(0)) + size_t(i));
     };
-    std::vector<NbPhase> phases;
-    for (const auto& v : ctx.volumes.volumes())
-        phases.push_back(v->medium.phase);
+    const std::vector<NbPhase> phases = PhaseMix::phasesOf(ctx);
     std::vector<float> pw(phases.size(), 0.0f);
     std::vector<Span> spans;
     for (int py = 0; py < ny; ++py) {
         throwIfStopped(&ctx.stop);
         for (int px = 0; px < nx; ++px) {
             float3 o, d;
-            nbCameraRay(nc, (float(px) + 0.5f) * float(W) / float(nx), (float(py) + 0.5f) * float(H) / float(ny), W,
-                        H, shutter, &o, &d);
+            lattice.ray(px, py, o, d);
             // The ray's solid angle: its share of the plane times cos^3 of its angle to the axis.
             const double cosA = std::fabs(double(dot(d, axis)));
             const double dOmega = planeArea * cosA * cosA * cosA;

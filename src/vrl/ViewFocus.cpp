@@ -1,7 +1,9 @@
 #include "ViewFocus.h"
 
 #include "../core/StepCount.h"
+#include "CameraLattice.h"
 #include "PhaseMixture.h"
+#include "../single/ScatterPoints.h"
 #include "../scene/KernelScene.h"
 
 #include <algorithm>
@@ -15,26 +17,17 @@ EmissionFocus findViewFocus(const RenderContext& ctx, float cellSize, float boun
     EmissionFocus focus;
     if (!ctx.scene || ctx.volumes.empty() || !(boundsRadius > 0.0f))
         return focus;
-    const Camera& cam = ctx.scene->camera;
-    const NbCamera nc = makeNbCamera(cam);
-    const int W = std::max(1, cam.width), H = std::max(1, cam.height);
-    const float shutter = 0.5f;
-    const double scale = double(kFocusRays) / double(std::max(W, H));
-    const int nx = std::max(1, int(std::lround(double(W) * scale))), ny = std::max(1, int(std::lround(double(H) * scale)));
-
-    std::vector<NbPhase> phases;
-    for (const auto& v : ctx.volumes.volumes())
-        phases.push_back(v->medium.phase);
+    const CameraLattice lattice(ctx.scene->camera, kFocusRays);
+    const std::vector<NbPhase> phases = PhaseMix::phasesOf(ctx);
     std::vector<float> pw(phases.size(), 0.0f);
     std::vector<Span> spans;
     float3 lo = make_float3(INFINITY, INFINITY, INFINITY), hi = -lo;
     double sigmaTMax = 0.0, wSum = 0.0, omegaSum = 0.0, gSum = 0.0;
-    for (int py = 0; py < ny; ++py) {
+    for (int py = 0; py < lattice.ny; ++py) {
         throwIfStopped(&ctx.stop);
-        for (int px = 0; px < nx; ++px) {
+        for (int px = 0; px < lattice.nx; ++px) {
             float3 o, d;
-            nbCameraRay(nc, (float(px) + 0.5f) * float(W) / float(nx), (float(py) + 0.5f) * float(H) / float(ny), W, H,
-                        shutter, &o, &d);
+            lattice.ray(px, py, o, d);
             ctx.volumes.spans(o, d, 0.0f, 1e30f, 1.0f, spans);
             double T = 1.0;  // the grey (channel-mean) transmittance to the camera
             for (size_t si = 0; si < spans.size() && T >= double(kFocusMinTransmittance); ++si) {
