@@ -1,5 +1,6 @@
 #include "Orders3Grid.h"
 
+#include "../../kernels/shared/geometry.h"
 #include "../pathtracer/PathtraceScene.h"
 #include "../scene/KernelScene.h"
 #include "../single/ScatterPoints.h"
@@ -176,6 +177,40 @@ void blur(wkb::RadianceGrid& grid, const SkinCells& skin, std::vector<float>& sc
     }
 }
 
+
+// Where a deposited segment goes. The cache needs, at each scattering vertex x (incoming
+// direction wi, phase function p), the expectation over the outgoing direction w ~ p(wi . w) of
+// the segment's deposit D(w) = int T p(w . wo) dt, wo toward the camera. The light path's own w
+// estimates it with one sample whose weight p(w . wo) spans 190x its mean at g 0.9: the rare
+// segments that head for the camera carry the cache. The deposit draws its own w instead, from
+//
+//     q(w) = (p(wi . w) + p(w . wo(x))) / 2,
+//
+// the phase lobe around wi and the same lobe around the direction to the camera, and weighs it
+// by p(wi . w) / q(w) (<= 2): E_q[p D / q] = int p(wi . w) D(w) dw, unbiased, whatever wo is. The
+// path goes on along its own w (the light pass's), so only the deposits move. False where the
+// segment is not the continuation of a scattering vertex (wi zero: it leaves the light), or w
+// misses the volumes. Shadow casters end the segment as they end the light pass's.
+bool aimDeposit(const PathtraceScene& ps, const VrlMedium& medium, float3 viewer, float3 wi, Vrl& v, NbRng& rng)
+{
+    if (dot(wi, wi) == 0.0f)
+        return true;  // no vertex: the segment as it is
+    const float3 toViewer = viewer - v.origin;
+    const float len = length(toViewer);
+    const float3 wo = len > 0.0f ? toViewer / len : wi;
+    const float u = nbRngNext(&rng), u0 = nbRngNext(&rng), u1 = nbRngNext(&rng), u2 = nbRngNext(&rng);
+    const float3 w = nbPhaseSample(v.phase, u < 0.5f ? wi : wo, u0, u1, u2);
+    const float p = nbPhaseEval(v.phase, dot(wi, w)), q = 0.5f * (p + nbPhaseEval(v.phase, dot(w, wo)));
+    float tEnd = INFINITY;
+    if (ps.shadowCasters)
+        tEnd = nbGeomTrace(ps.geometry.nodes.data(), ps.geometry.prims.data(), ps.geometry.scene, v.origin, w, 0.0f,
+                           NB_INF, NB_GEOM_SHADOWS, 0);
+    if (!(q > 0.0f) || !medium.span(v.origin, w, 0.0f, tEnd, v.t0, v.t1))
+        return false;
+    v.dir = w;
+    v.flux = v.flux * (p / q);
+    return true;
+}
 
 // The point the cache is projected toward: the camera's eye at the shutter's centre (the origin
 // of the camera rays, as marchOrders3 requires), unless the options set one.
@@ -368,6 +403,7 @@ std::shared_ptr<const wkb::RadianceGrid> traceOrders3(const RenderContext& ctx, 
     const int partials = std::max(2, kPartials / grid->layers());
     std::vector<std::vector<float>> partial(size_t(partials), std::vector<float>(floats, 0.0f));
     std::vector<Vrl> kept;
+    std::vector<float3> keptIn;  // per kept segment: the direction of the segment before it
     // Batch b's paths, deposited at their own flux: the grid is divided by the batch count at the end.
     auto traceBatch = [&](long long b, int paths) {
         // A stopped render (RenderControl.h): the paths end early, the deposits stop within a few
@@ -376,9 +412,14 @@ std::shared_ptr<const wkb::RadianceGrid> traceOrders3(const RenderContext& ctx, 
         std::vector<Vrl> all = pass.trace(options.seed, uint32_t(b), paths);
         throwIfStopped(&ctx.stop);
         kept.clear();
-        for (const Vrl& v : all)
-            if (v.order >= options.firstOrder)
-                kept.push_back(v);
+        keptIn.clear();
+        for (size_t i = 0; i < all.size(); ++i)
+            if (all[i].order >= options.firstOrder) {
+                kept.push_back(all[i]);
+                // A path's segments are consecutive, in order (LightPass::trace).
+                const bool vertex = all[i].order >= 1 && i > 0 && all[i - 1].order == all[i].order - 1;
+                keptIn.push_back(vertex ? all[i - 1].dir : make_float3(0, 0, 0));
+            }
         const size_t n = kept.size();
         tbb::parallel_for(0, partials, [&](int p) {
             const size_t lo = n * size_t(p) / size_t(partials), hi = n * size_t(p + 1) / size_t(partials);
@@ -386,7 +427,10 @@ std::shared_ptr<const wkb::RadianceGrid> traceOrders3(const RenderContext& ctx, 
                 if ((i - lo) % kStopPollInterval == kStopPollInterval - 1)
                     throwIfStopped(&ctx.stop);
                 NbRng rng = nbRngStart(options.seed ^ kDepositKey, uint32_t(i), uint32_t(b));
-                deposit(ctx, *grid, skin, phase, kept[i], layerOf[size_t(kept[i].light)], h, rng,
+                Vrl v = kept[i];
+                if (options.aimDeposits && !aimDeposit(ps, medium, phase.viewer, keptIn[i], v, rng))
+                    continue;
+                deposit(ctx, *grid, skin, phase, v, layerOf[size_t(v.light)], h, rng,
                         partial[size_t(p)].data());
             }
         });

@@ -31,6 +31,11 @@ struct Orders3Options {
     // Paths aimed at what the camera sees (ViewFocus.h), where it sees a small part of the medium.
     // Tests turn it off to show that the cache's mean does not move.
     bool focus = true;
+    // Deposits aimed at the camera (Orders3Grid.cpp, aimDeposit): each deposited segment's
+    // direction drawn from the mixture of the vertex's phase function and the same lobe turned
+    // toward the camera, instead of the light path's own. Tests turn it off to show that the
+    // cache's mean does not move.
+    bool aimDeposits = true;
     // Per RenderContext::lights index: nonzero where that light's AOV is written. Where the scene's
     // lights that reach a volume are several and some of their AOVs are written, the cache keeps
     // one layer per such light (and one for the others, if any): RadianceGrid "Layers". Empty or
