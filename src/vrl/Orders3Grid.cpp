@@ -51,8 +51,6 @@ constexpr double kCacheNoiseTarget = 0.002;
 // light paths"), kBalance = sqrt(t0 / (samples a e0)) measured on the calibration suite's
 // cumulus_lit (A 1364, e0 0.0059, t0 / samples 24 us, a 3.6 us per path).
 constexpr double kBalance = 34.0;
-// A round is not taken for fewer than this many times the paths already traced.
-constexpr double kRoundMargin = 1.25;
 // The pilot rays' random stream, keyed apart from the others.
 constexpr uint32_t kPilotKey = 0x70696c6fu;
 
@@ -487,12 +485,14 @@ std::shared_ptr<const wkb::RadianceGrid> traceOrders3(const RenderContext& ctx, 
             finish(partials / 2, partials, batches, 2.0f, half, scratch);
             // The count the noise asks for: enough that the cache's noise is under
             // kCacheNoiseTarget, and the count that makes error x time least where the march's
-            // time grows with the camera's samples; no round for less than kRoundMargin x more.
+            // time grows with the camera's samples; a round whenever that is more than traced (a
+            // margin of 25% that skipped smaller rounds let the first round's estimate, low where
+            // the noise is heavy-tailed, stop a dense core at 0.0100: docs/validation.md
+            // "Deposits aimed at the camera").
             auto pathsFor = [&](double measured) {
                 const double A = measured * double(traced);
                 const double want = std::max(A / kCacheNoiseTarget, kBalance * std::sqrt(A * samples));
-                return want <= double(traced) * kRoundMargin ? traced
-                                                               : std::min<long long>(cap, (long long)std::ceil(want));
+                return want <= double(traced) ? traced : std::min<long long>(cap, (long long)std::ceil(want));
             };
             NoiseEstimate sharp{-1.0, 0.0};
             if (round == 0 || !blurred)
