@@ -186,13 +186,11 @@ void blur(wkb::RadianceGrid& grid, const SkinCells& skin, std::vector<float>& sc
 //
 // the phase lobe around wi and the same lobe around the direction to the camera, and weighs it
 // by p(wi . w) / q(w) (<= 2): E_q[p D / q] = int p(wi . w) D(w) dw, unbiased, whatever wo is. The
-// path goes on along its own w (the light pass's), so only the deposits move. False where the
-// segment is not the continuation of a scattering vertex (wi zero: it leaves the light), or w
+// path goes on along its own w (the light pass's), so only the deposits move. v: a segment that
+// leaves a scattering vertex, wi the direction of the segment that arrived there. False where w
 // misses the volumes. Shadow casters end the segment as they end the light pass's.
 bool aimDeposit(const PathtraceScene& ps, const VrlMedium& medium, float3 viewer, float3 wi, Vrl& v, NbRng& rng)
 {
-    if (dot(wi, wi) == 0.0f)
-        return true;  // no vertex: the segment as it is
     const float3 toViewer = viewer - v.origin;
     const float len = length(toViewer);
     const float3 wo = len > 0.0f ? toViewer / len : wi;
@@ -400,8 +398,7 @@ std::shared_ptr<const wkb::RadianceGrid> traceOrders3(const RenderContext& ctx, 
     // grids (a fixed count for a scene: deterministic).
     const int partials = std::max(2, kPartials / grid->layers());
     std::vector<std::vector<float>> partial(size_t(partials), std::vector<float>(floats, 0.0f));
-    std::vector<Vrl> kept;
-    std::vector<float3> keptIn;  // per kept segment: the direction of the segment before it
+    std::vector<size_t> kept;  // the batch's segments that deposit, as indices into it
     // Batch b's paths, deposited at their own flux: the grid is divided by the batch count at the end.
     auto traceBatch = [&](long long b, int paths) {
         // A stopped render (RenderControl.h): the paths end early, the deposits stop within a few
@@ -410,14 +407,9 @@ std::shared_ptr<const wkb::RadianceGrid> traceOrders3(const RenderContext& ctx, 
         std::vector<Vrl> all = pass.trace(options.seed, uint32_t(b), paths);
         throwIfStopped(&ctx.stop);
         kept.clear();
-        keptIn.clear();
         for (size_t i = 0; i < all.size(); ++i)
-            if (all[i].order >= options.firstOrder) {
-                kept.push_back(all[i]);
-                // A path's segments are consecutive, in order (LightPass::trace).
-                const bool vertex = all[i].order >= 1 && i > 0 && all[i - 1].order == all[i].order - 1;
-                keptIn.push_back(vertex ? all[i - 1].dir : make_float3(0, 0, 0));
-            }
+            if (all[i].order >= options.firstOrder)
+                kept.push_back(i);
         const size_t n = kept.size();
         tbb::parallel_for(0, partials, [&](int p) {
             const size_t lo = n * size_t(p) / size_t(partials), hi = n * size_t(p + 1) / size_t(partials);
@@ -425,8 +417,12 @@ std::shared_ptr<const wkb::RadianceGrid> traceOrders3(const RenderContext& ctx, 
                 if ((i - lo) % kStopPollInterval == kStopPollInterval - 1)
                     throwIfStopped(&ctx.stop);
                 NbRng rng = nbRngStart(options.seed ^ kDepositKey, uint32_t(i), uint32_t(b));
-                Vrl v = kept[i];
-                if (options.aimDeposits && !aimDeposit(ps, medium, phase.viewer, keptIn[i], v, rng))
+                const size_t j = kept[i];
+                Vrl v = all[j];
+                // A path's segments are consecutive, in order (LightPass::trace): the one before
+                // a segment that leaves a scattering vertex is the one that arrived there.
+                const bool vertex = v.order >= 1 && j > 0 && all[j - 1].order == v.order - 1;
+                if (options.aimDeposits && vertex && !aimDeposit(ps, medium, phase.viewer, all[j - 1].dir, v, rng))
                     continue;
                 deposit(ctx, *grid, skin, phase, v, layerOf[size_t(v.light)], h, rng,
                         partial[size_t(p)].data());
