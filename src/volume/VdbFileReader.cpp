@@ -11,10 +11,14 @@
 #include <openvdb/points/StreamCompression.h>
 #include <openvdb/openvdb.h>
 
+#include <blosc.h>
+#include <zlib.h>
+
 #include <algorithm>
 #include <cstdio>
 #include <stdexcept>
 #include <type_traits>
+#include <vector>
 
 namespace nimbus {
 
@@ -229,8 +233,8 @@ private:
     }
 
     // io::readData: `size` bytes, stored as the grid's compression says. bools: the values are
-    // bools, each byte checked where it is stored uncompressed (a compressed block's bytes are
-    // OpenVDB's to unpack: not checked).
+    // bools, each byte checked, where a block is compressed after unpacking it as OpenVDB will
+    // (its sizes checked first, so the unpacking writes no more than `size` bytes).
     void block(uint64_t size, bool bools = false)
     {
         namespace io = openvdb::io;
@@ -253,7 +257,13 @@ private:
                 mPos = at;
                 damaged("an uncompressed block of " + bytes(length) + " where its node holds " + bytes(size));
             }
-            skip(length, "uncompressed block");
+            if (!bools) {
+                skip(length, "uncompressed block");
+                return;
+            }
+            need(length, "uncompressed block");
+            for (uint64_t k = 0; k < length; ++k)
+                boolByte("a node value");
             return;
         }
         need(uint64_t(stated), "compressed block");
@@ -270,7 +280,41 @@ private:
             }
         }
         mPos = at + 8;
+        if (bools)
+            packedBools(uint64_t(stated), size, blosc);
         skip(uint64_t(stated), "compressed block");
+    }
+
+    // A compressed block of `size` bools at mPos, `stated` bytes long: unpacked (zlib's
+    // uncompress for ZIP, blosc_decompress for Blosc), then each byte checked. The stream is left
+    // where it was.
+    void packedBools(uint64_t stated, uint64_t size, bool blosc)
+    {
+        // Neither codec's output outgrows its input by more than this (zlib's compressBound: 0.1%
+        // and 13 bytes; Blosc's header: 16): the buffer below is no larger than the node's values.
+        if (stated > size + size / 64 + 64)
+            damaged("a compressed block of " + bytes(stated) + " for the " + bytes(size) + " its node holds");
+        std::vector<unsigned char> packed(stated), values(size);
+        mIs.seekg(std::streamoff(mPos));
+        mIs.read(reinterpret_cast<char*>(packed.data()), std::streamsize(stated));
+        mIs.seekg(std::streamoff(mPos));
+        bool unpacked;
+        if (blosc) {
+            unpacked = blosc_decompress(packed.data(), values.data(), size) == int(size);
+        } else {
+            uLongf length = uLongf(size);
+            unpacked = uncompress(values.data(), &length, packed.data(), uLong(stated)) == Z_OK && length == size;
+        }
+        if (!unpacked)
+            damaged(std::string("a ") + (blosc ? "Blosc" : "ZIP") + " block of " + bytes(stated) +
+                    " that does not unpack to the " + bytes(size) + " its node holds");
+        for (uint64_t k = 0; k < size; ++k)
+            if (values[k] > 1) {
+                char hex[8];
+                std::snprintf(hex, sizeof hex, "0x%02X", unsigned(values[k]));
+                damaged("a node value (" + std::to_string(k) + " of " + std::to_string(size) +
+                        " in a compressed block) is byte " + hex + ", not 0 or 1");
+            }
     }
 };
 

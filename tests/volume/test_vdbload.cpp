@@ -9,6 +9,11 @@
 #include <openvdb/io/Stream.h>
 #include <openvdb/openvdb.h>
 
+#include <blosc.h>
+#include <zlib.h>
+
+#include <algorithm>
+
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
@@ -644,6 +649,82 @@ TEST(VdbFileReader, BoolTreeValuesOtherThan0Or1AreRefused)
         writeText(path, bad);
         const std::string message = readError(path, "density");
         EXPECT_NE(message.find(std::string(d.named) + ", not 0 or 1"), std::string::npos) << message;
+        EXPECT_NE(message.find("(damaged)"), std::string::npos) << message;
+    }
+}
+
+// The values of a bool tree's internal nodes are bools too, and stored compressed where the file
+// is: VdbFileReader unpacks such a block and checks its bytes before OpenVDB reads them into bools.
+// A BoolGrid with one tile (true) in its level-2 node, written with ZIP and with Blosc: the
+// level-2 node's 32768 values are one block, whose byte for the tile is changed from 1 to 2 and
+// packed again (padded to the block's length: both codecs stop at their stream's own end). The
+// file is refused with the byte named; the intact one reads.
+TEST(VdbFileReader, CompressedBoolNodeValuesOtherThan0Or1AreRefused)
+{
+    openvdb::initialize();
+    namespace io = openvdb::io;
+    ScratchDir dir;
+    constexpr size_t kValues = 32768;  // a level-2 node's
+    for (uint32_t compression : {uint32_t(io::COMPRESS_ZIP), uint32_t(io::COMPRESS_BLOSC)}) {
+        const bool blosc = compression == io::COMPRESS_BLOSC;
+        SCOPED_TRACE(blosc ? "blosc" : "zip");
+        openvdb::BoolGrid::Ptr grid = openvdb::BoolGrid::create(false);
+        grid->setName("density");
+        grid->tree().addTile(2, Coord(0, 0, 0), true, true);  // a 128^3 tile of the level-2 node
+        const std::string good = dir / "good.vdb";
+        {
+            io::File file(good);
+            file.setCompression(compression);
+            file.write({grid});
+        }
+        ASSERT_EQ(readError(good, "density"), "");
+        const std::string data = readBytes(good);
+        // The block: a length n (int64), then n bytes that unpack to kValues bools, one of them 1.
+        size_t at = std::string::npos;
+        int64_t n = 0;
+        std::vector<unsigned char> values(kValues);
+        for (size_t i = 0; i + 8 + 16 < data.size() && at == std::string::npos; ++i) {
+            std::memcpy(&n, &data[i], sizeof n);
+            if (n < 16 || n > 4096 || i + 8 + size_t(n) > data.size())
+                continue;
+            const auto* src = reinterpret_cast<const unsigned char*>(&data[i + 8]);
+            bool unpacked = false;
+            if (blosc) {
+                uint32_t nbytes, cbytes;  // Blosc's header: its sizes, checked before it unpacks
+                std::memcpy(&nbytes, src + 4, 4);
+                std::memcpy(&cbytes, src + 12, 4);
+                unpacked = nbytes == kValues && cbytes == uint32_t(n) &&
+                           blosc_decompress(src, values.data(), kValues) == int(kValues);
+            } else {
+                uLongf length = kValues;
+                unpacked = uncompress(values.data(), &length, src, uLong(n)) == Z_OK && length == kValues;
+            }
+            if (unpacked && values[0] == 1 && std::count(values.begin(), values.end(), 0) == long(kValues - 1))
+                at = i;
+        }
+        ASSERT_NE(at, std::string::npos) << "no block of the level-2 node's values";
+        values[0] = 2;
+        std::vector<unsigned char> packed(kValues + 64, 0);
+        size_t length = 0;
+        if (blosc) {
+            const int r = blosc_compress_ctx(9, BLOSC_SHUFFLE, 1, kValues, values.data(), packed.data(), packed.size(),
+                                             BLOSC_LZ4_COMPNAME, 0, 1);
+            ASSERT_GT(r, 0);
+            length = size_t(r);
+        } else {
+            uLongf out = uLongf(packed.size());
+            ASSERT_EQ(compress2(packed.data(), &out, values.data(), kValues, Z_BEST_COMPRESSION), Z_OK);
+            length = size_t(out);
+        }
+        ASSERT_LE(length, size_t(n)) << "packed again, the block would not fit its place";
+        std::string bad = data;
+        std::memcpy(&bad[at + 8], packed.data(), size_t(n));  // the rest of n: zeros past the stream's end
+        const std::string path = dir / "bad.vdb";
+        writeText(path, bad);
+        const std::string message = readError(path, "density");
+        EXPECT_NE(message.find("a node value (0 of 32768 in a compressed block) is byte 0x02, not 0 or 1"),
+                  std::string::npos)
+            << message;
         EXPECT_NE(message.find("(damaged)"), std::string::npos) << message;
     }
 }
