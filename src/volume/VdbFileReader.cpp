@@ -239,13 +239,7 @@ private:
     {
         namespace io = openvdb::io;
         if (!(mCompression & (io::COMPRESS_BLOSC | io::COMPRESS_ZIP))) {
-            if (!bools) {
-                skip(size, "values");
-                return;
-            }
-            need(size, "values");
-            for (uint64_t k = 0; k < size; ++k)
-                boolByte("a node value");
+            rawValues(size, bools, "values");
             return;
         }
         const bool blosc = mCompression & io::COMPRESS_BLOSC;
@@ -257,13 +251,7 @@ private:
                 mPos = at;
                 damaged("an uncompressed block of " + bytes(length) + " where its node holds " + bytes(size));
             }
-            if (!bools) {
-                skip(length, "uncompressed block");
-                return;
-            }
-            need(length, "uncompressed block");
-            for (uint64_t k = 0; k < length; ++k)
-                boolByte("a node value");
+            rawValues(length, bools, "uncompressed block");
             return;
         }
         need(uint64_t(stated), "compressed block");
@@ -283,6 +271,18 @@ private:
         if (bools)
             packedBools(uint64_t(stated), size, blosc);
         skip(uint64_t(stated), "compressed block");
+    }
+
+    // `n` bytes of values stored as they are: skipped, or each checked where they are bools.
+    void rawValues(uint64_t n, bool bools, const char* field)
+    {
+        if (!bools) {
+            skip(n, field);
+            return;
+        }
+        need(n, field);
+        for (uint64_t k = 0; k < n; ++k)
+            boolByte("a node value");
     }
 
     // A compressed block of `size` bools at mPos, `stated` bytes long: unpacked (zlib's
