@@ -175,7 +175,6 @@ void blur(wkb::RadianceGrid& grid, const SkinCells& skin, std::vector<float>& sc
     }
 }
 
-
 // Where a deposited segment goes. The cache needs, at each scattering vertex x (incoming
 // direction wi, phase function p), the expectation over the outgoing direction w ~ p(wi . w) of
 // the segment's deposit D(w) = int T p(w . wo) dt, wo toward the camera. The light path's own w
@@ -238,7 +237,7 @@ PilotRays pilotRays(const RenderContext& ctx)
     if (!ctx.scene)
         return p;
     const Camera& cam = ctx.scene->camera;
-    const CameraLattice lattice(cam, std::min(kPilotSide, std::max(std::max(1, cam.width), std::max(1, cam.height))));
+    const CameraLattice lattice(cam, std::min(kPilotSide, std::max(cam.width, cam.height)));
     for (int py = 0; py < lattice.ny; ++py)
         for (int px = 0; px < lattice.nx; ++px) {
             float3 o, d;

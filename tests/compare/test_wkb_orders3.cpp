@@ -163,6 +163,24 @@ std::vector<double> layerMeans(const Scene& s, const RenderContext& ctx, const w
     return sum;
 }
 
+// Each pixel's orders 3+ from `grid` (the channel mean over 4 x 4 stratified rays), row by row.
+std::vector<double> orders3Pixels(const Scene& s, const RenderContext& ctx, const wkb::RadianceGrid& grid)
+{
+    const NbCamera cam = makeNbCamera(s.camera);
+    const int W = s.camera.width, H = s.camera.height, k = 4;
+    std::vector<double> px(size_t(W * H), 0.0);
+    for (int y = 0; y < H; ++y)
+        for (int x = 0; x < W; ++x)
+            for (int j = 0; j < k * k; ++j) {
+                float3 org, d;
+                nbCameraRay(cam, x + (float(j % k) + 0.5f) / k, y + (float(j / k) + 0.5f) / k, W, H, 0.0f, &org, &d);
+                const float3 L = wkb::marchOrders3(ctx.volumes, grid, org, d, INFINITY, 0.0f,
+                                                   float((j * 7 + 3) % 16) / 16.0f, s.render.step, 2.0f);
+                px[size_t(y * W + x)] += (L.x + L.y + L.z) / 3.0 / double(k * k);
+            }
+    return px;
+}
+
 // WKB's orders 3+ (the image mean over pixels, 4 x 4 stratified rays each) from a cache traced
 // with `firstOrder`, projected toward the camera or, with `flip`, toward the camera's mirror image
 // through the volumes' centre (each cell's direction to the viewer about reversed, as if read
@@ -186,19 +204,10 @@ double wkbOrders3(const Scene& s, const RenderContext& ctx, int firstOrder, bool
     if (!grid)
         return 0;
     EXPECT_EQ(grid->layers(), 1);
-    const NbCamera cam = makeNbCamera(s.camera);
-    const int W = s.camera.width, H = s.camera.height, k = 4;
     double sum = 0;
-    for (int y = 0; y < H; ++y)
-        for (int x = 0; x < W; ++x)
-            for (int j = 0; j < k * k; ++j) {
-                float3 org, d;
-                nbCameraRay(cam, x + (float(j % k) + 0.5f) / k, y + (float(j / k) + 0.5f) / k, W, H, 0.0f, &org, &d);
-                const float3 L = wkb::marchOrders3(ctx.volumes, *grid, org, d, INFINITY, 0.0f,
-                                                   float((j * 7 + 3) % 16) / 16.0f, s.render.step, 2.0f);
-                sum += (L.x + L.y + L.z) / 3.0;
-            }
-    return sum / double(W * H * k * k);
+    for (double v : orders3Pixels(s, ctx, *grid))
+        sum += v;
+    return sum / double(s.camera.width * s.camera.height);
 }
 
 // flipMatters: the view is along the light (against or with it), where p_1 decides the answer.
@@ -481,25 +490,14 @@ TEST(WkbOrders3, AimedDepositsKeepTheMeanAndLowerTheNoise)
     s.volumes[0].medium.phase = NbPhase{0.9f, 0, 0, 0};
     const auto ctx = RenderContext::create(s, true);
     constexpr int kSeeds = 4;
-    const NbCamera cam = makeNbCamera(s.camera);
-    const int W = s.camera.width, H = s.camera.height, k = 4;
+    const int W = s.camera.width, H = s.camera.height;
     auto image = [&](bool aim, uint32_t seed) {
         vrl::Orders3Options o = smallCache(65536, s.render.wkbOrders3Grid, {});
         o.seed = seed;
         o.aimDeposits = aim;
         const auto grid = vrl::traceOrders3(*ctx, o);
         EXPECT_TRUE(grid);
-        std::vector<double> px(size_t(W * H), 0.0);
-        for (int y = 0; y < H && grid; ++y)
-            for (int x = 0; x < W; ++x)
-                for (int j = 0; j < k * k; ++j) {
-                    float3 org, d;
-                    nbCameraRay(cam, x + (float(j % k) + 0.5f) / k, y + (float(j / k) + 0.5f) / k, W, H, 0.0f, &org, &d);
-                    const float3 L = wkb::marchOrders3(ctx->volumes, *grid, org, d, INFINITY, 0.0f,
-                                                       float((j * 7 + 3) % 16) / 16.0f, s.render.step, 2.0f);
-                    px[size_t(y * W + x)] += (L.x + L.y + L.z) / 3.0 / double(k * k);
-                }
-        return px;
+        return grid ? orders3Pixels(s, *ctx, *grid) : std::vector<double>(size_t(W * H), 0.0);
     };
     struct Stats {
         double mean = 0, se = 0, noise = 0;
