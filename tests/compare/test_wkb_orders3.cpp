@@ -138,15 +138,14 @@ Reference pathTracedOrders3(Scene s, int spp)
     return {energy[0] - energy[1], std::sqrt(var)};
 }
 
-// Image means of each layer of `grid` (pixels, 4 x 4 stratified rays each); the layers' sum is the
-// last entry.
-std::vector<double> layerMeans(const Scene& s, const RenderContext& ctx, const wkb::RadianceGrid& grid)
+// The camera's orders 3+ read from `grid` through 4 x 4 stratified rays a pixel: f(pixel, L, layers)
+// per ray, pixel = y W + x, L the layers' sum and layers each layer's (grid.layers() entries).
+template <class F>
+void forEachOrders3Ray(const Scene& s, const RenderContext& ctx, const wkb::RadianceGrid& grid, F&& f)
 {
     const NbCamera cam = makeNbCamera(s.camera);
     const int W = s.camera.width, H = s.camera.height, k = 4;
-    const size_t nl = size_t(grid.layers());
-    std::vector<double> sum(nl + 1, 0.0);
-    std::vector<float3> layer(nl);
+    std::vector<float3> layer(size_t(grid.layers()));
     for (int y = 0; y < H; ++y)
         for (int x = 0; x < W; ++x)
             for (int j = 0; j < k * k; ++j) {
@@ -154,30 +153,34 @@ std::vector<double> layerMeans(const Scene& s, const RenderContext& ctx, const w
                 nbCameraRay(cam, x + (float(j % k) + 0.5f) / k, y + (float(j / k) + 0.5f) / k, W, H, 0.0f, &org, &d);
                 const float3 L = wkb::marchOrders3(ctx.volumes, grid, org, d, INFINITY, 0.0f,
                                                    float((j * 7 + 3) % 16) / 16.0f, s.render.step, 2.0f, layer.data());
-                for (size_t l = 0; l < nl; ++l)
-                    sum[l] += (layer[l].x + layer[l].y + layer[l].z) / 3.0;
-                sum[nl] += (L.x + L.y + L.z) / 3.0;
+                f(size_t(y * W + x), L, layer.data());
             }
+}
+
+constexpr int kRaysPerPixel = 16;  // forEachOrders3Ray's
+
+// Image means of each layer of `grid`; the layers' sum is the last entry.
+std::vector<double> layerMeans(const Scene& s, const RenderContext& ctx, const wkb::RadianceGrid& grid)
+{
+    const size_t nl = size_t(grid.layers());
+    std::vector<double> sum(nl + 1, 0.0);
+    forEachOrders3Ray(s, ctx, grid, [&](size_t, float3 L, const float3* layer) {
+        for (size_t l = 0; l < nl; ++l)
+            sum[l] += (layer[l].x + layer[l].y + layer[l].z) / 3.0;
+        sum[nl] += (L.x + L.y + L.z) / 3.0;
+    });
     for (double& v : sum)
-        v /= double(W * H * k * k);
+        v /= double(s.camera.width * s.camera.height * kRaysPerPixel);
     return sum;
 }
 
-// Each pixel's orders 3+ from `grid` (the channel mean over 4 x 4 stratified rays), row by row.
+// Each pixel's orders 3+ from `grid` (the channel mean over its rays), row by row.
 std::vector<double> orders3Pixels(const Scene& s, const RenderContext& ctx, const wkb::RadianceGrid& grid)
 {
-    const NbCamera cam = makeNbCamera(s.camera);
-    const int W = s.camera.width, H = s.camera.height, k = 4;
-    std::vector<double> px(size_t(W * H), 0.0);
-    for (int y = 0; y < H; ++y)
-        for (int x = 0; x < W; ++x)
-            for (int j = 0; j < k * k; ++j) {
-                float3 org, d;
-                nbCameraRay(cam, x + (float(j % k) + 0.5f) / k, y + (float(j / k) + 0.5f) / k, W, H, 0.0f, &org, &d);
-                const float3 L = wkb::marchOrders3(ctx.volumes, grid, org, d, INFINITY, 0.0f,
-                                                   float((j * 7 + 3) % 16) / 16.0f, s.render.step, 2.0f);
-                px[size_t(y * W + x)] += (L.x + L.y + L.z) / 3.0 / double(k * k);
-            }
+    std::vector<double> px(size_t(s.camera.width * s.camera.height), 0.0);
+    forEachOrders3Ray(s, ctx, grid, [&](size_t pixel, float3 L, const float3*) {
+        px[pixel] += (L.x + L.y + L.z) / 3.0 / double(kRaysPerPixel);
+    });
     return px;
 }
 
