@@ -47,6 +47,7 @@ IntegratorEntry wkbEntry()
             o.maxPaths = vrl::orders3PathCap(*ctx.scene);
             o.maxCells = rs.wkbOrders3Grid;
             o.seed = rs.seed;
+            o.firstOrder = setup->cachedOrder2 ? 1 : 2;
             // Per-light layers where a light's AOV is in the film (setupFilm's rule).
             const auto& wanted = ctx.scene->output.aovs;
             o.perLightAovs.assign(ctx.lights.size(), 0);

@@ -68,7 +68,12 @@ const char* vrlSamplingName(VrlSampling s)
 
 const char* wkbOrder2Name(WkbOrder2 o)
 {
-    return o == WkbOrder2::Traced ? "traced" : "kernel";
+    switch (o) {
+    case WkbOrder2::Traced: return "traced";
+    case WkbOrder2::Kernel: return "kernel";
+    case WkbOrder2::Cache: return "cache";
+    }
+    return "traced";
 }
 
 const char* wkbOrders3Name(WkbOrders3 o)

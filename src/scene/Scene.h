@@ -175,7 +175,7 @@ enum class WkbSource { Straight, RandomWalk };
 // How L2+'s second scattering order is computed: traced (a Monte Carlo point on the camera ray,
 // a direction from the phase function, and single's march along it; the kernel then carries
 // orders 3 and up) or, as Tessendorf's reduction does, by the angular kernel with the rest.
-enum class WkbOrder2 { Traced, Kernel };
+enum class WkbOrder2 { Traced, Kernel, Cache };
 // How L2+'s orders 3 and up from the lights are computed: the angular kernel over the blurred light
 // pyramid (kernel), or a radiance cache traced from the lights (traced: docs/wkb.md "Orders 3 and
 // up, traced"). Emission's L2+ keeps the kernel either way.
@@ -188,7 +188,7 @@ const char* methodName(Method m);
 const char* pixelFilterName(PixelFilter f);  // "box", "gaussian", "blackman_harris"
 const char* wkbKernelName(WkbKernel k);      // "gaussian", "exact"
 const char* wkbSourceName(WkbSource s);      // "straight", "random_walk"
-const char* wkbOrder2Name(WkbOrder2 o);      // "traced", "kernel"
+const char* wkbOrder2Name(WkbOrder2 o);      // "traced", "kernel", "cache"
 const char* wkbOrders3Name(WkbOrders3 o);    // "kernel", "traced"
 const char* vrlSamplingName(VrlSampling s);  // "auto", "simple", "advanced"
 

@@ -119,6 +119,17 @@ WkbSetup planWkb(const RenderContext& ctx, RenderPlan& plan)
                                  "traced cache's %.0f",
                                  depthPerVoxel, kTracedOrders3MaxDepth));
     const bool tracedOrders3 = setup.tracedOrders3;
+    if (rs.wkbOrder2 == WkbOrder2::Cache) {
+        // In the cache where there is one; else traced per camera ray.
+        setup.cachedOrder2 = tracedOrders3;
+        setup.tracedOrder2 = !tracedOrders3;
+        if (!tracedOrders3)
+            plan.notes.push_back("wkb: order 2 traced per camera ray, not from the cache: no traced radiance cache "
+                                 "in this scene (render.wkb_orders3)");
+    }
+    if (setup.cachedOrder2)
+        wp.kernel += "; orders 2+ from the traced radiance cache, the kernel for emission";
+    else
     if (setup.tracedOrder2 && tracedOrders3)
         wp.kernel += "; order 2 traced, orders 3+ from the traced radiance cache, the kernel for emission";
     else if (setup.tracedOrder2)

@@ -60,6 +60,9 @@ struct WkbSetup : IntegratorPlan {
     // a volume moves by its transform within the shutter: the engine then builds no cache and the kernel keeps
     // them (docs/wkb.md "Orders 3 and up, traced").
     bool tracedOrders3 = false;
+    // Order 2 of the light sources in the traced radiance cache too (render.wkb_order2 "cache",
+    // where the cache is traced): its deposits start at the first scattering vertex.
+    bool cachedOrder2 = false;
     float blurK = 24.0f, lStep = 0.25f, tolerance = 0.002f;
     int orderCap = 128;
     int channels = 1;

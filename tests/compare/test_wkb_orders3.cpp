@@ -109,8 +109,9 @@ Scene cloudFromTheSide()
 }
 
 struct Reference {
-    double energy = 0;  // image mean of orders 3+ (channel mean)
-    double se = 0;      // its standard error
+    double energy = 0;       // image mean of orders 3+ (channel mean)
+    double se = 0;           // its standard error
+    double orders2Plus = 0;  // image mean of orders 2+ (the unbounded L2plus); its error under se
 };
 
 // The path tracer's orders 3+: L2plus unbounded minus L2plus at max_depth 2, independent seeds.
@@ -135,7 +136,7 @@ Reference pathTracedOrders3(Scene s, int spp)
             var += v->pixels[i] / double(n) / double(n);  // beauty's variance bounds L2plus's
         }
     }
-    return {energy[0] - energy[1], std::sqrt(var)};
+    return {energy[0] - energy[1], std::sqrt(var), energy[0]};
 }
 
 // The camera's orders 3+ read from `grid` through 4 x 4 stratified rays a pixel: f(pixel, L, layers)
@@ -228,6 +229,12 @@ void checkScene(const char* name, const Scene& s, bool flipMatters, int spp)
     std::printf("%s: orders 3+ path tracer %.5f +- %.5f; traced %+.3f, flipped %+.3f, missing order 3 %+.3f, "
                 "order 2 twice %+.3f (relative)\n",
                 name, ref.energy, ref.se, rel(traced), rel(flipped), rel(missing3), rel(twice2));
+    // The cache from the first scattering vertex (render.wkb_order2 "cache") holds orders 2+: the
+    // path tracer's whole L2plus.
+    const double rel2 = (twice2 - ref.orders2Plus) / ref.orders2Plus;
+    std::printf("%s: orders 2+ path tracer %.5f; the cache from the first vertex %+.3f, from the second %+.3f\n",
+                name, ref.orders2Plus, rel2, (traced - ref.orders2Plus) / ref.orders2Plus);
+    EXPECT_LT(std::fabs(rel2), kEnergyTarget) << name << ": orders 2+ from the cache";
     EXPECT_LT(std::fabs(rel(traced)), kEnergyTarget) << name;
     if (flipMatters) {
         EXPECT_GT(std::fabs(rel(flipped)), kEnergyTarget) << name << ": the cache read in the flipped direction passes";
