@@ -64,6 +64,7 @@ IntegratorEntry wkbEntry()
             stats.orders3Noise = report.noiseMeasured;
             stats.orders3NoisePaths = report.noisePaths;
             stats.orders3Blurred = report.blurred;
+            stats.orders3FirstOrder = o.firstOrder + 1;
             stats.addStage("orders 3+ light paths",
                            std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
         }

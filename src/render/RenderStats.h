@@ -43,6 +43,7 @@ struct RenderStats {
     long long orders3Paths = 0, orders3MaxPaths = 0;  // traced; the adaptive count's cap (0: a fixed count)
     double orders3Noise = -1.0;                       // adaptive: the cache's measured relMSE in the image
     long long orders3NoisePaths = 0;                  // ... at this many paths
+    int orders3FirstOrder = 3;  // the lowest scattering order the cache holds (2 with render.wkb_order2 "cache")
     bool orders3Blurred = true;                       // the cache blurred (the adaptive count may leave it sharp)
     // single, wkb: camera samples taken over the pixels marched (tiles that see no volume are not),
     // the pixels that took the most, and the base and most samples per pixel (AdaptiveSampling.h).
