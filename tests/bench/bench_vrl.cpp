@@ -1,11 +1,14 @@
 // bench_vrl: virtual ray lights against the path tracer at equal time (issue 15).
 //
-//   bench_vrl equal-time [docs/benchmarks.md] [--quick] [--seeds N]
+//   bench_vrl equal-time [docs/benchmarks.md] [--quick] [--seeds N] [--only SCENE] [--reference-seconds S]
 //       Thin-to-medium media lit by point and spot lights, and a thick cloud under a sun (where
 //       the path tracer is expected to win): beauty and L2plus relMSE (nimbus compare's metric,
 //       src/compare/ErrorMetrics.cpp) against a long path-traced reference, for `pathtrace` and
 //       `vrl` at the same time limit, averaged over N seeds (default 2); then vrl_paths in {1, 4, 16, 64} on two of
 //       the scenes (the default's justification). Into <!-- bench:vrl --> of docs/benchmarks.md.
+//       --only SCENE: that scene alone (no vrl_paths table); --reference-seconds S: the reference's
+//       time (default 40). Each seed's beauty relMSE is printed to stderr (the errors of these
+//       scenes are heavy-tailed: one seed can hold most of a mean).
 //   bench_vrl oppitz [docs/validation.md] [--quick]
 //       Oppitz 2018 ch. 9 in kind: a point light in a large homogeneous medium, g in
 //       {-0.9, 0, 0.9}, `vrl` with 1 and 10 light paths per iteration, with the advanced and the
@@ -36,6 +39,8 @@ using namespace nimbus;
 namespace {
 
 bool gQuick = false;
+std::string gOnly;             // --only SCENE
+double gReferenceSeconds = 0;  // --reference-seconds S (0: 40, or 6 with --quick)
 int gSeeds = 0;  // --seeds N: seeds per render in equal-time (0: 2, or 1 with --quick)
 
 Scene baseScene(float3 from, float3 to, int size)
@@ -189,6 +194,8 @@ Run averaged(const Scene& s, Method m, double seconds, int seeds, const Film& re
     Run a;
     for (int k = 0; k < seeds; ++k) {
         const Run r = timed(s, m, seconds, 7000u + uint32_t(k), ref);
+        std::fprintf(stderr, "bench_vrl:   %s seed %d: beauty relMSE %.4g, L2plus %.4g, %lld spp\n",
+                     m == Method::Vrl ? "vrl" : "pathtrace", k, r.relMse, r.l2RelMse, r.spp);
         a.relMse += r.relMse / seeds;
         a.l2RelMse += r.l2RelMse / seeds;
         a.seconds += r.seconds / seeds;
@@ -206,7 +213,7 @@ std::string fmt(const char* f, double v)
 
 int equalTime(const std::string& out)
 {
-    const double refSeconds = gQuick ? 6 : 40, budget = gQuick ? 1 : 4;
+    const double refSeconds = gReferenceSeconds > 0 ? gReferenceSeconds : gQuick ? 6 : 40, budget = gQuick ? 1 : 4;
     const int seeds = gSeeds > 0 ? gSeeds : gQuick ? 1 : 2;
     std::ostringstream md;
     md << "Equal time " << budget << " s (each render's time_limit), mean of " << seeds
@@ -218,6 +225,8 @@ int equalTime(const std::string& out)
     std::map<std::string, Film> refs;
     const std::vector<Named> scenes = equalTimeScenes();
     for (const Named& n : scenes) {
+        if (!gOnly.empty() && n.name != gOnly)
+            continue;
         std::fprintf(stderr, "bench_vrl: %s: reference...\n", n.name.c_str());
         const Film ref = reference(n.scene, refSeconds);
         refs[n.name] = ref;
@@ -232,7 +241,7 @@ int equalTime(const std::string& out)
     md << "\nLight paths per iteration (`render.vrl_paths`), same budget and seeds, beauty relMSE:\n\n";
     md << "| scene | 1 | 4 | 16 | 64 |\n|---|---|---|---|---|\n";
     for (const Named& n : scenes) {
-        if (n.name != "haze_lamp" && n.name != "medium_sphere")
+        if ((n.name != "haze_lamp" && n.name != "medium_sphere") || !gOnly.empty())
             continue;
         md << "| " << n.name;
         for (int paths : {1, 4, 16, 64}) {
@@ -363,6 +372,10 @@ int main(int argc, char** argv)
             gQuick = true;
         else if (a == "--seeds" && i + 1 < argc)
             gSeeds = std::max(1, std::atoi(argv[++i]));
+        else if (a == "--only" && i + 1 < argc)
+            gOnly = argv[++i];
+        else if (a == "--reference-seconds" && i + 1 < argc)
+            gReferenceSeconds = std::max(1.0, std::atof(argv[++i]));
         else if (mode.empty())
             mode = a;
         else
@@ -373,6 +386,7 @@ int main(int argc, char** argv)
         return equalTime(out);
     if (mode == "oppitz")
         return oppitz(out);
-    std::fprintf(stderr, "usage: bench_vrl equal-time|oppitz [DOC.md] [--quick] [--seeds N]\n");
+    std::fprintf(stderr, "usage: bench_vrl equal-time|oppitz [DOC.md] [--quick] [--seeds N] [--only SCENE] "
+                         "[--reference-seconds S]\n");
     return 2;
 }
