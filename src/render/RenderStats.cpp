@@ -49,7 +49,8 @@ std::string RenderStats::describe(const RenderPlan& plan) const
     if (pyramidBytes)
         s << "  light pyramids in all: " << formatBytes(pyramidBytes) << "\n";
     if (orders3Cells) {
-        s << "  orders " << orders3FirstOrder << "+ cache: " << orders3Cells << " cells, " << orders3SkinCells << " skin cells; light paths ";
+        s << "  orders " << orders3FirstOrder << "+ cache: " << orders3Cells << " cells, " << orders3SkinCells
+          << " skin cells; light paths ";
         if (orders3FocusRadius > 0.0f) {
             char buf[96];
             std::snprintf(buf, sizeof buf, "aimed at the view (a sphere of radius %.3g m around the seen medium)",

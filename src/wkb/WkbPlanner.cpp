@@ -129,8 +129,7 @@ WkbSetup planWkb(const RenderContext& ctx, RenderPlan& plan)
     }
     if (setup.cachedOrder2)
         wp.kernel += "; orders 2+ from the traced radiance cache, the kernel for emission";
-    else
-    if (setup.tracedOrder2 && tracedOrders3)
+    else if (setup.tracedOrder2 && tracedOrders3)
         wp.kernel += "; order 2 traced, orders 3+ from the traced radiance cache, the kernel for emission";
     else if (setup.tracedOrder2)
         wp.kernel += "; order 2 traced, the kernel from order 3";

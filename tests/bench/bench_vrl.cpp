@@ -224,6 +224,11 @@ int equalTime(const std::string& out)
           "vrl beauty relMSE | vrl L2plus relMSE | ratio |\n|---|---|---|---|---|---|---|---|---|\n";
     std::map<std::string, Film> refs;
     const std::vector<Named> scenes = equalTimeScenes();
+    if (!gOnly.empty() &&
+        std::none_of(scenes.begin(), scenes.end(), [](const Named& n) { return n.name == gOnly; })) {
+        std::fprintf(stderr, "bench_vrl: --only %s: no such scene\n", gOnly.c_str());
+        return 2;
+    }
     for (const Named& n : scenes) {
         if (!gOnly.empty() && n.name != gOnly)
             continue;
