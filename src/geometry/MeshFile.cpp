@@ -10,10 +10,11 @@
 #include <algorithm>
 #include <cctype>
 #include <cmath>
+#include <cstdlib>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <map>
-#include <cstdlib>
 #include <sstream>
 #include <system_error>
 
@@ -127,49 +128,56 @@ std::string plyHeaderProblem(const std::string& path)
 std::string objIndexProblem(const std::string& path)
 {
     std::ifstream in(path, std::ios::binary);
-    std::string line;
-    // First pass: the positions in the file.
-    long long positions = 0;
-    auto keyword = [](const std::string& l, size_t& at) {
-        at = l.find_first_not_of(" \t");
-        if (at == std::string::npos)
-            return std::string();
-        const size_t end = l.find_first_of(" \t\r", at);
-        std::string k = l.substr(at, end == std::string::npos ? std::string::npos : end - at);
-        at = end == std::string::npos ? l.size() : end;
-        return k;
-    };
-    size_t at = 0;
-    while (std::getline(in, line))
-        if (keyword(line, at) == "v")
-            ++positions;
-    in.clear();
-    in.seekg(0);
-    long long seen = 0, lineNo = 0;
-    while (std::getline(in, line)) {
+    std::ostringstream all;
+    all << in.rdbuf();
+    const std::string text = all.str();
+    long long seen = 0, lineNo = 0;     // positions before the line; the line's number
+    long long largest = 0, largestLine = 0;  // the largest positive index, and where
+    char largestKind = 'f';
+    const char* p = text.data();
+    const char* const end = p + text.size();
+    auto blank = [](char c) { return c == ' ' || c == '\t' || c == '\r'; };
+    while (p < end) {
+        const char* eol = static_cast<const char*>(std::memchr(p, '\n', size_t(end - p)));
+        if (!eol)
+            eol = end;
         ++lineNo;
-        const std::string k = keyword(line, at);
-        if (k == "v") {
-            ++seen;
-            continue;
+        while (p < eol && (*p == ' ' || *p == '\t'))
+            ++p;
+        const char k = p < eol ? *p : 0;
+        if (p + 1 < eol && blank(p[1]) && (k == 'v' || k == 'f' || k == 'l' || k == 'p')) {
+            if (k == 'v') {
+                ++seen;
+            } else {
+                // The position index opens each token (v, v/vt, v//vn, v/vt/vn).
+                for (const char* q = p + 1; q < eol;) {
+                    while (q < eol && blank(*q))
+                        ++q;
+                    const char* token = q;
+                    while (q < eol && !blank(*q))
+                        ++q;
+                    if (token == q)
+                        break;
+                    const std::string t(token, size_t(q - token));
+                    char* stop = nullptr;
+                    const long long i = std::strtoll(t.c_str(), &stop, 10);
+                    if (stop == t.c_str() || i == 0)
+                        continue;
+                    if (i < 0 && -i > seen)
+                        return "line " + std::to_string(lineNo) + " ('" + std::string(1, k) + "') names position " +
+                               std::to_string(i) + " (relative) after " + std::to_string(seen) +
+                               " positions (damaged)";
+                    if (i > largest)
+                        largest = i, largestLine = lineNo, largestKind = k;
+                }
+            }
         }
-        if (k != "f" && k != "l" && k != "p")
-            continue;
-        std::istringstream tokens(line.substr(at));
-        std::string token;
-        while (tokens >> token) {
-            char* end = nullptr;
-            const long long i = std::strtoll(token.c_str(), &end, 10);
-            if (end == token.c_str() || i == 0)
-                continue;
-            const bool past = i > 0 ? i > positions : -i > seen;
-            if (past)
-                return "line " + std::to_string(lineNo) + " ('" + k + "') names position " + std::to_string(i) +
-                       (i > 0 ? " of a file of " + std::to_string(positions)
-                              : " (relative) after " + std::to_string(seen)) +
-                       " positions (damaged)";
-        }
+        p = eol + 1;
     }
+    if (largest > seen)
+        return "line " + std::to_string(largestLine) + " ('" + std::string(1, largestKind) + "') names position " +
+               std::to_string(largest) +
+               " of a file of " + std::to_string(seen) + " positions (damaged)";
     return "";
 }
 
