@@ -131,7 +131,7 @@ std::string objIndexProblem(const std::string& path)
     std::ostringstream all;
     all << in.rdbuf();
     const std::string text = all.str();
-    long long seen = 0, lineNo = 0;     // positions before the line; the line's number
+    long long seen = 0, lineNo = 0;          // positions before the line; the line's number
     long long largest = 0, largestLine = 0;  // the largest positive index, and where
     char largestKind = 'f';
     const char* p = text.data();
@@ -163,7 +163,7 @@ std::string objIndexProblem(const std::string& path)
                     const long long i = std::strtoll(t.c_str(), &stop, 10);
                     if (stop == t.c_str() || i == 0)
                         continue;
-                    if (i < 0 && -i > seen)
+                    if (i < 0 && i < -seen)  // (not -i > seen: -LLONG_MIN overflows)
                         return "line " + std::to_string(lineNo) + " ('" + std::string(1, k) + "') names position " +
                                std::to_string(i) + " (relative) after " + std::to_string(seen) +
                                " positions (damaged)";
@@ -176,8 +176,7 @@ std::string objIndexProblem(const std::string& path)
     }
     if (largest > seen)
         return "line " + std::to_string(largestLine) + " ('" + std::string(1, largestKind) + "') names position " +
-               std::to_string(largest) +
-               " of a file of " + std::to_string(seen) + " positions (damaged)";
+               std::to_string(largest) + " of a file of " + std::to_string(seen) + " positions (damaged)";
     return "";
 }
 
