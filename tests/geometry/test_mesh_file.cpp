@@ -121,6 +121,8 @@ TEST(MeshFile, FuzzedPlyFilesAreInputErrors)
         {"ply_unknown_property_type_map_at.ply", "PLY header line 3 'property a \\x00' is not a PLY header line"},
         // First line "plyply": Assimp read it as PLY for over 25 s.
         {"ply_first_line_not_ply_timeout.ply", "its first line 'plyply' is not 'ply'"},
+        // "0nt" among ASCII values: Assimp threw after allocating the element (a leak).
+        {"ply_ascii_value_not_a_number_leak.ply", "PLY data line 1: '0nt' is not a number (damaged)"},
     };
     for (const auto& [name, expected] : cases) {
         const std::string e = meshError(found + name);
@@ -134,6 +136,11 @@ TEST(MeshFile, FuzzedPlyFilesAreInputErrors)
                                 "property float z\nelement face 1\nproperty list uchar int vertex_indices\n"
                                 "end_header\n0 0 0\n1 0 0\n1 1 0\n0 1 0\n4 0 1 2 3\n");
     EXPECT_EQ(readMeshFile(dir / "quad.ply", "k").indices.size(), 6u);
+    // ASCII values in any form strtod and Assimp read (signs, exponents, no leading digit).
+    writeText(dir / "forms.ply", "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
+                                 "property float z\nelement face 1\nproperty list uchar int vertex_indices\n"
+                                 "end_header\n-0 +1 .5\n1e0 -2.5E-1 0\n0.0\t1 0\r\n3 0 1 2\n");
+    EXPECT_EQ(readMeshFile(dir / "forms.ply", "k").indices.size(), 3u);
 }
 
 // OBJ position indices past the file's positions are refused before Assimp reads the file: Assimp
