@@ -37,6 +37,14 @@ std::string quotedLine(const std::string& line)
     return oneLine(line.substr(0, 80), /*asciiOnly=*/true);
 }
 
+// What is left of `in`, whole (Assimp reads the whole file into memory too).
+std::string restOf(std::istream& in)
+{
+    std::ostringstream rest;
+    rest << in.rdbuf();
+    return rest.str();
+}
+
 // A PLY file's header, checked before Assimp reads it: every line one PLY keyword with its
 // operands, and the elements' records able to fit in the file. Assimp 5.2 takes an unknown
 // header line for a property of no type, then hangs or crashes reading the data (fuzz_mesh: a
@@ -119,9 +127,7 @@ std::string plyHeaderProblem(const std::string& path)
         // number" after allocating the element it reads into, and leaks it (fuzz_mesh: "0nt" in the
         // data, 1,368 bytes a load). strtod reads at least what Assimp's parser reads (it also takes
         // inf, nan and hexadecimal), so no file that Assimp reads is refused.
-        std::ostringstream rest;
-        rest << in.rdbuf();
-        const std::string data = rest.str();
+        const std::string data = restOf(in);
         long long dataLine = 1;
         for (size_t i = 0; i < data.size();) {
             const char ch = data[i];
@@ -133,11 +139,11 @@ std::string plyHeaderProblem(const std::string& path)
             size_t j = i;
             while (j < data.size() && data[j] != '\n' && data[j] != ' ' && data[j] != '\t' && data[j] != '\r')
                 ++j;
-            const std::string token = data.substr(i, j - i);
+            // strtod stops at the token's end (a blank is never part of a number), or before it.
             char* stop = nullptr;
-            std::strtod(token.c_str(), &stop);
-            if (stop != token.c_str() + token.size())
-                return "PLY data line " + std::to_string(dataLine) + ": '" + quotedLine(token) +
+            std::strtod(data.c_str() + i, &stop);
+            if (stop != data.c_str() + j)
+                return "PLY data line " + std::to_string(dataLine) + ": '" + quotedLine(data.substr(i, j - i)) +
                        "' is not a number (damaged)";
             i = j;
         }
@@ -156,9 +162,7 @@ std::string plyHeaderProblem(const std::string& path)
 std::string objIndexProblem(const std::string& path)
 {
     std::ifstream in(path, std::ios::binary);
-    std::ostringstream all;
-    all << in.rdbuf();
-    const std::string text = all.str();
+    const std::string text = restOf(in);
     long long seen = 0, lineNo = 0;          // positions before the line; the line's number
     long long largest = 0, largestLine = 0;  // the largest positive index, and where
     char largestKind = 'f';
@@ -186,11 +190,10 @@ std::string objIndexProblem(const std::string& path)
                         ++q;
                     if (token == q)
                         break;
-                    const std::string t(token, size_t(q - token));
                     char* stop = nullptr;
-                    const long long i = std::strtoll(t.c_str(), &stop, 10);
-                    if (stop == t.c_str() || i == 0)
-                        continue;
+                    const long long i = std::strtoll(token, &stop, 10);
+                    if (stop == token || stop > q || i == 0)
+                        continue;  // not a number (strtoll skipped past the token), or 0
                     if (i < 0 && i < -seen)  // (not -i > seen: -LLONG_MIN overflows)
                         return "line " + std::to_string(lineNo) + " ('" + std::string(1, k) + "') names position " +
                                std::to_string(i) + " (relative) after " + std::to_string(seen) +

@@ -113,7 +113,8 @@ WkbIntegrator::WkbIntegrator(const RenderContext& ctx, const RenderPlan& plan, R
     for (const SourcePlan& sp : mSetup.sources)
         if (sp.mode == SourceMode::Sh)
             mMaxShOrder = std::max(mMaxShOrder, sp.order);
-    if (mOrders3 && (mOrder2 || mSetup.cachedOrder2)) {
+    mOrder2Outside = mOrder2 != nullptr || mSetup.cachedOrder2;
+    if (mOrders3 && mOrder2Outside) {
         // Both of the lights' parts the kernel would give are traced: it is left with emission.
         mKernelSources = false;
         for (const SourcePlan& sp : mSetup.sources)
@@ -324,7 +325,7 @@ void WkbIntegrator::evaluateNode(Scratch& sc, float3 o, float3 d, const TableEnt
     // traced (TracedOrder2) the lights' kernel drops that term (R_j -> R_j - l p_j / (e^l - 1): orders
     // 3+); with orders 3+ traced (the radiance cache) and order 2 by the kernel it keeps that term
     // alone. Emission's sources keep every order (both traced parts follow the lights only).
-    const bool splitLights = (mOrder2 != nullptr || mSetup.cachedOrder2) != (mOrders3 != nullptr);
+    const bool splitLights = mOrder2Outside != (mOrders3 != nullptr);
     if (splitLights) {
         sc.coefLights.resize(sc.coef.size());
         for (int c = 0; c < 3; ++c) {
@@ -373,7 +374,7 @@ void WkbIntegrator::evaluateNode(Scratch& sc, float3 o, float3 d, const TableEnt
 
     for (size_t si = 0; si < mSetup.sources.size(); ++si) {
         const SourcePlan& sp = mSetup.sources[si];
-        if (sp.mode == SourceMode::Skip || (mOrders3 && (mOrder2 || mSetup.cachedOrder2) && !sp.emission))
+        if (sp.mode == SourceMode::Skip || (mOrders3 && mOrder2Outside && !sp.emission))
             continue;  // traced order 2 and orders 3+ (marchOrders3) replace the lights' kernel
         const std::vector<double>& coef = splitLights && !sp.emission ? sc.coefLights : sc.coef;
         double S[3] = {0, 0, 0};

@@ -76,6 +76,7 @@ private:
     WkbSetup mSetup;
     LightVolumes mLights;
     std::unique_ptr<TracedOrder2> mOrder2;  // set with setup().tracedOrder2
+    bool mOrder2Outside = false;  // the lights' order 2 outside the kernel: traced, or in the cache
     std::unique_ptr<EmissionScatter> mEmission;  // emission's L1, as single's
     std::shared_ptr<const RadianceGrid> mOrders3;  // traced orders 3+ of the lights, or null
     bool mKernelSources = true;  // some source the l-march still evaluates (with both traced: emission)
