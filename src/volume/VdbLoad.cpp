@@ -232,11 +232,37 @@ RoleGrids readVdb(const VolumeSource& source, const std::string& path, bool allR
 
 // Brings a role grid onto the density grid's voxels (AX reads every grid at the same index
 // coordinates). Trilinear (BoxSampler) resampling, as the renderer would interpolate it.
+// Resampling walks every active value of a role grid onto the density grid's lattice, so its
+// work is bounded by what the bricks could ever hold: a role grid whose active values (tiles
+// counted voxel by voxel), or whose active box mapped onto the density's voxels, exceed
+// kMaxBricks bricks of 8^3 voxels is refused before the walk (a 20 KB file with one active tile
+// of 4096^3 voxels under a skewed transform resampled for hours).
+constexpr double kMaxResampledVoxels = double(kMaxBricks) * 512.0;
+
 template <class GridT>
-typename GridT::Ptr resampleTo(const typename GridT::Ptr& grid, const openvdb::math::Transform::Ptr& target)
+typename GridT::Ptr resampleTo(const typename GridT::Ptr& grid, const openvdb::math::Transform::Ptr& target,
+                               const std::string& where)
 {
     if (grid->transform() == *target)
         return grid;
+    const double active = double(grid->activeVoxelCount());
+    double mapped = 0.0;
+    const openvdb::CoordBBox box = grid->evalActiveVoxelBoundingBox();
+    if (!box.empty()) {
+        const openvdb::BBoxd onTarget = target->worldToIndex(grid->transform().indexToWorld(box));
+        const openvdb::Vec3d extent = onTarget.extents();
+        mapped = (extent.x() + 1.0) * (extent.y() + 1.0) * (extent.z() + 1.0);
+    }
+    const double worst = std::max(active, mapped);
+    if (!(worst <= kMaxResampledVoxels)) {
+        char what[256];
+        std::snprintf(what, sizeof what,
+                      ": its active region (%.3g voxels, %.3g on the density grid's voxels) is more than the "
+                      "%.0f voxels nimbus resamples onto the density grid (damaged, or a transform far from the "
+                      "density's)",
+                      active, mapped, kMaxResampledVoxels);
+        throw InputError(where + what);
+    }
     typename GridT::Ptr out = GridT::create(grid->background());
     out->setTransform(target);
     out->setName(grid->getName());
@@ -312,8 +338,10 @@ std::string volumeKey(const Scene& scene, size_t index, const std::string& scene
     Scene one;
     one.volumes = {volume};
     std::string key = sceneToJson(one)["volumes"][0].dump() + "\ndir " + sceneDir;
+    std::string vdbPath;
     if (volume.source.type == SourceType::Vdb) {
         const std::string path = resolveVdbPath(volume.source.file, sceneDir);
+        vdbPath = path;
         key += "\nvdb " + path + fileStamp(path);
     }
     const std::string where = (scene.sourcePath.empty() ? "scene" : scene.sourcePath) + ": volumes[" +
@@ -343,8 +371,10 @@ std::shared_ptr<VolumeData> buildVolume(const Scene& scene, size_t index, const 
         throw InputError(where.key(".medium.velocity_scale") + ": velocity motion blur reads a `vel` grid, and a " +
                          (volume.source.type == SourceType::Procedural ? "procedural" : "plugin") +
                          " source has none; use a vdb source with a vel grid, or leave velocity_scale at 0");
+    std::string vdbPath;
     if (volume.source.type == SourceType::Vdb) {
         const std::string path = resolveVdbPath(volume.source.file, sceneDir);
+        vdbPath = path;
         RoleGrids read = readVdb(volume.source, path, !shaderFile.isDefault, velocity, where);
         for (auto& [role, grid] : read.grids)
             hasEmissionInputs |= role == "temperature" || role == "flame";
@@ -371,14 +401,16 @@ std::shared_ptr<VolumeData> buildVolume(const Scene& scene, size_t index, const 
 
     FloatGrid::Ptr density = openvdb::gridPtrCast<FloatGrid>(grids.front().second);
     for (size_t i = 1; i < grids.size(); ++i) {
+        // Role grids other than the density come from a vdb source only.
+        const std::string key = where.key(".source.grids." + grids[i].first) + ": grid '" +
+                                grids[i].second->getName() + "' in '" + vdbPath + "'";
         try {
             if (auto f = openvdb::gridPtrCast<FloatGrid>(grids[i].second))
-                grids[i].second = resampleTo<FloatGrid>(f, density->transformPtr());
+                grids[i].second = resampleTo<FloatGrid>(f, density->transformPtr(), key);
             else if (auto v = openvdb::gridPtrCast<Vec3SGrid>(grids[i].second))
-                grids[i].second = resampleTo<Vec3SGrid>(v, density->transformPtr());
+                grids[i].second = resampleTo<Vec3SGrid>(v, density->transformPtr(), key);
         } catch (const openvdb::Exception& e) {  // OpenVDB's GridTransformer decomposes the pair's transforms
-            throw InputError(where.key(".source.grids." + grids[i].first) +
-                             ": cannot be resampled onto the density grid's voxels (" + e.what() + ")");
+            throw InputError(key + ": cannot be resampled onto the density grid's voxels (" + e.what() + ")");
         }
     }
 

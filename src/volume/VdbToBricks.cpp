@@ -18,10 +18,9 @@ namespace {
 using openvdb::Coord;
 using openvdb::CoordBBox;
 
-// Brick-table and brick-pool limits: beyond them the dense table or the bricks alone would need
-// more than ~1 GB and ~6 GB, which no scene on this class of machine can afford.
+// The brick table's limit: beyond it the dense table would need more than ~1 GB (the pool's is
+// kMaxBricks, VdbToBricks.h).
 constexpr uint64_t kMaxTableSlots = uint64_t(1) << 27;
-constexpr uint64_t kMaxBricks = uint64_t(1) << 21;
 
 inline float channel(float v, int)
 {

@@ -18,6 +18,10 @@
 
 namespace nimbus {
 
+// The most bricks of 8^3 voxels a volume may have: beyond it the bricks alone would need more
+// than ~6 GB, which no scene on this class of machine can afford.
+constexpr uint64_t kMaxBricks = uint64_t(1) << 21;
+
 // The bricks of `grid`'s active values, `channels` floats per voxel (1 for a float grid, 3 for
 // a vec3s one). Throws InputError, prefixed by `where`, when the active region is too large for
 // the brick table or the brick pool. Instantiated for openvdb::FloatGrid and openvdb::Vec3SGrid.

@@ -13,6 +13,7 @@
 #include <zlib.h>
 
 #include <algorithm>
+#include <chrono>
 
 #include <cmath>
 #include <cstdint>
@@ -841,5 +842,32 @@ TEST(VdbLoad, TransformAxesBeyondFloatAreAnInputError)
         EXPECT_NE(message.find("volumes[0].source.grids.density"), std::string::npos) << length << ": " << message;
         EXPECT_NE(message.find("index axis 1"), std::string::npos) << message;
         EXPECT_EQ(message.find('\n'), std::string::npos) << message;
+    }
+}
+
+// Resampling a role grid onto the density's voxels walks every value it covers there, so a role
+// grid too large for the bricks is refused before the walk (a 20 KB fuzzed file with one active
+// tile of 4096^3 voxels resampled for hours: tests/fuzz/regressions/vdb). Both measures count: the
+// role grid's own active voxels (a 4096^3 tile at the density's voxel size, 6.9e10), and its
+// active box on the density's voxels (128^3 voxels of 1 m over a density of 0.01 m voxels, 2e12).
+TEST(VdbLoad, RoleGridTooLargeToResampleIsRefusedBeforeTheWalk)
+{
+    ScratchDir dir;
+    for (bool hugeTile : {true, false}) {
+        FloatGrid::Ptr d = floatGrid("density", 0.01), t = floatGrid("temperature", hugeTile ? 0.0125 : 1.0);
+        d->tree().fill(CoordBBox(Coord(0), Coord(15)), 1.0f, true);
+        const int n = hugeTile ? 4096 : 128;
+        t->tree().fill(CoordBBox(Coord(0), Coord(n - 1)), 1500.0f, true);
+        const std::string path = dir / "role.vdb";
+        writeVdb(path, {d, t});
+        const auto start = std::chrono::steady_clock::now();
+        const std::string message = inputError(vdbScene(path));
+        const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+        EXPECT_NE(message.find("volumes[0].source.grids.temperature: grid 'temperature' in '" + path + "'"),
+                  std::string::npos)
+            << message;
+        EXPECT_NE(message.find("voxels nimbus resamples onto the density grid"), std::string::npos) << message;
+        EXPECT_EQ(message.find('\n'), std::string::npos) << message;
+        EXPECT_LT(seconds, 10.0) << "refused before the walk";
     }
 }
