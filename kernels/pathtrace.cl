@@ -208,7 +208,7 @@ NB_FN NbLightSample nbSampleLight(NbLight l, float3 p, float u0, float u1)
  * unbiased estimate of exp(-int sigma_t) per channel. */
 NB_FN float3 nbRatioTransmittance(float3 o, float3 d, float tMax, float seconds, __global const NbVolumeDesc* vols,
                                   int volumeCount, __global const int* tables, __global const float* pools,
-                                  __global const float* majorants, __private NbRng* rng)
+                                  __global const float* majorants, __private NbRng* rng, __private int* budget)
 {
     float3 T = make_float3(1.0f, 1.0f, 1.0f);
     NbMajorantIter it;
@@ -224,6 +224,7 @@ NB_FN float3 nbRatioTransmittance(float3 o, float3 d, float tMax, float seconds,
             continue;
         }
         it.t = nbAdvance(it.t, tau / mu);
+        --*budget;
         nbMajorantDensities(&it, vols, tables, pools, rho);
         float3 sigma_t = make_float3(0.0f, 0.0f, 0.0f);
         for (int v = 0; v < NB_NUM_VOLUMES; ++v)
@@ -276,7 +277,8 @@ NB_FN int nbMajorantHull(__private const NbMajorantIter* it, __global const NbVo
 NB_FN int nbTrackToPoint(float3 o, float3 d, float t, float tEnd, float seconds, __global const NbVolumeDesc* vols,
                          int volumeCount, __global const int* tables, __global const float* pools,
                          __global const float* majorants, __private NbRng* rng, __private float3* T,
-                         __private float* tauMaj, __private float* muAt, __private float* rho)
+                         __private float* tauMaj, __private float* muAt, __private float* rho,
+                         __private int* budget)
 {
     float3 Tr = make_float3(1.0f, 1.0f, 1.0f);
     float tm = 0.0f;
@@ -305,6 +307,7 @@ NB_FN int nbTrackToPoint(float3 o, float3 d, float t, float tEnd, float seconds,
         }
         tm += tau;
         it.t = nbAdvance(it.t, tau / mu);
+        --*budget;
         float r[NB_NUM_VOLUMES];
         nbMajorantDensities(&it, vols, tables, pools, r);
         float3 sigma_t = make_float3(0.0f, 0.0f, 0.0f);
@@ -334,29 +337,80 @@ typedef struct {
 #endif
 } NbPathSample;
 
-/* tCamera: where the camera ray ends at a holdout (INFINITY: nowhere). seconds: the path's shutter
- * time after the frame's; every segment of the path reads moving volumes at it (ptscene.h). */
-NB_FN void nbTracePath(float3 o, float3 d, float tCamera, float seconds, __global const NbPtParams* P,
-                       __global const NbLight* lights,
-                       __global const NbVolumeDesc* vols, __global const int* tables, __global const float* pools,
-                       __global const float* majorants, __global const float* envData,
-                       __global const NbBvhNode* bvhNodes, __global const NbGeomPrim* geomPrims,
-                       __global int* counters, __private NbRng* rng, __private NbPathSample* out)
+/* Where a path stands: the flight from o along d (the next one, or with inFlight the one under
+ * way), its throughput w and its scattering events so far. A camera path starts at the camera
+ * with w 1, order 0 and no flight under way. A flight under way also keeps its walk over the
+ * majorants (at its last tentative collision), where it ends, the optical depth drawn to its
+ * next collision and, with equi-angular sampling, what its vertex's MIS weight needs. */
+typedef struct {
+    NbMajorantIter it;
+    float3 o, d, w;
+    float tEnd, tau;
+    float segA, segB, segMu, tauMaj, muHit;
+    nb_uint equiMask;
+    int order;
+    int inFlight;
+} NbPathCursor;
+
+/* Follows the path at *cur, adding its contributions to *out. tCamera: where the camera ray ends
+ * at a holdout (INFINITY: nowhere). seconds: the path's shutter time after the frame's; every
+ * segment of the path reads moving volumes at it (ptscene.h). *budget: the work this launch may
+ * still do, in steps: each flight's start, each tentative collision and each step of a shadow
+ * ray's ratio tracking takes one. Where none is left at a flight's start or after a null
+ * collision, the path stops with its state in *cur (and *rng, *out) and 0 is returned; a later
+ * call from there continues it exactly as if it had not stopped. Returns 1 where the path ended. */
+NB_FN int nbTracePath(__private NbPathCursor* cur, float tCamera, float seconds, __global const NbPtParams* P,
+                      __global const NbLight* lights,
+                      __global const NbVolumeDesc* vols, __global const int* tables, __global const float* pools,
+                      __global const float* majorants, __global const float* envData,
+                      __global const NbBvhNode* bvhNodes, __global const NbGeomPrim* geomPrims,
+                      __global int* counters, __private NbRng* rng, __private NbPathSample* out,
+                      __private int* budget)
 {
     const int volumeCount = P->volumeCount;
-    float3 w = make_float3(1.0f, 1.0f, 1.0f);
-    int order = 0; /* scattering events so far */
+    float3 o = cur->o, d = cur->d, w = cur->w;
+    int order = cur->order; /* scattering events so far */
+    int resumeFlight = cur->inFlight;
     float rho[NB_NUM_VOLUMES];
 
     for (;;) {
+        NbMajorantIter it;
+        float tEnd, tau;
+#if NB_EQUIANGULAR
+        float segA = 0.0f, segB = 0.0f, segMu = 0.0f;
+        nb_uint equiMask = 0u; /* bit i: light i takes equi-angular sampling on this flight (i < 32) */
+        float tauMaj = 0.0f, muHit = 0.0f; /* the flight's majorant optical depth so far; mu at its vertex */
+#endif
+        if (resumeFlight) { /* the flight a budget stopped, from its last null collision */
+            resumeFlight = 0;
+            it = cur->it;
+            tEnd = cur->tEnd;
+            tau = cur->tau;
+#if NB_EQUIANGULAR
+            segA = cur->segA;
+            segB = cur->segB;
+            segMu = cur->segMu;
+            equiMask = cur->equiMask;
+            tauMaj = cur->tauMaj;
+            muHit = cur->muHit;
+#endif
+        } else {
+        if (*budget <= 0) {
+            cur->o = o;
+            cur->d = d;
+            cur->w = w;
+            cur->order = order;
+            cur->inFlight = 0;
+            return 0;
+        }
+        --*budget;
         /* Free flight from o along d, up to the first surface that ends this segment: a holdout
          * for the camera ray, a shadow caster after a scattering event. */
-        float tEnd = order == 0 ? tCamera : NB_INF;
+        tEnd = order == 0 ? tCamera : NB_INF;
 #if NB_GEOM_SHADOW_CASTERS
         if (order > 0)
             tEnd = nbGeomTrace(bvhNodes, geomPrims, P->geom, o, d, 0.0f, NB_INF, NB_GEOM_SHADOWS, 0);
 #endif
-        NbMajorantIter it;
         nbMajorantInit(&it, vols, volumeCount, o, d, 0.0f, tEnd, seconds, majorants);
 #if NB_EQUIANGULAR
         /* Equi-angular next-event estimation along this flight, one point per point or spot
@@ -365,9 +419,7 @@ NB_FN void nbTracePath(float3 o, float3 d, float tCamera, float seconds, __globa
          * weighted by the power heuristic against the proxy pdf mu(t) exp(-int_0^t mu) of the
          * free flight below; the NEE at the flight's scattering vertex takes the complementary
          * weight. Only where a vertex on this flight may still scatter (order < maxDepth). */
-        float segA = 0.0f, segB = 0.0f, segMu = 0.0f;
         const int equi = order < P->maxDepth && nbMajorantHull(&it, vols, &segA, &segB, &segMu);
-        nb_uint equiMask = 0u; /* bit i: light i takes equi-angular sampling on this flight (i < 32) */
         if (equi) {
             const int next = order + 1 < 2 ? order + 1 : 2;
             for (int i = 0; i < P->lightCount && i < NB_NUM_LIGHTS && i < 32; ++i) {
@@ -399,7 +451,7 @@ NB_FN void nbTracePath(float3 o, float3 d, float tCamera, float seconds, __globa
                 float3 Tc;
                 float tm, muT;
                 if (!nbTrackToPoint(o, d, te, tEnd, seconds, vols, volumeCount, tables, pools, majorants, rng, &Tc, &tm,
-                                    &muT, rho))
+                                    &muT, rho, budget))
                     continue;
                 /* In-scattering towards -d, summed over the volumes there (each its phase). */
                 const float cosTheta = dot(s.wi, d);
@@ -418,15 +470,15 @@ NB_FN void nbTracePath(float3 o, float3 d, float tCamera, float seconds, __globa
                 if (!(wEq > 0.0f))
                     continue;
                 const float3 Tl =
-                    nbRatioTransmittance(pe3, s.wi, s.distance, seconds, vols, volumeCount, tables, pools, majorants, rng);
+                    nbRatioTransmittance(pe3, s.wi, s.distance, seconds, vols, volumeCount, tables, pools, majorants, rng, budget);
                 const float3 c = w * Tc * f * s.weight * Tl * (wEq / pe);
                 out->L[next] += c;
                 out->perLight[i] += c;
             }
         }
-        float tauMaj = 0.0f, muHit = 0.0f; /* the flight's majorant optical depth so far; mu at its vertex */
 #endif
-        float tau = -log(nbRngOpen(rng));
+        tau = -log(nbRngOpen(rng));
+        }
         float segEnd, mu;
         int scatterVolume = -1;
         const int bucket = order < 2 ? order : 2;
@@ -489,6 +541,25 @@ NB_FN void nbTracePath(float3 o, float3 d, float tCamera, float seconds, __globa
             }
             w = w * sigma_n / (mu * (pn / total));
             tau = -log(nbRngOpen(rng));
+            if (--*budget <= 0) { /* stop at this null collision; the next launch goes on from it */
+                cur->it = it;
+                cur->o = o;
+                cur->d = d;
+                cur->w = w;
+                cur->tEnd = tEnd;
+                cur->tau = tau;
+#if NB_EQUIANGULAR
+                cur->segA = segA;
+                cur->segB = segB;
+                cur->segMu = segMu;
+                cur->equiMask = equiMask;
+                cur->tauMaj = tauMaj;
+                cur->muHit = muHit;
+#endif
+                cur->order = order;
+                cur->inFlight = 1;
+                return 0;
+            }
         }
 
         if (scatterVolume < 0) {
@@ -505,10 +576,10 @@ NB_FN void nbTracePath(float3 o, float3 d, float tCamera, float seconds, __globa
                     out->L[0] += w * bg;
                 out->transmittance = nbAverage(w);
             }
-            return; /* escaped, or absorbed by a shadow caster */
+            return 1; /* escaped, or absorbed by a shadow caster */
         }
         if (order >= P->maxDepth)
-            return; /* a path with one more event than allowed */
+            return 1; /* a path with one more event than allowed */
         ++order;
         const float3 p = o + d * it.t;
         if (order == 1) {
@@ -546,7 +617,7 @@ NB_FN void nbTracePath(float3 o, float3 d, float tCamera, float seconds, __globa
                     float3 L = colour * nbEnvLookup(P->envMap, envData, wi);
                     if (nbMaxComponent(L) > 0.0f) {
                         float mis = pdfMap * pdfMap / (pdfMap * pdfMap + fp * fp);
-                        float3 T = nbRatioTransmittance(p, wi, NB_INF, seconds, vols, volumeCount, tables, pools, majorants, rng);
+                        float3 T = nbRatioTransmittance(p, wi, NB_INF, seconds, vols, volumeCount, tables, pools, majorants, rng, budget);
                         c += L * T * (fp * mis / pdfMap);
                     }
                 }
@@ -557,7 +628,7 @@ NB_FN void nbTracePath(float3 o, float3 d, float tCamera, float seconds, __globa
                 if (fp > 0.0f && nbMaxComponent(L) > 0.0f) {
                     pdfMap = nbEnvPdf(P->envMap, envData, wi);
                     float mis = fp * fp / (pdfMap * pdfMap + fp * fp);
-                    float3 T = nbRatioTransmittance(p, wi, NB_INF, seconds, vols, volumeCount, tables, pools, majorants, rng);
+                    float3 T = nbRatioTransmittance(p, wi, NB_INF, seconds, vols, volumeCount, tables, pools, majorants, rng, budget);
                     c += L * T * mis; /* p / pdf = 1 */
                 }
                 c = w * c;
@@ -599,7 +670,7 @@ NB_FN void nbTracePath(float3 o, float3 d, float tCamera, float seconds, __globa
             if (nbGeomTrace(bvhNodes, geomPrims, P->geom, p, s.wi, 0.0f, s.distance, NB_GEOM_SHADOWS, 1) < NB_INF)
                 continue;
 #endif
-            float3 T = nbRatioTransmittance(p, s.wi, s.distance, seconds, vols, volumeCount, tables, pools, majorants, rng);
+            float3 T = nbRatioTransmittance(p, s.wi, s.distance, seconds, vols, volumeCount, tables, pools, majorants, rng, budget);
             float3 c = w * s.weight * T * f;
             out->L[nb] += c;
             out->perLight[i] += c;
@@ -610,13 +681,13 @@ NB_FN void nbTracePath(float3 o, float3 d, float tCamera, float seconds, __globa
             if (P->countDepthCap)
                 atomic_inc(counters + NB_COUNTER_DEPTH_CAP);
 #if !NB_HAS_EMISSION
-            return; /* nothing more to gather: a further flight could only meet emission */
+            return 1; /* nothing more to gather: a further flight could only meet emission */
 #endif
         }
         if (order >= P->rrDepth) {
             float q = fmin(1.0f, nbMaxComponent(w));
             if (nbRngNext(rng) >= q)
-                return;
+                return 1;
             w = w / q;
         }
         float u0 = nbRngNext(rng), u1 = nbRngNext(rng), u2 = nbRngNext(rng);
@@ -625,64 +696,132 @@ NB_FN void nbTracePath(float3 o, float3 d, float tCamera, float seconds, __globa
     }
 }
 
+/* Starts the camera path of sample sampleIndex of pixel (px, py): its random numbers, the camera
+ * ray (with the pixel filter and the shutter time) as the cursor, where a holdout ends the ray,
+ * the shutter time in seconds, and empty sums. */
+NB_FN void nbStartCameraPath(__global const NbPtParams* P, int px, int py, nb_uint pixelIndex, nb_uint sampleIndex,
+                             __global const NbVolumeDesc* vols, __global const NbBvhNode* bvhNodes,
+                             __global const NbGeomPrim* geomPrims, __global const float* holdoutDepth,
+                             __private NbRng* rng, __private NbPathCursor* cursor, __private NbPathSample* r,
+                             __private float* tCamera, __private float* seconds)
+{
+    const NbCamera cam = P->camera;
+    *rng = nbRngStart(P->seed, pixelIndex, sampleIndex);
+    /* The pixel filter by importance sampling (filter.h): an offset from the pixel's centre. */
+    float jx = nbFilterSample(P->filterType, P->filterWidth, nbRngNext(rng));
+    float jy = nbFilterSample(P->filterType, P->filterWidth, nbRngNext(rng));
+    float time = nbRngNext(rng);
+    float3 o, d;
+    const float sx = (float)px + 0.5f + jx, sy = (float)py + 0.5f + jy;
+    nbCameraRay(cam, sx, sy, P->width, P->height, time, &o, &d);
+    /* Holdouts: the camera ray ends at the nearer of the first holdout object and the
+     * depth map's depth (Z along the view axis, so t = Z / cos to it). */
+    *tCamera = NB_INF;
+#if NB_GEOM_HOLDOUTS
+    *tCamera = nbGeomTrace(bvhNodes, geomPrims, P->geom, o, d, 0.0f, NB_INF, NB_GEOM_HOLDOUT, 0);
+#endif
+#if NB_HOLDOUT_DEPTH
+    {
+        const float z = nbHoldoutDepthAt(holdoutDepth, P->holdoutDepthWidth, P->holdoutDepthHeight,
+                                         P->holdoutDepthScale[0], P->holdoutDepthScale[1], sx, sy);
+        const float cosAxis = dot(d, nbCameraViewAxis(cam, time));
+        if (z < NB_INF && cosAxis > 0.0f)
+            *tCamera = fmin(*tCamera, z / cosAxis);
+    }
+#endif
+
+    r->L[0] = r->L[1] = r->L[2] = make_float3(0.0f, 0.0f, 0.0f);
+    r->transmittance = 0.0f;
+    r->depth = 0.0f;
+    r->hasDepth = 0.0f;
+#if NB_NUM_LIGHTS > 0
+    for (int i = 0; i < NB_NUM_LIGHTS; ++i)
+        r->perLight[i] = make_float3(0.0f, 0.0f, 0.0f);
+#endif
+    /* Velocity, transform and light motion blur: the camera's time sample as seconds after
+     * the frame's (ptscene.h, motion.h). */
+    *seconds = 0.0f;
+#if NB_HAS_VELOCITY || NB_HAS_MOTION || NB_HAS_LIGHT_MOTION
+    if (P->volumeCount > 0)
+        *seconds = vols[0].shutter[0] + (vols[0].shutter[1] - vols[0].shutter[0]) * time;
+#endif
+    cursor->o = o;
+    cursor->d = d;
+    cursor->w = make_float3(1.0f, 1.0f, 1.0f);
+    cursor->order = 0;
+    cursor->inFlight = 0;
+}
+
+/* Launches of bounded length (src/pathtracer/LaunchSize.h): a launch gives each work item a
+ * budget of steps (P->eventBudget; nbTracePath says what a step is), and an item whose budget
+ * runs out saves the path it is following here, one slot per item of the launch's range; the
+ * next launch over the same range (P->resume) continues it. The image does not depend on where paths stopped: a path
+ * continues with its own random numbers and adds to its sample's sums as before. */
+typedef struct {
+    NbPathSample r;
+    NbPathCursor cursor;
+    NbRng rng;
+    float tCamera, seconds;
+    int sample; /* the launch's sample (0 .. P->samples - 1) the path belongs to; -1: none left */
+} NbPathState;
+
+/* sizeof(NbPathState) on this device, for the host's allocation. */
+__kernel void nbPathStateBytes(__global int* bytes)
+{
+    if (get_global_id(0) == 0)
+        bytes[0] = (int)sizeof(NbPathState);
+}
+
 __kernel void nbPathtrace(__global const NbPtParams* P, __global const NbLight* lights,
                           __global const NbVolumeDesc* vols, __global const int* tables, __global const float* pools,
                           __global const float* majorants, __global const float* envData, __global float* acc,
                           __global int* counters, __global const NbBvhNode* bvhNodes,
-                          __global const NbGeomPrim* geomPrims, __global const float* holdoutDepth)
+                          __global const NbGeomPrim* geomPrims, __global const float* holdoutDepth,
+                          __global NbPathState* states)
 {
     const int gid = (int)get_global_id(0);
     if (gid >= P->pixelCount)
         return;
     const int px = P->x0 + gid % P->cropWidth, py = P->y0 + gid / P->cropWidth;
     const nb_uint pixelIndex = (nb_uint)py * (nb_uint)P->width + (nb_uint)px;
-    const NbCamera cam = P->camera;
     __global float* a = acc + (size_t)gid * NB_ACC_STRIDE(NB_NUM_LIGHTS);
+    __global NbPathState* saved = states + (gid - P->rangeStart);
+    int budget = P->eventBudget > 0 ? P->eventBudget : INT_MAX;
 
-    for (int s = 0; s < P->samples; ++s) {
+    int s = 0, resume = P->resume;
+    if (resume) {
+        s = saved->sample;
+        if (s < 0)
+            return; /* this item finished its samples in an earlier launch */
+    }
+    for (; s < P->samples; ++s) {
         const nb_uint sampleIndex = P->sampleStart + (nb_uint)s;
-        NbRng rng = nbRngStart(P->seed, pixelIndex, sampleIndex);
-        /* The pixel filter by importance sampling (filter.h): an offset from the pixel's centre. */
-        float jx = nbFilterSample(P->filterType, P->filterWidth, nbRngNext(&rng));
-        float jy = nbFilterSample(P->filterType, P->filterWidth, nbRngNext(&rng));
-        float time = nbRngNext(&rng);
-        float3 o, d;
-        const float sx = (float)px + 0.5f + jx, sy = (float)py + 0.5f + jy;
-        nbCameraRay(cam, sx, sy, P->width, P->height, time, &o, &d);
-        /* Holdouts: the camera ray ends at the nearer of the first holdout object and the
-         * depth map's depth (Z along the view axis, so t = Z / cos to it). */
-        float tCamera = NB_INF;
-#if NB_GEOM_HOLDOUTS
-        tCamera = nbGeomTrace(bvhNodes, geomPrims, P->geom, o, d, 0.0f, NB_INF, NB_GEOM_HOLDOUT, 0);
-#endif
-#if NB_HOLDOUT_DEPTH
-        {
-            const float z = nbHoldoutDepthAt(holdoutDepth, P->holdoutDepthWidth, P->holdoutDepthHeight,
-                                             P->holdoutDepthScale[0], P->holdoutDepthScale[1], sx, sy);
-            const float cosAxis = dot(d, nbCameraViewAxis(cam, time));
-            if (z < NB_INF && cosAxis > 0.0f)
-                tCamera = fmin(tCamera, z / cosAxis);
-        }
-#endif
-
+        NbRng rng;
+        NbPathCursor cursor;
         NbPathSample r;
-        r.L[0] = r.L[1] = r.L[2] = make_float3(0.0f, 0.0f, 0.0f);
-        r.transmittance = 0.0f;
-        r.depth = 0.0f;
-        r.hasDepth = 0.0f;
-#if NB_NUM_LIGHTS > 0
-        for (int i = 0; i < NB_NUM_LIGHTS; ++i)
-            r.perLight[i] = make_float3(0.0f, 0.0f, 0.0f);
-#endif
-        /* Velocity, transform and light motion blur: the camera's time sample as seconds after
-         * the frame's (ptscene.h, motion.h). */
-        float seconds = 0.0f;
-#if NB_HAS_VELOCITY || NB_HAS_MOTION || NB_HAS_LIGHT_MOTION
-        if (P->volumeCount > 0)
-            seconds = vols[0].shutter[0] + (vols[0].shutter[1] - vols[0].shutter[0]) * time;
-#endif
-        nbTracePath(o, d, tCamera, seconds, P, lights, vols, tables, pools, majorants, envData, bvhNodes, geomPrims, counters,
-                    &rng, &r);
+        float tCamera, seconds;
+        if (resume) {
+            resume = 0;
+            rng = saved->rng;
+            cursor = saved->cursor;
+            r = saved->r;
+            tCamera = saved->tCamera;
+            seconds = saved->seconds;
+        } else {
+            nbStartCameraPath(P, px, py, pixelIndex, sampleIndex, vols, bvhNodes, geomPrims, holdoutDepth, &rng,
+                              &cursor, &r, &tCamera, &seconds);
+        }
+        if (!nbTracePath(&cursor, tCamera, seconds, P, lights, vols, tables, pools, majorants, envData, bvhNodes,
+                         geomPrims, counters, &rng, &r, &budget)) {
+            saved->r = r;
+            saved->cursor = cursor;
+            saved->rng = rng;
+            saved->tCamera = tCamera;
+            saved->seconds = seconds;
+            saved->sample = s;
+            atomic_inc(counters + NB_COUNTER_SUSPENDED);
+            return;
+        }
 
         /* A non-finite sample (a bug or a float overflow) would poison the pixel for good:
          * count it and drop it. */
@@ -723,4 +862,5 @@ __kernel void nbPathtrace(__global const NbPtParams* P, __global const NbLight* 
         }
 #endif
     }
+    saved->sample = -1;
 }

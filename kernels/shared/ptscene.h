@@ -77,13 +77,21 @@ typedef struct {
     float holdoutDepthScale[2];                /* its pixels per camera pixel, x and y */
     NbEnvMap envMap;   /* the environment light's map (envmap.h), its data in the envData buffer */
     int envLight;      /* index in the light list of the light with that map; -1: none */
-    int envPad[3];
+    /* Bounded launches (pathtrace.cl, NbPathState): the launch covers the work items
+     * [rangeStart, rangeStart + its global size); each may do eventBudget steps (flight starts,
+     * tentative collisions, shadow-ray steps; 0: 2^31 - 1) before it saves its path in the state
+     * buffer and stops; resume 1: each item continues from its saved path (or returns, where it
+     * had finished). */
+    int eventBudget;
+    int resume;
+    int rangeStart;
 } NbPtParams;
 
 /* The kernel's event counters (one int each). */
 #define NB_COUNTER_BAD_SAMPLES 0 /* non-finite path samples dropped */
 #define NB_COUNTER_DEPTH_CAP 1   /* paths ended by the safety cap on the depth (countDepthCap) */
-#define NB_COUNTER_COUNT 2
+#define NB_COUNTER_SUSPENDED 2   /* work items of the last launch whose eventBudget stopped them */
+#define NB_COUNTER_COUNT 3
 
 /* Per-pixel accumulator layout (floats), running means over the samples so far (Skanberg
  * eq. 39) and Welford's M2 of the per-sample channel average of beauty. */

@@ -18,7 +18,8 @@
 //   three floats per light;
 // - path tracer: the kernel scene's host arrays and their device copies (on a CPU device both
 //   are host memory), two per brick pool, plus the accumulation buffer (two floats per film
-//   channel: mean and variance) and the kernel BVH twice, and the OpenCL runtime (a constant
+//   channel: mean and variance), the saved paths of one launch's range (LaunchSize.h) and the
+//   kernel BVH twice, and the OpenCL runtime (a constant
 //   measured with pocl, below).
 #include "MemoryEstimate.h"
 
@@ -26,6 +27,7 @@
 
 #include "../render/DeepFilm.h"
 #include "../render/FilmLayout.h"
+#include "../pathtracer/LaunchSize.h"
 #include "../render/RenderContext.h"
 #include "../scene/SceneValidate.h"
 #include "../vrl/Orders3Grid.h"
@@ -213,8 +215,11 @@ MemoryPlan estimateMemory(const Scene& scene, const RenderContext& ctx, const Re
                            workers * kBatchRays * (kRayBytes + 3 * plan.lights.size() * sizeof(float))});
     }
     if (r.method == Method::Pathtrace) {
-        m.items.push_back({"kernel buffers",
-                           2 * densityBytes + 2 * plan.kernelBvhBytes + pixels * channels * 2 * sizeof(float)});
+        // The saved paths of one launch's range (LaunchSize.h, bounded launches).
+        const size_t pathStates =
+            std::min(pixels, kMaxRangeItems) * pathStateBytesBound(plan.lights.size(), ctx.volumes.volumes().size());
+        m.items.push_back({"kernel buffers", 2 * densityBytes + 2 * plan.kernelBvhBytes +
+                                                 pixels * channels * 2 * sizeof(float) + pathStates});
         m.items.push_back({"OpenCL runtime", kOpenClRuntimeBytes});
     }
 

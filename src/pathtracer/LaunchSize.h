@@ -70,4 +70,92 @@ inline LaunchSize chooseLaunchSize(size_t items, const LaunchLimits& d)
     return s;
 }
 
+// Launches of bounded length (kernels/pathtrace.cl): so that a cancel is seen within a second
+// (issue 18, item 3) whatever one pixel sample costs (at an extinction of 2 x 10^5 1/m one sample
+// of a 64x48 image took 43 s in one launch) and however many pixels there are, a pass over the
+// image is a series of launches, each over a range of work items (a multiple of the work-group
+// size, the group size itself unchanged: PoCL compiles the kernel once per size) in which every
+// item may do a budget of steps per sample (flight starts, tentative collisions, shadow-ray
+// steps: the kernel's units of work) before it saves its path and stops, between two flights or
+// at a null collision; the next launch over the range continues the saved paths. The image is the
+// same, bit for bit, whatever the ranges and budgets.
+
+// Every launch aims at this length: well inside a second, long enough that a launch's overhead
+// (~0.1 ms on PoCL) is noise.
+constexpr double kTargetLaunchSeconds = 0.25;
+// The most work items one launch covers where the device's 8 work-groups per compute unit are
+// fewer (a CPU's: 2^16 saved paths are ~22 MiB); it sizes the saved paths' buffer.
+constexpr size_t kMaxRangeItems = size_t(1) << 16;
+// Steps per sample a launch allows at first (a path of a cloud under a sun takes hundreds to a few
+// thousand; the budget doubles while launches are quick), and at most.
+constexpr int kStartStepsPerSample = 1 << 12;
+constexpr int kMaxStepsPerSample = 1 << 26;
+
+// A bound on one saved path's bytes (the device reports the exact size of NbPathState): its sums
+// (16 bytes a float3: three orders and one per light, and four floats), the cursor (the majorant
+// walk, 96 bytes a volume, and ~100 more) and the rest, with alignment.
+inline size_t pathStateBytesBound(size_t lights, size_t volumes) { return 16 * (lights + 4) + 112 * volumes + 256; }
+
+// The range and the step budget of the next launch, from the length of the last. A range's first
+// launch covers all its items; the launches that continue its stopped paths cover fewer and fewer
+// (the slowest paths are the longest), so their budget is their own: it starts at the range's
+// and grows while they are quick, and the next range starts again from the range budget. The
+// first range has `minItems` (enough work-groups for every compute unit). Too long: smaller
+// budgets (down to 1 step) and, after a range's first launch, a smaller range. Quick, after a
+// range's first launch: a larger range, up to `maxItems`, then (where paths were stopped) a larger
+// range budget. A launch of several samples per pixel that is too long leaves the budget alone:
+// the pass's sample count comes down instead (Pathtracer.cpp), so ordinary paths are not stopped.
+struct LaunchPacer {
+    size_t unit = 1;      // ranges are multiples of it (the work-group size)
+    size_t minItems = 1;  // a multiple of unit
+    size_t maxItems = 1;  // a multiple of unit, at least minItems
+    size_t items = 1;     // the next range's items
+    int rangeSteps = kStartStepsPerSample;  // steps per sample of a range's first launch
+    int steps = kStartStepsPerSample;       // steps per sample of the next launch
+    bool fixedItems = false, fixedSteps = false;
+
+    LaunchPacer(size_t unit_, size_t global, size_t computeUnits, size_t requestedItems, int requestedSteps)
+        : unit(std::max<size_t>(1, unit_))
+    {
+        auto roundUp = [this](size_t n) { return (n + unit - 1) / unit * unit; };
+        const size_t balanced = roundUp(unit * std::max<size_t>(1, computeUnits) * kWorkGroupsPerComputeUnit);
+        maxItems = std::max(unit, std::min(roundUp(global), std::max(balanced, kMaxRangeItems / unit * unit)));
+        minItems = std::min(maxItems, balanced);
+        items = minItems;
+        if (requestedItems > 0) {
+            items = std::clamp(roundUp(requestedItems), unit, maxItems);
+            fixedItems = true;
+        }
+        if (requestedSteps > 0) {
+            rangeSteps = steps = requestedSteps;
+            fixedSteps = true;
+        }
+    }
+
+    // Before a range's first launch.
+    void startRange() { steps = rangeSteps; }
+
+    // After a launch of `seconds` and `samples` per pixel that stopped `suspended` paths; `first`:
+    // the range's first.
+    void update(double seconds, long long suspended, bool first, int samples = 1)
+    {
+        if (seconds > kTargetLaunchSeconds) {
+            const double shrink = std::max(0.1, kTargetLaunchSeconds / seconds);
+            if (!fixedSteps && samples <= 1)
+                steps = std::max(1, int(double(steps) * shrink));
+            if (first && !fixedItems)
+                items = std::max(minItems, size_t(double(items) * shrink) / unit * unit);
+            if (first)
+                rangeSteps = steps;
+        } else if (seconds < 0.5 * kTargetLaunchSeconds && suspended > 0 && !fixedSteps) {
+            if (!first)
+                steps = std::min(kMaxStepsPerSample, 2 * steps);
+            else if (fixedItems || items >= maxItems)
+                rangeSteps = steps = std::min(kMaxStepsPerSample, 2 * steps);
+        }
+        if (first && seconds < 0.5 * kTargetLaunchSeconds && !fixedItems && items < maxItems)
+            items = std::min(maxItems, 2 * items);
+    }
+};
+
 }  // namespace nimbus

@@ -293,14 +293,14 @@ Mem Context::allocate(size_t bytes) const
     return out;
 }
 
-void Context::read(const Mem& m, void* dst, size_t bytes) const
+void Context::read(const Mem& m, void* dst, size_t bytes, size_t offset) const
 {
-    check(clEnqueueReadBuffer(mQueue, m.get(), CL_TRUE, 0, bytes, dst, 0, nullptr, nullptr), "clEnqueueReadBuffer");
+    check(clEnqueueReadBuffer(mQueue, m.get(), CL_TRUE, offset, bytes, dst, 0, nullptr, nullptr), "clEnqueueReadBuffer");
 }
 
-void Context::write(const Mem& m, const void* src, size_t bytes) const
+void Context::write(const Mem& m, const void* src, size_t bytes, size_t offset) const
 {
-    check(clEnqueueWriteBuffer(mQueue, m.get(), CL_TRUE, 0, bytes, src, 0, nullptr, nullptr), "clEnqueueWriteBuffer");
+    check(clEnqueueWriteBuffer(mQueue, m.get(), CL_TRUE, offset, bytes, src, 0, nullptr, nullptr), "clEnqueueWriteBuffer");
 }
 
 }  // namespace nimbus::ocl

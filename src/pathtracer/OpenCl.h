@@ -94,8 +94,9 @@ public:
     {
         return upload(v.data(), v.size() * sizeof(T));
     }
-    void read(const Mem& m, void* dst, size_t bytes) const;  // blocking
-    void write(const Mem& m, const void* src, size_t bytes) const;
+    // Blocking; `offset` bytes into the buffer.
+    void read(const Mem& m, void* dst, size_t bytes, size_t offset = 0) const;
+    void write(const Mem& m, const void* src, size_t bytes, size_t offset = 0) const;
 
 private:
     DeviceInfo mDevice;

@@ -30,9 +30,9 @@ double secondsBetween(Clock::time_point a, Clock::time_point b)
 
 // Russian roulette starts after this many scattering events (Skanberg sec. 6.8 uses 3).
 constexpr int kRussianRouletteDepth = 3;
-// Adaptive launches aim at this duration: short enough for progress, cancellation and GPU
-// watchdogs, long enough that launch overhead is noise.
-constexpr double kTargetPassSeconds = 0.5;
+// Samples per pixel per pass adapt so that the longest launch of a pass lasts about
+// kTargetLaunchSeconds (LaunchSize.h): short enough for progress, cancellation and GPU watchdogs,
+// long enough that launch overhead is noise.
 constexpr int kMaxSamplesPerPass = 64;
 // max_depth 0 (unbounded, the default): Russian roulette ends the paths, and this cap only keeps
 // a path from running forever. At albedo 0.9999 a path that never escapes has a mean depth of
@@ -70,6 +70,25 @@ LaunchSize launchSize(cl_kernel kernel, const ocl::DeviceInfo& device, size_t it
     s.local = requestedLocal;
     s.global = (items + requestedLocal - 1) / requestedLocal * requestedLocal;
     return s;
+}
+
+// The bytes of one saved path (NbPathState) as the device lays it out.
+size_t pathStateBytes(const ocl::Context& cl, cl_program program)
+{
+    cl_int err = CL_SUCCESS;
+    ocl::Kernel query(clCreateKernel(program, "nbPathStateBytes", &err));
+    ocl::check(err, "clCreateKernel(nbPathStateBytes)");
+    ocl::Mem out = cl.allocate(sizeof(cl_int));
+    const cl_mem arg = out.get();
+    ocl::check(clSetKernelArg(query.get(), 0, sizeof(cl_mem), &arg), "clSetKernelArg");
+    const size_t one = 1;
+    ocl::check(clEnqueueNDRangeKernel(cl.queue(), query.get(), 1, nullptr, &one, nullptr, 0, nullptr, nullptr),
+               "clEnqueueNDRangeKernel(nbPathStateBytes)");
+    cl_int bytes = 0;
+    cl.read(out, &bytes, sizeof bytes);
+    if (bytes <= 0)
+        throw Error("path tracer: the device reports a path state of " + std::to_string(bytes) + " bytes");
+    return size_t(bytes);
 }
 
 }  // namespace
@@ -190,16 +209,21 @@ void renderPathtrace(const RenderContext& ctx, Film& film, const RenderControl& 
     ocl::Mem nodeBuf = uploadOrPlaceholder(ps.geometry.nodes, sizeof(NbBvhNode));
     ocl::Mem primBuf = uploadOrPlaceholder(ps.geometry.prims, sizeof(NbGeomPrim));
     ocl::Mem depthBuf = uploadOrPlaceholder(ps.holdoutDepth, sizeof(float));
-    const cl_mem args[] = {paramBuf.get(),   lightBuf.get(),    volumeBuf.get(), tableBuf.get(),
-                           poolBuf.get(),    majorantBuf.get(), envBuf.get(),    accBuf.get(),
-                           counterBuf.get(), nodeBuf.get(),     primBuf.get(),   depthBuf.get()};
-    for (cl_uint i = 0; i < sizeof args / sizeof args[0]; ++i)
-        ocl::check(clSetKernelArg(kernel.get(), i, sizeof(cl_mem), &args[i]), "clSetKernelArg");
 
     LaunchSize launch = launchSize(kernel.get(), device, size_t(pixelCount), pt.localSize);
     if (pt.runtimeWorkGroupSize)
         launch = LaunchSize{0, size_t(pixelCount)};
     const size_t global = launch.global, local = launch.local;
+    // Bounded launches (LaunchSize.h): the saved paths of one range's items.
+    LaunchPacer pacer(local, global, size_t(std::max(1, device.computeUnits)), pt.rangeItems, pt.stepsPerSample);
+    const size_t stateBytes = pacer.maxItems * pathStateBytes(cl, build.program.get());
+    ocl::Mem stateBuf = cl.allocate(stateBytes);
+
+    const cl_mem args[] = {paramBuf.get(),   lightBuf.get(), volumeBuf.get(), tableBuf.get(), poolBuf.get(),
+                           majorantBuf.get(), envBuf.get(),  accBuf.get(),    counterBuf.get(), nodeBuf.get(),
+                           primBuf.get(),    depthBuf.get(), stateBuf.get()};
+    for (cl_uint i = 0; i < sizeof args / sizeof args[0]; ++i)
+        ocl::check(clSetKernelArg(kernel.get(), i, sizeof(cl_mem), &args[i]), "clSetKernelArg");
 
     // Stopping rules: spp samples if set; else the noise target; and the time limit either way.
     // An unvalidated scene with none of them renders one sample.
@@ -220,6 +244,9 @@ void renderPathtrace(const RenderContext& ctx, Film& film, const RenderControl& 
     };
     double noise = INFINITY;
 
+    const cl_int zero = 0;
+    long long launches = 0, stoppedPaths = 0;
+    double longestLaunch = 0;
     const auto start = Clock::now();
     auto lastCheckpoint = start;
     long long done = pt.resumeFrom ? pt.resumeSamples : 0;  // samples in the running means
@@ -236,19 +263,45 @@ void renderPathtrace(const RenderContext& ctx, Film& film, const RenderControl& 
             n = int(std::min<long long>(n, sppTarget - done));
         params.sampleStart = nb_uint(first + done);
         params.samples = n;
-        cl.write(paramBuf, &params, sizeof params);
-        const auto passStart = Clock::now();
-        ocl::check(clEnqueueNDRangeKernel(cl.queue(), kernel.get(), 1, nullptr, &global, local > 0 ? &local : nullptr,
-                                          0, nullptr, nullptr),
-                   "clEnqueueNDRangeKernel(nbPathtrace)");
-        ocl::check(clFinish(cl.queue()), "clFinish");
+        double passLongest = 0;  // the pass's longest launch
+        // The pass: launches over ranges of the items, each range until none of its paths was
+        // stopped by the step budget; cancel is checked after every launch.
+        for (size_t offset = 0; offset < global;) {
+            const size_t count = std::min(pacer.items, global - offset);
+            params.rangeStart = int(offset);
+            params.resume = 0;
+            pacer.startRange();
+            for (;;) {
+                params.eventBudget = int(std::min<long long>(0x7fffffffLL, (long long)n * pacer.steps));
+                cl.write(paramBuf, &params, sizeof params);
+                cl.write(counterBuf, &zero, sizeof zero, NB_COUNTER_SUSPENDED * sizeof(cl_int));
+                const auto launchStart = Clock::now();
+                ocl::check(clEnqueueNDRangeKernel(cl.queue(), kernel.get(), 1, &offset, &count,
+                                                  local > 0 ? &local : nullptr, 0, nullptr, nullptr),
+                           "clEnqueueNDRangeKernel(nbPathtrace)");
+                ocl::check(clFinish(cl.queue()), "clFinish");
+                cl_int stopped = 0;
+                cl.read(counterBuf, &stopped, sizeof stopped, NB_COUNTER_SUSPENDED * sizeof(cl_int));
+                const double seconds = secondsBetween(launchStart, Clock::now());
+                ++launches;
+                stoppedPaths += stopped;
+                longestLaunch = std::max(longestLaunch, seconds);
+                passLongest = std::max(passLongest, seconds);
+                pacer.update(seconds, stopped, params.resume == 0, n);
+                if (options.cancel && options.cancel->load())
+                    throw Cancelled();
+                if (stopped == 0)
+                    break;
+                params.resume = 1;
+            }
+            offset += count;
+        }
         const auto now = Clock::now();
         done += n;
         ++passes;
         const double elapsed = startSeconds + secondsBetween(start, now);
         if (pt.samplesPerPass <= 0) {
-            const double passSeconds = std::max(1e-4, secondsBetween(passStart, now));
-            const double ideal = n * kTargetPassSeconds / passSeconds;
+            const double ideal = n * kTargetLaunchSeconds / std::max(1e-4, passLongest);
             perPass = int(std::clamp(ideal, 1.0, double(std::min(kMaxSamplesPerPass, 2 * n))));
         }
         bool converged = false;
@@ -308,6 +361,10 @@ void renderPathtrace(const RenderContext& ctx, Film& film, const RenderControl& 
         s.depthCapped = capped;
         s.localSize = local;
         s.workGroups = local > 0 ? global / local : 0;
+        s.launches = launches;
+        s.stoppedPaths = stoppedPaths;
+        s.longestLaunchSeconds = longestLaunch;
+        s.pathStateBytes = stateBytes;
         s.noiseRelMse = noiseTarget > 0 ? noise : 0;
         s.device = device.describe();
         s.defines = defines;

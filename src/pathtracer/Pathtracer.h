@@ -27,7 +27,11 @@ struct PathtraceStats {
     long long badSamples = 0;   // non-finite samples dropped (should be 0)
     long long depthCapped = 0;  // paths ended by the safety cap of an unbounded render (should be 0)
     size_t localSize = 0;       // the launch's work-group size (0: the runtime chose)
-    size_t workGroups = 0;      // work-groups per launch (0: the runtime chose)
+    size_t workGroups = 0;      // work-groups per pass over the image (0: the runtime chose)
+    long long launches = 0;     // kernel launches (a pass is one or more: LaunchSize.h)
+    long long stoppedPaths = 0; // paths a launch's step budget stopped, continued by the next
+    double longestLaunchSeconds = 0;
+    size_t pathStateBytes = 0;  // the saved paths' buffer on the device (one range's items)
     double noiseRelMse = 0;     // with a noise target: the beauty's relMSE from its variance at the end
                                 // (infinite below 64 spp, where it is not measured)
     std::string device;
@@ -63,7 +67,11 @@ struct PathtraceOptions {
     double resumeSeconds = 0;
     size_t localSize = 0;               // OpenCL work-group size; 0: chosen from the device (LaunchSize.h)
     bool runtimeWorkGroupSize = false;  // benchmarks: a null local size, the runtime's choice
-    int samplesPerPass = 0;             // samples per pixel per launch; 0: adaptive, ~0.5 s launches
+    int samplesPerPass = 0;             // samples per pixel per pass; 0: adaptive, launches of ~0.25 s
+    // Bounded launches (LaunchSize.h): work items per launch and steps per sample a launch
+    // allows; 0: adapted to ~0.25 s launches. Tests force tiny ones; the image never depends on them.
+    size_t rangeItems = 0;
+    int stepsPerSample = 0;
     bool globalMajorant = false;        // one majorant per volume instead of per brick (benchmarks)
     // Density lookups through PNanoVDB instead of the brick pool (NB_GRID_PNANOVDB,
     // kernels/shared/nanogrid.h): the measured alternative of issue 17, item 10. Also set by the

@@ -371,6 +371,9 @@ static void testCancelWithinASecond(void)
 static const char* kBall =
     "{\"name\": \"ball\", \"source\": {\"type\": \"procedural\", \"generator\": \"sphere\", \"radius\": 1.0,"
     " \"voxel_size\": 0.05}, \"medium\": {\"sigma_s\": [2, 2.2, 2.4]}";
+static const char* kBallDense =
+    "{\"name\": \"ball\", \"source\": {\"type\": \"procedural\", \"generator\": \"sphere\", \"radius\": 1.0,"
+    " \"voxel_size\": 0.05}, \"medium\": {\"sigma_s\": [2e5, 2.2e5, 2.4e5]";
 static const struct {
     const char* stage;
     const char* method;
@@ -426,6 +429,49 @@ static void testCancelBeforeTheTiles(void)
         }
 }
 
+/* The same in pathtrace (issue 18, item 3), whose samples run inside OpenCL kernel launches:
+ * the test sphere at an extinction of ~2 x 10^5 1/m and albedo 0.99999, where a path scatters
+ * thousands of times, so one launch over the whole image at one sample per pixel would last
+ * seconds; the launches are bounded (ranges of pixels, a flight budget per sample: LaunchSize.h),
+ * and cancel is checked after each. A first render of the same kernel at 2x2 pixels builds or
+ * loads the kernel, so the cancel lands in the launches, not in the compiler. */
+static void testPathtraceCancelWithinASecond(void)
+{
+    int release;
+#if defined(__SANITIZE_ADDRESS__)
+    /* PoCL dlopens itself with RTLD_DEEPBIND, which ASan's runtime refuses: no OpenCL here. */
+    printf("cancel within a second: pathtrace skipped under ASan (PoCL cannot load)\n");
+    return;
+#endif
+    for (release = -1; release < 2; ++release) {
+        char json[1024];
+        NimbusScene scene;
+        NimbusSession session;
+        NimbusSessionState state;
+        float progress = 0;
+        snprintf(json, sizeof json,
+                 "{\"camera\": {\"from\": [0, 0, 4], \"to\": [0, 0, 0], \"fov\": 35, \"resolution\": [%s]},"
+                 " \"lights\": [{\"type\": \"distant\", \"direction\": [0.5, -1, -0.3], \"irradiance\": 3}],"
+                 " \"volumes\": [%s, \"sigma_a\": 2}}],"
+                 " \"render\": {\"method\": \"pathtrace\", \"spp\": %d, \"max_depth\": 0}}",
+                 release < 0 ? "2, 2" : "64, 48", kBallDense, release < 0 ? 1 : 64);
+        OK(nimbus_scene_load_json(json, NULL, &scene));
+        OK(nimbus_session_create(scene, &session));
+        if (release < 0) { /* the kernel's build or cache load */
+            OK(nimbus_session_render(session));
+            OK(nimbus_release(session));
+            OK(nimbus_release(scene));
+            continue;
+        }
+        OK(nimbus_session_start(session));
+        sleepMs(500);
+        OK(nimbus_session_state(session, &state, &progress));
+        CHECK(state == NIMBUS_SESSION_RUNNING);
+        stopWithinASecond(session, release, "pathtrace", "extinction 2e5 1/m, albedo 0.99999");
+        OK(nimbus_release(scene));
+    }
+}
+
 /* Releasing a scene while a session renders it is safe: the session holds the scene. */
 static void testReleaseSceneWhileRendering(void)
 {
@@ -458,5 +504,6 @@ void testMisuse(const TestPaths* paths)
     testBusyAndCancel();
     testCancelWithinASecond();
     testCancelBeforeTheTiles();
+    testPathtraceCancelWithinASecond();
     testReleaseSceneWhileRendering();
 }

@@ -5,6 +5,7 @@
 //   bench_pathtrace [spp=16] [size=128] [device=""] [cloud=dense|wispy]
 //   bench_pathtrace [spp=16] [size=128] [device=""] launch [rounds=3]
 //   bench_pathtrace [spp=16] [size=128] [device=""] pnanovdb [rounds=5]
+//   bench_pathtrace [spp=16] [size=128] [device=""] bounded [rounds=3]
 //
 // "launch" compares, on the dense cloud at the default max_depth (unbounded), the OpenCL
 // runtime's work-group size (a null local size) with the one chosen from the device's properties
@@ -17,6 +18,10 @@
 // (NB_GRID_PNANOVDB, nanogrid.h): path samples per second in interleaved rounds and their
 // medians, the volume buffers' bytes on the device, and whether the images agree bit for bit
 // (same seed; they should, the densities being equal to the bit).
+// "bounded" compares, on the dense cloud at the default max_depth (unbounded), the path tracer's
+// bounded launches (ranges of work items and a step budget per sample, LaunchSize.h) with one
+// launch per pass and no budget: path samples per second in interleaved rounds and their
+// medians, and whether the images agree bit for bit.
 // "dense": a cumulus-like blob whose core is saturated (density 1), wispy at the edges;
 // "wispy": the same blob modulated by high-contrast noise (smoke-like: the maximum far above
 // the mean), where one global majorant wastes most collisions.
@@ -199,6 +204,50 @@ void launchComparison(const RenderContext& ctx, Scene& scene, const std::string&
                 mean[1], se[1], 100 * (mean[0] / mean[1] - 1));
 }
 
+// Bounded launches (src/pathtracer/LaunchSize.h, the default) against one launch per pass with
+// no step budget (the path tracer before them): rounds interleaved after a warm-up, path
+// samples per second and their medians, the launches and the longest, and whether the images
+// agree bit for bit (they must).
+void boundedComparison(const RenderContext& ctx, const std::string& device, int rounds)
+{
+    std::vector<double> rate[2];
+    Film first[2];
+    for (int round = -1; round < rounds; ++round)
+        for (int mode = 0; mode < 2; ++mode) {
+            PathtraceStats stats;
+            PathtraceOptions pt = benchOptions(device, &stats);
+            if (mode == 0) {
+                pt.rangeItems = size_t(1) << 30;
+                pt.stepsPerSample = 1 << 30;
+            }
+            Film film;
+            renderPathtrace(ctx, film, RenderControl{}, pt);
+            if (round < 0) {  // warm-up: the kernel build, the first touch of the buffers
+                first[mode] = film;
+                if (mode == 0)
+                    std::printf("device: %s\n", stats.device.c_str());
+                else
+                    std::printf("saved paths' buffer: %zu bytes for %dx%d pixels (%.1f bytes a path)\n",
+                                stats.pathStateBytes, film.width, film.height,
+                                double(stats.pathStateBytes) / double(film.width * film.height));
+                continue;
+            }
+            rate[mode].push_back(stats.pathsPerSecond());
+            std::printf("round %d %-18s %8.0f path samples/s  (%lld launches, longest %.3f s, %lld paths stopped, %.2f s)\n",
+                        round, mode ? "bounded launches:" : "one per pass:", stats.pathsPerSecond(), stats.launches,
+                        stats.longestLaunchSeconds, stats.stoppedPaths, stats.renderSeconds);
+        }
+    const Aov* a = first[0].find("beauty");
+    const Aov* b = first[1].find("beauty");
+    size_t same = 0;
+    for (size_t k = 0; k < a->pixels.size(); ++k)
+        same += std::memcmp(&a->pixels[k], &b->pixels[k], sizeof(float)) == 0;
+    std::printf("median of %d rounds: one launch per pass %.0f path samples/s, bounded %.0f (%.3fx); beauty "
+                "bit-identical in %zu of %zu values\n",
+                rounds, median(rate[0]), median(rate[1]), median(rate[1]) / std::max(1.0, median(rate[0])), same,
+                a->pixels.size());
+}
+
 // Brick pool against PNanoVDB density lookups on one cloud: rounds interleaved (pool, nano, pool,
 // nano, ...), the first render of each only building or loading its kernel.
 void densityComparison(const RenderContext& ctx, const std::string& device, int rounds)
@@ -252,6 +301,7 @@ int main(int argc, char** argv)
     gWispy = argc > 4 && std::string(argv[4]) == "wispy";
     const bool launch = argc > 4 && std::string(argv[4]) == "launch";
     const bool nano = argc > 4 && std::string(argv[4]) == "pnanovdb";
+    const bool bounded = argc > 4 && std::string(argv[4]) == "bounded";
     const int rounds = argc > 5 ? std::max(1, std::atoi(argv[5])) : (nano ? 5 : 3);
     // "pnanovdb" runs both clouds, one after the other; the other modes one.
     for (int cloudPass = 0; cloudPass < (nano ? 3 : 1); ++cloudPass) {
@@ -281,7 +331,7 @@ int main(int argc, char** argv)
         scene.camera.fov = 40;
         scene.render.method = Method::Pathtrace;
         scene.render.spp = spp;
-        scene.render.maxDepth = launch ? 0 : 64;
+        scene.render.maxDepth = launch || bounded ? 0 : 64;
         Light sun;
         sun.name = "sun";
         sun.type = LightType::Distant;
@@ -306,6 +356,10 @@ int main(int argc, char** argv)
         ctx.background = sky.radiance;
         if (launch) {
             launchComparison(ctx, scene, device, rounds);
+            return 0;
+        }
+        if (bounded) {
+            boundedComparison(ctx, device, rounds);
             return 0;
         }
         if (nano) {

@@ -104,3 +104,78 @@ TEST(LaunchSize, EveryCombinationIsValid)
                     for (size_t items : {1, 2, 7, 100, 4096, 16384, 100003, 2073600})
                         expectValid(items, LaunchLimits{units, kernel, multiple, device, device});
 }
+
+// Bounded launches (LaunchPacer): the ranges and step budgets a pass is launched in.
+TEST(LaunchPacer, RangesStartBalancedAndStayWithinTheStateBuffer)
+{
+    // A 2-core CPU, groups of 128, 1080p: the first range is 8 groups per core, the largest 2^16.
+    LaunchPacer cpu(128, 2073600, 2, 0, 0);
+    EXPECT_EQ(cpu.minItems, 2048u);
+    EXPECT_EQ(cpu.maxItems, kMaxRangeItems);
+    EXPECT_EQ(cpu.items, cpu.minItems);
+    EXPECT_EQ(cpu.steps, kStartStepsPerSample);
+    // A GPU of 132 units, groups of 256: 8 groups per unit are more than 2^16, and win.
+    LaunchPacer gpu(256, 2073600, 132, 0, 0);
+    EXPECT_EQ(gpu.minItems, 270336u);
+    EXPECT_EQ(gpu.maxItems, 270336u);
+    // A small image: one range of every item, a multiple of the group size.
+    LaunchPacer small(64, 4096, 2, 0, 0);
+    EXPECT_EQ(small.minItems, 1024u);
+    EXPECT_EQ(small.maxItems, 4096u);
+    for (const LaunchPacer& p : {cpu, gpu, small}) {
+        EXPECT_EQ(p.minItems % p.unit, 0u);
+        EXPECT_EQ(p.maxItems % p.unit, 0u);
+        EXPECT_LE(p.minItems, p.maxItems);
+    }
+}
+
+TEST(LaunchPacer, QuickLaunchesGrowTheRangeThenTheBudgetSlowOnesShrinkBoth)
+{
+    LaunchPacer p(128, 2073600, 2, 0, 0);
+    const double quick = 0.1 * kTargetLaunchSeconds;
+    p.update(quick, 0, true);
+    EXPECT_EQ(p.items, 4096u);
+    while (p.items < p.maxItems)
+        p.update(quick, 10, true);
+    EXPECT_EQ(p.steps, kStartStepsPerSample) << "the range grows first";
+    p.update(quick, 10, true);
+    EXPECT_EQ(p.steps, 2 * kStartStepsPerSample);
+    EXPECT_EQ(p.rangeSteps, p.steps);
+    p.update(quick, 0, true);
+    EXPECT_EQ(p.steps, 2 * kStartStepsPerSample) << "no stopped paths: the budget is enough";
+
+    // A launch 4x too long: both shrink 4x (the range to a multiple of the group, not below the minimum).
+    p.update(4.0 * kTargetLaunchSeconds, 10, true);
+    EXPECT_EQ(p.steps, kStartStepsPerSample / 2);
+    EXPECT_EQ(p.items, kMaxRangeItems / 4);
+    for (int i = 0; i < 20; ++i)
+        p.update(100.0, 10, true);
+    EXPECT_EQ(p.steps, 1);
+    EXPECT_EQ(p.items, p.minItems);
+
+    // The launches continuing a range grow their own budget; the next range starts from the range's.
+    LaunchPacer q(128, 2073600, 2, 0, 0);
+    q.startRange();
+    q.update(0.5 * kTargetLaunchSeconds + 0.01, 100, true);  // neither quick nor slow
+    q.update(quick, 3, false);
+    q.update(quick, 1, false);
+    EXPECT_EQ(q.steps, 4 * kStartStepsPerSample);
+    EXPECT_EQ(q.rangeSteps, kStartStepsPerSample);
+    q.startRange();
+    EXPECT_EQ(q.steps, kStartStepsPerSample);
+    q.update(quick, 3, false);
+    q.update(2.0 * kTargetLaunchSeconds, 3, false);  // a slow continuation shrinks only its own
+    EXPECT_EQ(q.steps, kStartStepsPerSample);
+    EXPECT_EQ(q.rangeSteps, kStartStepsPerSample);
+}
+
+TEST(LaunchPacer, RequestedRangesAndBudgetsAreKept)
+{
+    LaunchPacer p(7, 1000, 2, 10, 3);  // ranges round up to the group size
+    EXPECT_EQ(p.items, 14u);
+    EXPECT_EQ(p.steps, 3);
+    for (double seconds : {0.001, 100.0, 0.001})
+        p.update(seconds, 5, true);
+    EXPECT_EQ(p.items, 14u);
+    EXPECT_EQ(p.steps, 3);
+}

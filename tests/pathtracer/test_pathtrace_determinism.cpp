@@ -12,6 +12,8 @@
 #include <atomic>
 #include <chrono>
 #include <cstring>
+#include <thread>
+#include <tuple>
 
 using namespace nimbus;
 using namespace nimbus::pttest;
@@ -113,6 +115,27 @@ TEST(PathtraceDeterminism, SameSeedSameBitsAnyWorkGroupSizeAndLaunchSplit)
     PathtraceOptions runtime;
     runtime.runtimeWorkGroupSize = true;
     expectIdentical(reference, w.render(runtime), "the runtime's work-group size");
+
+    // Bounded launches (LaunchSize.h): ranges of a few items and a budget of a few steps per
+    // sample stop most paths mid-way (between flights, at null collisions), and the next launch
+    // continues them from their saved state; the bits are those of unbounded launches.
+    for (auto [local, items, steps, perPass] : {std::tuple{size_t(1), size_t(5), 1, 1}, std::tuple{size_t(7), size_t(7), 3, 4},
+                                                std::tuple{size_t(64), size_t(64), 16, 3}}) {
+        PathtraceStats bounded;
+        PathtraceOptions o;
+        o.localSize = local;
+        o.rangeItems = items;
+        o.stepsPerSample = steps;
+        o.samplesPerPass = perPass;
+        o.stats = &bounded;
+        Film f = w.render(o);
+        std::string what = "ranges of " + std::to_string(items) + " items, " + std::to_string(steps) +
+                           " steps per sample, " + std::to_string(perPass) + " spp per pass";
+        expectIdentical(reference, f, what.c_str());
+        std::printf("%s: %lld launches, %lld paths stopped and continued\n", what.c_str(), bounded.launches,
+                    bounded.stoppedPaths);
+        EXPECT_GT(bounded.stoppedPaths, 0) << what;
+    }
 
     // The chosen launch (LaunchSize.h) gives every compute unit a work-group.
     const size_t units = size_t(ocl::selectDevice("").computeUnits);
@@ -255,6 +278,46 @@ TEST(PathtraceProgressive, NoiseTargetStopsAtTheFirstLaunchThatReachesIt)
         w.scene.render.spp = int(stats.samplesPerPixel) - 8;
         EXPECT_GT(filmNoiseRelMse(w.render()), 2e-3);
     }
+}
+
+// Cancel within a second whatever a sample costs (issue 18, item 3): at an extinction of
+// ~10^5 1/m and albedo 0.99999, where a path scatters thousands of times and tracks six shadow
+// rays each time, one sample of this 64x48 image took 5 s in one launch (measured with the
+// launch bounds lifted: rangeItems 2^20, stepsPerSample 2^30); the bounded launches stop
+// paths at their step budget (longest launch 0.3 s), so a cancel raised 0.5 s in ends the
+// render within a second of it.
+TEST(PathtraceProgressive, CancelWithinASecondAtExtremeExtinction)
+{
+    useTestKernelCache("determinism");
+    World w = featureWorld(false);
+    for (auto& v : w.volumes) {
+        v->medium.sigma_s = v->medium.sigma_s * 1e5f;
+        v->medium.sigma_a = v->medium.sigma_s * 1e-5f;
+    }
+    w.scene.render.maxDepth = 0;
+    // The kernel's build or cache load first (seconds on a cold cache), so that the cancel below
+    // lands in the launches.
+    w.scene.camera.width = w.scene.camera.height = 4;
+    w.scene.render.spp = 1;
+    w.render();
+    w.scene.camera.width = 64;
+    w.scene.camera.height = 48;
+    w.scene.render.spp = 64;
+    std::atomic<bool> cancel{false};
+    RenderControl options;
+    options.cancel = &cancel;
+    PathtraceOptions o;
+    Film film;
+    std::thread canceller([&] {
+        std::this_thread::sleep_for(std::chrono::milliseconds(500));
+        cancel = true;
+    });
+    const auto t0 = std::chrono::steady_clock::now();
+    EXPECT_THROW(renderPathtrace(w.context(), film, options, o), Cancelled);
+    const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    canceller.join();
+    std::printf("cancel at 0.5 s: returned after %.2f s\n", seconds);
+    EXPECT_LT(seconds, 1.5);
 }
 
 TEST(PathtraceProgressive, CancelThrowsCancelled)
