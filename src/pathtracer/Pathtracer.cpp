@@ -247,25 +247,11 @@ void renderPathtrace(const RenderContext& ctx, Film& film, const RenderControl& 
     const cl_int zero = 0;
     long long launches = 0, stoppedPaths = 0;
     double longestLaunch = 0;
-    const auto start = Clock::now();
-    auto lastCheckpoint = start;
-    long long done = pt.resumeFrom ? pt.resumeSamples : 0;  // samples in the running means
-    const double startSeconds = pt.resumeFrom ? std::max(0.0, pt.resumeSeconds) : 0.0;
-    int passes = 0;
-    int perPass = pt.samplesPerPass > 0 ? pt.samplesPerPass : 1;
-    for (;;) {
-        if (sppTarget > 0 && done >= sppTarget)
-            break;
-        if (first + done >= 0xffffffffLL)
-            break;  // the RNG's sample index is 32 bits
-        int n = perPass;
-        if (sppTarget > 0)
-            n = int(std::min<long long>(n, sppTarget - done));
-        params.sampleStart = nb_uint(first + done);
-        params.samples = n;
-        double passLongest = 0;  // the pass's longest launch
-        // The pass: launches over ranges of the items, each range until none of its paths was
-        // stopped by the step budget; cancel is checked after every launch.
+    // One pass of n samples per pixel: launches over ranges of the items, each range until none of
+    // its paths was stopped by the step budget; cancel is checked after every launch. Returns the
+    // pass's longest launch.
+    auto runPass = [&](int n) {
+        double passLongest = 0;
         for (size_t offset = 0; offset < global;) {
             const size_t count = std::min(pacer.items, global - offset);
             params.rangeStart = int(offset);
@@ -296,6 +282,26 @@ void renderPathtrace(const RenderContext& ctx, Film& film, const RenderControl& 
             }
             offset += count;
         }
+        return passLongest;
+    };
+
+    const auto start = Clock::now();
+    auto lastCheckpoint = start;
+    long long done = pt.resumeFrom ? pt.resumeSamples : 0;  // samples in the running means
+    const double startSeconds = pt.resumeFrom ? std::max(0.0, pt.resumeSeconds) : 0.0;
+    int passes = 0;
+    int perPass = pt.samplesPerPass > 0 ? pt.samplesPerPass : 1;
+    for (;;) {
+        if (sppTarget > 0 && done >= sppTarget)
+            break;
+        if (first + done >= 0xffffffffLL)
+            break;  // the RNG's sample index is 32 bits
+        int n = perPass;
+        if (sppTarget > 0)
+            n = int(std::min<long long>(n, sppTarget - done));
+        params.sampleStart = nb_uint(first + done);
+        params.samples = n;
+        const double passLongest = runPass(n);
         const auto now = Clock::now();
         done += n;
         ++passes;
