@@ -337,17 +337,25 @@ typedef struct {
 #endif
 } NbPathSample;
 
+/* A flight's equi-angular state: the volumes' hull [segA, segB] along it and segMu, a bound on
+ * its majorant there; equiMask, bit i: light i takes equi-angular sampling on this flight
+ * (i < 32); and the majorant's optical depth so far and mu at the flight's vertex, which that
+ * vertex's MIS weight needs. */
+typedef struct {
+    float segA, segB, segMu, tauMaj, muHit;
+    nb_uint equiMask;
+} NbEquiFlight;
+
 /* Where a path stands: the flight from o along d (the next one, or with inFlight the one under
  * way), its throughput w and its scattering events so far. A camera path starts at the camera
  * with w 1, order 0 and no flight under way. A flight under way also keeps its walk over the
  * majorants (at its last tentative collision), where it ends, the optical depth drawn to its
- * next collision and, with equi-angular sampling, what its vertex's MIS weight needs. */
+ * next collision and its equi-angular state. */
 typedef struct {
     NbMajorantIter it;
     float3 o, d, w;
     float tEnd, tau;
-    float segA, segB, segMu, tauMaj, muHit;
-    nb_uint equiMask;
+    NbEquiFlight equi;
     int order;
     int inFlight;
 } NbPathCursor;
@@ -377,9 +385,7 @@ NB_FN int nbTracePath(__private NbPathCursor* cur, float tCamera, float seconds,
         NbMajorantIter it;
         float tEnd, tau;
 #if NB_EQUIANGULAR
-        float segA = 0.0f, segB = 0.0f, segMu = 0.0f;
-        nb_uint equiMask = 0u; /* bit i: light i takes equi-angular sampling on this flight (i < 32) */
-        float tauMaj = 0.0f, muHit = 0.0f; /* the flight's majorant optical depth so far; mu at its vertex */
+        NbEquiFlight ef = {0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0u};
 #endif
         if (resumeFlight) { /* the flight a budget stopped, from its last null collision */
             resumeFlight = 0;
@@ -387,97 +393,94 @@ NB_FN int nbTracePath(__private NbPathCursor* cur, float tCamera, float seconds,
             tEnd = cur->tEnd;
             tau = cur->tau;
 #if NB_EQUIANGULAR
-            segA = cur->segA;
-            segB = cur->segB;
-            segMu = cur->segMu;
-            equiMask = cur->equiMask;
-            tauMaj = cur->tauMaj;
-            muHit = cur->muHit;
+            ef = cur->equi;
 #endif
         } else {
-        if (*budget <= 0) {
-            cur->o = o;
-            cur->d = d;
-            cur->w = w;
-            cur->order = order;
-            cur->inFlight = 0;
-            return 0;
-        }
-        --*budget;
-        /* Free flight from o along d, up to the first surface that ends this segment: a holdout
-         * for the camera ray, a shadow caster after a scattering event. */
-        tEnd = order == 0 ? tCamera : NB_INF;
-#if NB_GEOM_SHADOW_CASTERS
-        if (order > 0)
-            tEnd = nbGeomTrace(bvhNodes, geomPrims, P->geom, o, d, 0.0f, NB_INF, NB_GEOM_SHADOWS, 0);
-#endif
-        nbMajorantInit(&it, vols, volumeCount, o, d, 0.0f, tEnd, seconds, majorants);
-#if NB_EQUIANGULAR
-        /* Equi-angular next-event estimation along this flight, one point per point or spot
-         * light (docs/pathtracer.md, "Equi-angular sampling"): the single scattering of that
-         * light anywhere on [0, tEnd), sigma_s(t) T(0, t) phase I / r^2 T(t, light) / pdf_equi(t),
-         * weighted by the power heuristic against the proxy pdf mu(t) exp(-int_0^t mu) of the
-         * free flight below; the NEE at the flight's scattering vertex takes the complementary
-         * weight. Only where a vertex on this flight may still scatter (order < maxDepth). */
-        const int equi = order < P->maxDepth && nbMajorantHull(&it, vols, &segA, &segB, &segMu);
-        if (equi) {
-            const int next = order + 1 < 2 ? order + 1 : 2;
-            for (int i = 0; i < P->lightCount && i < NB_NUM_LIGHTS && i < 32; ++i) {
-                NbLight l = lights[i];
-#if NB_HAS_LIGHT_MOTION
-                if (l.motion[1] > 0) /* placed at the path's time (motion.h) */
-                    l = nbLightAt(l, majorants + l.motion[0], l.motion[1], seconds);
-#endif
-                if (!nbEquiLight(l))
-                    continue;
-                if (nbEquiPeakBound(o, d, nbLoad3(l.position), segA, segB) < NB_EQUI_MIN_PEAK * segMu)
-                    continue; /* cheap: nbEquiWorthwhile would say no */
-                const NbEquiAngular e = nbEquiInit(o, d, nbLoad3(l.position), segA, segB);
-                if (!nbEquiWorthwhile(e, segMu))
-                    continue;
-                equiMask |= 1u << i;
-                const float te = nbEquiSample(e, nbRngNext(rng));
-                const float pe = nbEquiPdf(e, te);
-                if (!(pe > 0.0f))
-                    continue;
-                const float3 pe3 = o + d * te;
-                const NbLightSample s = nbSampleLight(l, pe3, 0.0f, 0.0f);
-                if (!(nbMaxComponent(s.weight) > 0.0f))
-                    continue; /* outside a spot's cone */
-#if NB_GEOM_SHADOW_CASTERS
-                if (nbGeomTrace(bvhNodes, geomPrims, P->geom, pe3, s.wi, 0.0f, s.distance, NB_GEOM_SHADOWS, 1) < NB_INF)
-                    continue;
-#endif
-                float3 Tc;
-                float tm, muT;
-                if (!nbTrackToPoint(o, d, te, tEnd, seconds, vols, volumeCount, tables, pools, majorants, rng, &Tc, &tm,
-                                    &muT, rho, budget))
-                    continue;
-                /* In-scattering towards -d, summed over the volumes there (each its phase). */
-                const float cosTheta = dot(s.wi, d);
-                float3 f = make_float3(0.0f, 0.0f, 0.0f);
-                for (int v = 0; v < NB_NUM_VOLUMES; ++v) {
-                    NbPhase ph = vols[v].phase;
-#if !NB_TWO_LOBE
-                    ph.blend = 0.0f;
-#endif
-                    if (rho[v] > 0.0f)
-                        f = f + nbSigmaS(vols + v) * (rho[v] * nbPhaseEval(ph, cosTheta));
-                }
-                if (!(nbMaxComponent(f) > 0.0f))
-                    continue;
-                const float wEq = nbEquiMisWeight(pe, muT * exp(-tm));
-                if (!(wEq > 0.0f))
-                    continue;
-                const float3 Tl =
-                    nbRatioTransmittance(pe3, s.wi, s.distance, seconds, vols, volumeCount, tables, pools, majorants, rng, budget);
-                const float3 c = w * Tc * f * s.weight * Tl * (wEq / pe);
-                out->L[next] += c;
-                out->perLight[i] += c;
+            if (*budget <= 0) {
+                cur->o = o;
+                cur->d = d;
+                cur->w = w;
+                cur->order = order;
+                cur->inFlight = 0;
+                return 0;
             }
-        }
+            --*budget;
+            /* Free flight from o along d, up to the first surface that ends this segment: a holdout
+             * for the camera ray, a shadow caster after a scattering event. */
+            tEnd = order == 0 ? tCamera : NB_INF;
+#if NB_GEOM_SHADOW_CASTERS
+            if (order > 0)
+                tEnd = nbGeomTrace(bvhNodes, geomPrims, P->geom, o, d, 0.0f, NB_INF, NB_GEOM_SHADOWS, 0);
 #endif
-        tau = -log(nbRngOpen(rng));
+            nbMajorantInit(&it, vols, volumeCount, o, d, 0.0f, tEnd, seconds, majorants);
+#if NB_EQUIANGULAR
+            /* Equi-angular next-event estimation along this flight, one point per point or spot
+             * light (docs/pathtracer.md, "Equi-angular sampling"): the single scattering of that
+             * light anywhere on [0, tEnd), sigma_s(t) T(0, t) phase I / r^2 T(t, light) / pdf_equi(t),
+             * weighted by the power heuristic against the proxy pdf mu(t) exp(-int_0^t mu) of the
+             * free flight below; the NEE at the flight's scattering vertex takes the complementary
+             * weight. Only where a vertex on this flight may still scatter (order < maxDepth). */
+            const int equi = order < P->maxDepth && nbMajorantHull(&it, vols, &ef.segA, &ef.segB, &ef.segMu);
+            if (equi) {
+                const int next = order + 1 < 2 ? order + 1 : 2;
+                for (int i = 0; i < P->lightCount && i < NB_NUM_LIGHTS && i < 32; ++i) {
+                    NbLight l = lights[i];
+#if NB_HAS_LIGHT_MOTION
+                    if (l.motion[1] > 0) /* placed at the path's time (motion.h) */
+                        l = nbLightAt(l, majorants + l.motion[0], l.motion[1], seconds);
+#endif
+                    if (!nbEquiLight(l))
+                        continue;
+                    if (nbEquiPeakBound(o, d, nbLoad3(l.position), ef.segA, ef.segB) < NB_EQUI_MIN_PEAK * ef.segMu)
+                        continue; /* cheap: nbEquiWorthwhile would say no */
+                    const NbEquiAngular e = nbEquiInit(o, d, nbLoad3(l.position), ef.segA, ef.segB);
+                    if (!nbEquiWorthwhile(e, ef.segMu))
+                        continue;
+                    ef.equiMask |= 1u << i;
+                    const float te = nbEquiSample(e, nbRngNext(rng));
+                    const float pe = nbEquiPdf(e, te);
+                    if (!(pe > 0.0f))
+                        continue;
+                    const float3 pe3 = o + d * te;
+                    const NbLightSample s = nbSampleLight(l, pe3, 0.0f, 0.0f);
+                    if (!(nbMaxComponent(s.weight) > 0.0f))
+                        continue; /* outside a spot's cone */
+#if NB_GEOM_SHADOW_CASTERS
+                    if (nbGeomTrace(bvhNodes, geomPrims, P->geom, pe3, s.wi, 0.0f, s.distance, NB_GEOM_SHADOWS, 1) <
+                        NB_INF)
+                        continue;
+#endif
+                    float3 Tc;
+                    float tm, muT;
+                    if (!nbTrackToPoint(o, d, te, tEnd, seconds, vols, volumeCount, tables, pools, majorants, rng, &Tc,
+                                        &tm, &muT, rho, budget))
+                        continue;
+                    /* In-scattering towards -d, summed over the volumes there (each its phase). */
+                    const float cosTheta = dot(s.wi, d);
+                    float3 f = make_float3(0.0f, 0.0f, 0.0f);
+                    for (int v = 0; v < NB_NUM_VOLUMES; ++v) {
+                        NbPhase ph = vols[v].phase;
+#if !NB_TWO_LOBE
+                        ph.blend = 0.0f;
+#endif
+                        if (rho[v] > 0.0f)
+                            f = f + nbSigmaS(vols + v) * (rho[v] * nbPhaseEval(ph, cosTheta));
+                    }
+                    if (!(nbMaxComponent(f) > 0.0f))
+                        continue;
+                    const float wEq = nbEquiMisWeight(pe, muT * exp(-tm));
+                    if (!(wEq > 0.0f))
+                        continue;
+                    const float3 Tl =
+                        nbRatioTransmittance(pe3, s.wi, s.distance, seconds, vols, volumeCount, tables, pools,
+                                             majorants, rng, budget);
+                    const float3 c = w * Tc * f * s.weight * Tl * (wEq / pe);
+                    out->L[next] += c;
+                    out->perLight[i] += c;
+                }
+            }
+#endif
+            tau = -log(nbRngOpen(rng));
         }
         float segEnd, mu;
         int scatterVolume = -1;
@@ -488,13 +491,13 @@ NB_FN int nbTracePath(__private NbPathCursor* cur, float tCamera, float seconds,
                 tau -= span;
                 it.t = segEnd;
 #if NB_EQUIANGULAR
-                tauMaj += span;
+                ef.tauMaj += span;
 #endif
                 continue;
             }
 #if NB_EQUIANGULAR
-            tauMaj += tau;
-            muHit = mu;
+            ef.tauMaj += tau;
+            ef.muHit = mu;
 #endif
             it.t = nbAdvance(it.t, tau / mu);
             nbMajorantDensities(&it, vols, tables, pools, rho);
@@ -549,12 +552,7 @@ NB_FN int nbTracePath(__private NbPathCursor* cur, float tCamera, float seconds,
                 cur->tEnd = tEnd;
                 cur->tau = tau;
 #if NB_EQUIANGULAR
-                cur->segA = segA;
-                cur->segB = segB;
-                cur->segMu = segMu;
-                cur->equiMask = equiMask;
-                cur->tauMaj = tauMaj;
-                cur->muHit = muHit;
+                cur->equi = ef;
 #endif
                 cur->order = order;
                 cur->inFlight = 1;
@@ -617,7 +615,8 @@ NB_FN int nbTracePath(__private NbPathCursor* cur, float tCamera, float seconds,
                     float3 L = colour * nbEnvLookup(P->envMap, envData, wi);
                     if (nbMaxComponent(L) > 0.0f) {
                         float mis = pdfMap * pdfMap / (pdfMap * pdfMap + fp * fp);
-                        float3 T = nbRatioTransmittance(p, wi, NB_INF, seconds, vols, volumeCount, tables, pools, majorants, rng, budget);
+                        float3 T = nbRatioTransmittance(p, wi, NB_INF, seconds, vols, volumeCount, tables, pools,
+                                                        majorants, rng, budget);
                         c += L * T * (fp * mis / pdfMap);
                     }
                 }
@@ -628,7 +627,8 @@ NB_FN int nbTracePath(__private NbPathCursor* cur, float tCamera, float seconds,
                 if (fp > 0.0f && nbMaxComponent(L) > 0.0f) {
                     pdfMap = nbEnvPdf(P->envMap, envData, wi);
                     float mis = fp * fp / (pdfMap * pdfMap + fp * fp);
-                    float3 T = nbRatioTransmittance(p, wi, NB_INF, seconds, vols, volumeCount, tables, pools, majorants, rng, budget);
+                    float3 T = nbRatioTransmittance(p, wi, NB_INF, seconds, vols, volumeCount, tables, pools,
+                                                    majorants, rng, budget);
                     c += L * T * mis; /* p / pdf = 1 */
                 }
                 c = w * c;
@@ -656,10 +656,10 @@ NB_FN int nbTracePath(__private NbPathCursor* cur, float tCamera, float seconds,
             if (!(nbMaxComponent(s.weight) > 0.0f) || !(f > 0.0f))
                 continue;
 #if NB_EQUIANGULAR
-            if (i < 32 && ((equiMask >> i) & 1u)) {
+            if (i < 32 && ((ef.equiMask >> i) & 1u)) {
                 /* The complement of the equi-angular estimator's weight at this vertex. */
-                const NbEquiAngular e = nbEquiInit(o, d, nbLoad3(l.position), segA, segB);
-                f *= 1.0f - nbEquiMisWeight(nbEquiPdf(e, it.t), muHit * exp(-tauMaj));
+                const NbEquiAngular e = nbEquiInit(o, d, nbLoad3(l.position), ef.segA, ef.segB);
+                f *= 1.0f - nbEquiMisWeight(nbEquiPdf(e, it.t), ef.muHit * exp(-ef.tauMaj));
                 if (!(f > 0.0f))
                     continue;
             }
@@ -670,7 +670,8 @@ NB_FN int nbTracePath(__private NbPathCursor* cur, float tCamera, float seconds,
             if (nbGeomTrace(bvhNodes, geomPrims, P->geom, p, s.wi, 0.0f, s.distance, NB_GEOM_SHADOWS, 1) < NB_INF)
                 continue;
 #endif
-            float3 T = nbRatioTransmittance(p, s.wi, s.distance, seconds, vols, volumeCount, tables, pools, majorants, rng, budget);
+            float3 T = nbRatioTransmittance(p, s.wi, s.distance, seconds, vols, volumeCount, tables, pools, majorants,
+                                            rng, budget);
             float3 c = w * s.weight * T * f;
             out->L[nb] += c;
             out->perLight[i] += c;

@@ -290,18 +290,18 @@ TEST(PathtraceProgressive, CancelWithinASecondAtExtremeExtinction)
 {
     useTestKernelCache("determinism");
     World w = featureWorld(false);
+    w.scene.render.maxDepth = 0;
+    w.scene.camera.width = 64;
+    w.scene.camera.height = 48;
+    // First the same kernel and image at the medium's own extinction: the kernel's build or cache
+    // load, and PoCL's compile for this work-group size on its first launch (seconds each on cold
+    // caches), so that the cancel below lands in the launches.
+    w.scene.render.spp = 1;
+    w.render();
     for (auto& v : w.volumes) {
         v->medium.sigma_s = v->medium.sigma_s * 1e5f;
         v->medium.sigma_a = v->medium.sigma_s * 1e-5f;
     }
-    w.scene.render.maxDepth = 0;
-    // The kernel's build or cache load first (seconds on a cold cache), so that the cancel below
-    // lands in the launches.
-    w.scene.camera.width = w.scene.camera.height = 4;
-    w.scene.render.spp = 1;
-    w.render();
-    w.scene.camera.width = 64;
-    w.scene.camera.height = 48;
     w.scene.render.spp = 64;
     std::atomic<bool> cancel{false};
     RenderControl options;
