@@ -113,11 +113,15 @@ struct Planned {
 // integrator's own part. Nothing is built for rendering yet.
 // kernelBvh: build the path tracer's tree of the geometry too (method pathtrace, which then reuses
 // it, and `nimbus info`, which reports it).
+// cancel: the caller's flag, polled inside the volumes' load and between the steps here.
 Planned planPass(const Scene& scene, const IntegratorEntry& entry, RenderStats& stats, VolumeCache* cache = nullptr,
-                 bool kernelBvh = false)
+                 bool kernelBvh = false, const std::atomic<bool>* cancel = nullptr)
 {
+    StopFlag stop;
+    stop.watch(cancel);
     auto t = std::chrono::steady_clock::now();
-    VolumeSet volumes(buildVolumes(scene, cache), scene.render.step);
+    VolumeSet volumes(buildVolumes(scene, cache, &stop), scene.render.step);
+    throwIfStopped(&stop);
     setShutterOf(volumes, scene);
     stats.addStage("volumes", secondsSince(t));
     Planned p;
@@ -127,6 +131,7 @@ Planned planPass(const Scene& scene, const IntegratorEntry& entry, RenderStats& 
     p.context = RenderContext::create(scene, std::move(volumes), p.plan);
     if (p.context->geometry && kernelBvh)
         p.context->kernelBvh = std::make_shared<const KernelBvh>(buildKernelBvh(p.context->geometry->geometry()));
+    throwIfStopped(&stop);  // meshes read and their trees built
     if (p.context->geometry || p.context->holdoutDepth) {
         stats.addStage("geometry", secondsSince(t));  // meshes read, BVHs built, depth map read
         planGeometry(*p.context, p.plan);
@@ -217,7 +222,7 @@ RenderResult render(const Scene& input, const RenderOptions& callerOptions)
     const IntegratorEntry& entry = integratorEntry(scene.render.method);
     RenderResult result;
     Planned planned =
-        planPass(scene, entry, result.stats, options.volumeCache, scene.render.method == Method::Pathtrace);
+        planPass(scene, entry, result.stats, options.volumeCache, scene.render.method == Method::Pathtrace, options.cancel);
     // Memory known before it is spent (issue 18, item 4): nothing large is allocated before this.
     checkMemoryLimit(scene, planned.plan.memory);
     setupFilm(result.film, scene, entry.traits, options.outputAovsOnly);

@@ -9,6 +9,7 @@
 #include "Procedural.h"
 
 #include "../core/Error.h"
+#include "../core/StopFlag.h"
 
 #include <openvdb/io/File.h>
 #include <openvdb/openvdb.h>
@@ -222,9 +223,11 @@ enum class Block : uint8_t { Empty, Full, Mixed };
 // h). classify(centre, radius) must be conservative for every voxel centre within `radius` of
 // the block centre (world units): Empty means density 0 at all of them, Full means `full` at
 // all of them. density(p) is evaluated at world positions of voxel centres in mixed blocks.
+// A raised `stop` ends the loop over the blocks early (each block is at most 512 density
+// evaluations, ~0.1 ms for a cloud of 5 octaves) and throws Cancelled, freeing what was built.
 template <class Classify, class Density>
 FloatGrid::Ptr buildBlocks(const CoordBBox& voxels, openvdb::math::Transform::Ptr xform, double h, float full,
-                           const Classify& classify, const Density& density)
+                           const Classify& classify, const Density& density, const StopFlag* stop)
 {
     const int B = int(LeafT::DIM);
     Coord lo = voxels.min() & ~(B - 1), hi = voxels.max() & ~(B - 1);
@@ -237,9 +240,11 @@ FloatGrid::Ptr buildBlocks(const CoordBBox& voxels, openvdb::math::Transform::Pt
         return lo + Coord(int(b % nx) * B, int((b / nx) % ny) * B, int(b / (size_t(nx) * ny)) * B);
     };
     std::vector<Block> kinds(blocks, Block::Empty);
-    std::vector<LeafT*> leaves(blocks, nullptr);
+    std::vector<std::unique_ptr<LeafT>> leaves(blocks);
     tbb::parallel_for(tbb::blocked_range<size_t>(0, blocks), [&](const tbb::blocked_range<size_t>& r) {
         for (size_t b = r.begin(); b != r.end(); ++b) {
+            if (stopRaised(stop))
+                return;
             const Coord origin = blockOrigin(b);
             Vec3d centre = xform->indexToWorld(origin.asVec3d() + Vec3d(0.5 * (B - 1)));
             Block kind = classify(centre, radius);
@@ -256,16 +261,17 @@ FloatGrid::Ptr buildBlocks(const CoordBBox& voxels, openvdb::math::Transform::Pt
                             leaf->setValueOn(ijk, v);
                     }
             if (!leaf->isEmpty())
-                leaves[b] = leaf.release();
+                leaves[b] = std::move(leaf);
         }
     });
+    throwIfStopped(stop);
 
     FloatGrid::Ptr grid = FloatGrid::create(0.0f);
     grid->setTransform(xform);
     FloatTree& tree = grid->tree();
     for (size_t b = 0; b < blocks; ++b) {
         if (leaves[b])
-            tree.addLeaf(leaves[b]);  // the tree takes ownership
+            tree.addLeaf(leaves[b].release());  // the tree takes ownership
         else if (kinds[b] == Block::Full)
             tree.addTile(1, blockOrigin(b), full, true);
     }
@@ -291,7 +297,7 @@ CoordBBox voxelBox(const Vec3d& lo, const Vec3d& hi, double h)
 // A ball of uniform density centred at the origin. The edge is a smoothstep of width
 // w = max(falloff, voxel_size) centred on `radius`, so density is half its value exactly at
 // `radius` and the ball's volume is 4/3 pi radius^3 to first order in w.
-FloatGrid::Ptr makeSphere(const Params& p)
+FloatGrid::Ptr makeSphere(const Params& p, const StopFlag* stop)
 {
     const double r = p.length("radius", 1.0);
     const double h = p.length("voxel_size", r / 48.0);
@@ -315,7 +321,8 @@ FloatGrid::Ptr makeSphere(const Params& p)
         double t = (x.length() - inner) / w;
         return float(d * (1.0 - smoothstep01(float(t))));
     };
-    return buildBlocks(voxels, openvdb::math::Transform::createLinearTransform(h), h, float(d), classify, density);
+    return buildBlocks(voxels, openvdb::math::Transform::createLinearTransform(h), h, float(d), classify, density,
+                       stop);
 }
 
 // ---- box -------------------------------------------------------------------------------------
@@ -484,7 +491,7 @@ private:
     std::vector<Vec3d> mOffsets;
 };
 
-FloatGrid::Ptr makeCloud(const Params& p)
+FloatGrid::Ptr makeCloud(const Params& p, const StopFlag* stop)
 {
     CloudShape cloud(p);
     p.voxelEdge(p.has("voxel_size") ? "voxel_size" : "radius", cloud.voxelSize());
@@ -493,20 +500,22 @@ FloatGrid::Ptr makeCloud(const Params& p)
     return buildBlocks(
         voxels, openvdb::math::Transform::createLinearTransform(cloud.voxelSize()), cloud.voxelSize(), cloud.density(),
         [&](const Vec3d& c, double radius) { return cloud.classify(c, radius); },
-        [&](const Vec3d& x) { return cloud(x); });
+        [&](const Vec3d& x) { return cloud(x); }, stop);
 }
 
 }  // namespace
 
-std::shared_ptr<VdbFloatGrid> makeProceduralGrid(const VolumeSource& source, const std::string& keyPath)
+std::shared_ptr<VdbFloatGrid> makeProceduralGrid(const VolumeSource& source, const std::string& keyPath,
+                                                 const StopFlag* stop)
 {
     FloatGrid::Ptr grid;
     if (source.generator == "cloud")
         grid = makeCloud(Params(source, keyPath,
                                 {"radius", "voxel_size", "density", "seed", "octaves", "frequency", "detail",
-                                 "softness", "puffs", "base"}));
+                                 "softness", "puffs", "base"}),
+                         stop);
     else if (source.generator == "sphere")
-        grid = makeSphere(Params(source, keyPath, {"radius", "voxel_size", "density", "falloff"}));
+        grid = makeSphere(Params(source, keyPath, {"radius", "voxel_size", "density", "falloff"}), stop);
     else if (source.generator == "box")
         grid = makeBox(Params(source, keyPath, {"size", "size_x", "size_y", "size_z", "voxel_size", "density"}));
     else

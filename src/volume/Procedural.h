@@ -39,6 +39,8 @@ class Grid;
 
 namespace nimbus {
 
+class StopFlag;
+
 // openvdb::FloatGrid (Tree4<float, 5, 4, 3>).
 using VdbFloatGrid = openvdb::Grid<openvdb::tree::Tree<openvdb::tree::RootNode<
     openvdb::tree::InternalNode<openvdb::tree::InternalNode<openvdb::tree::LeafNode<float, 3>, 4>, 5>>>>;
@@ -48,7 +50,9 @@ using VdbFloatGrid = openvdb::Grid<openvdb::tree::Tree<openvdb::tree::RootNode<
 // active tiles). keyPath prefixes error messages and names the source, e.g.
 // "scene.json: volumes[0].source": an unknown generator, an unknown parameter, a bad value or a
 // grid over ~1.1e9 voxels (a 1024^3 index box) throws InputError "<keyPath>.<param>: <why>".
-std::shared_ptr<VdbFloatGrid> makeProceduralGrid(const VolumeSource& source, const std::string& keyPath);
+// A raised `stop` (a cancelled render) ends the generation and throws Cancelled.
+std::shared_ptr<VdbFloatGrid> makeProceduralGrid(const VolumeSource& source, const std::string& keyPath,
+                                                 const StopFlag* stop = nullptr);
 
 // Writes the grid makeProceduralGrid builds to a .vdb file (one grid, "density"), e.g. to render
 // the same cloud with vdb_render. Throws InputError for bad parameters, Error if the file cannot

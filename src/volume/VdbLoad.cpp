@@ -12,6 +12,7 @@
 #include "../core/DataFiles.h"
 #include "../core/Error.h"
 #include "../core/Log.h"
+#include "../core/StopFlag.h"
 #include "../scene/SceneJson.h"
 #include "../scene/SceneValidate.h"
 #include "PluginSource.h"
@@ -239,9 +240,18 @@ RoleGrids readVdb(const VolumeSource& source, const std::string& path, bool allR
 // of 4096^3 voxels under a skewed transform resampled for hours).
 constexpr double kMaxResampledVoxels = double(kMaxBricks) * 512.0;
 
+// OpenVDB's interrupter interface (util/NullInterrupter.h) over a render's StopFlag: the
+// transformer polls it between slices of its walk.
+struct StopInterrupter {
+    const StopFlag* stop;
+    void start(const char* = nullptr) {}
+    void end() {}
+    bool wasInterrupted(int = -1) const { return stopRaised(stop); }
+};
+
 template <class GridT>
 typename GridT::Ptr resampleTo(const typename GridT::Ptr& grid, const openvdb::math::Transform::Ptr& target,
-                               const std::string& where)
+                               const std::string& where, const StopFlag* stop)
 {
     if (grid->transform() == *target)
         return grid;
@@ -266,7 +276,9 @@ typename GridT::Ptr resampleTo(const typename GridT::Ptr& grid, const openvdb::m
     typename GridT::Ptr out = GridT::create(grid->background());
     out->setTransform(target);
     out->setName(grid->getName());
-    openvdb::tools::resampleToMatch<openvdb::tools::BoxSampler>(*grid, *out);
+    StopInterrupter interrupter{stop};
+    openvdb::tools::resampleToMatch<openvdb::tools::BoxSampler>(*grid, *out, interrupter);
+    throwIfStopped(stop);  // an interrupted walk leaves `out` part-filled
     return out;
 }
 
@@ -352,7 +364,8 @@ std::string volumeKey(const Scene& scene, size_t index, const std::string& scene
 }
 
 std::shared_ptr<VolumeData> buildVolume(const Scene& scene, size_t index, const std::string& sceneDir,
-                                        std::map<std::string, std::shared_ptr<VolumeShader>>& shaders)
+                                        std::map<std::string, std::shared_ptr<VolumeShader>>& shaders,
+                                        const StopFlag* stop)
 {
     const Volume& volume = scene.volumes[index];
     const Where where{scene.sourcePath.empty() ? "scene" : scene.sourcePath, index};
@@ -381,12 +394,13 @@ std::shared_ptr<VolumeData> buildVolume(const Scene& scene, size_t index, const 
         grids = std::move(read.grids);
         data->gridsRead = std::move(read.names);
     } else if (volume.source.type == SourceType::Procedural) {
-        grids.push_back({"density", makeProceduralGrid(volume.source, where.key(".source"))});
+        grids.push_back({"density", makeProceduralGrid(volume.source, where.key(".source"), stop)});
         data->gridsRead.push_back("density (" + volume.source.generator + ")");
     } else {
         grids.push_back({"density", makePluginGrid(volume.source, sceneDir, where.key(".source"), data->gridsRead)});
     }
 
+    throwIfStopped(stop);
     // Clamp what comes in (counting file voxels, before any resampling), so a shader never sees
     // NaN; then what the shader produced.
     ClampReport clamped;
@@ -406,13 +420,15 @@ std::shared_ptr<VolumeData> buildVolume(const Scene& scene, size_t index, const 
                                 grids[i].second->getName() + "' in '" + vdbPath + "'";
         try {
             if (auto f = openvdb::gridPtrCast<FloatGrid>(grids[i].second))
-                grids[i].second = resampleTo<FloatGrid>(f, density->transformPtr(), key);
+                grids[i].second = resampleTo<FloatGrid>(f, density->transformPtr(), key, stop);
             else if (auto v = openvdb::gridPtrCast<Vec3SGrid>(grids[i].second))
-                grids[i].second = resampleTo<Vec3SGrid>(v, density->transformPtr(), key);
+                grids[i].second = resampleTo<Vec3SGrid>(v, density->transformPtr(), key, stop);
         } catch (const openvdb::Exception& e) {  // OpenVDB's GridTransformer decomposes the pair's transforms
             throw InputError(key + ": cannot be resampled onto the density grid's voxels (" + e.what() + ")");
         }
     }
+
+    throwIfStopped(stop);
 
     Vec3SGrid::Ptr emission;
     if (!shaderFile.isDefault || hasEmissionInputs) {
@@ -434,6 +450,7 @@ std::shared_ptr<VolumeData> buildVolume(const Scene& scene, size_t index, const 
             clamped.add("emission", clampGrid(*emission));
     }
 
+    throwIfStopped(stop);
     data->clampedVoxels = clamped.warn(label);
 
     const std::string densityKey =
@@ -453,6 +470,7 @@ std::shared_ptr<VolumeData> buildVolume(const Scene& scene, size_t index, const 
     }
     if (emission)
         data->emission = toBricks(*emission, 3, where.key(".shader"));
+    throwIfStopped(stop);
 
     // Placement: the grid's own index-to-world, then the volume's transform.
     data->worldFromIndex = volume.transform * fromVdb(density->transform());
@@ -493,7 +511,7 @@ std::string resolveVdbPath(const std::string& file, const std::string& sceneDir)
     return joined.string();
 }
 
-std::vector<std::shared_ptr<VolumeData>> buildVolumes(const Scene& scene, VolumeCache* cache)
+std::vector<std::shared_ptr<VolumeData>> buildVolumes(const Scene& scene, VolumeCache* cache, const StopFlag* stop)
 {
     openvdb::initialize();  // registers the grid types for file IO; idempotent, thread-safe
     const std::string sceneDir =
@@ -519,10 +537,13 @@ std::vector<std::shared_ptr<VolumeData>> buildVolumes(const Scene& scene, Volume
                     continue;
                 }
             }
-            volumes.push_back(buildVolume(scene, i, sceneDir, shaders));
+            throwIfStopped(stop);
+            volumes.push_back(buildVolume(scene, i, sceneDir, shaders, stop));
             if (!key.empty())
                 kept[key] = volumes.back();
         } catch (const Error&) {
+            throw;
+        } catch (const Cancelled&) {
             throw;
         } catch (const std::bad_alloc&) {
             throw Error((scene.sourcePath.empty() ? "scene" : scene.sourcePath) + ": volumes[" + std::to_string(i) +

@@ -38,6 +38,7 @@ struct VolumeData {
     bool hasVelocity() const { return !velocity.empty(); }
 };
 
+class StopFlag;
 class VolumeShader;
 
 // What a sequence keeps between frames (docs/sequences.md): the last frame's volumes, each
@@ -57,6 +58,10 @@ struct VolumeCache {
 // shader, clamps bad voxels (one warning per volume, with the count) and converts to bricks.
 // Throws InputError naming the file and key path for missing files or grids. With a cache,
 // volumes whose key the cache holds are reused, and the cache then holds this scene's volumes.
-std::vector<std::shared_ptr<VolumeData>> buildVolumes(const Scene& scene, VolumeCache* cache = nullptr);
+// A raised `stop` (the render's cancel, RenderControl.h) ends the load within a generator block,
+// a resampling slice or a step of a volume's build, and throws Cancelled; the cache is unchanged.
+// OpenVDB's file read and a shader's run are not interrupted (docs/robustness.md).
+std::vector<std::shared_ptr<VolumeData>> buildVolumes(const Scene& scene, VolumeCache* cache = nullptr,
+                                                      const StopFlag* stop = nullptr);
 
 }  // namespace nimbus
