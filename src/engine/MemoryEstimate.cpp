@@ -34,6 +34,7 @@
 #include "../wkb/WkbPlanner.h"
 
 #include "../core/FormatBytes.h"
+#include "../core/MemoryLimit.h"
 
 #include <tbb/info.h>
 
@@ -62,33 +63,6 @@ constexpr size_t kRayBytes = 160;
 // 90 MiB between the modelled items and the peak). A cold kernel cache adds the compiler's
 // transient memory (about 200 MiB with pocl), not modelled (docs/robustness.md).
 constexpr size_t kOpenClRuntimeBytes = size_t(90) << 20;
-
-size_t fromFile(const char* path, const char* key)
-{
-    std::ifstream in(path);
-    std::string word;
-    while (in >> word)
-        if (word == key) {
-            double kib = 0;
-            in >> kib;
-            return size_t(kib * 1024.0);
-        }
-    return 0;
-}
-
-size_t cgroupLimit()
-{
-    for (const char* path : {"/sys/fs/cgroup/memory.max", "/sys/fs/cgroup/memory/memory.limit_in_bytes"}) {
-        std::ifstream in(path);
-        std::string text;
-        if (in >> text && !text.empty() && text != "max") {
-            const double v = std::strtod(text.c_str(), nullptr);
-            if (v > 0 && v < 1e18)  // cgroup v1 says "no limit" with a huge number
-                return size_t(v);
-        }
-    }
-    return 0;
-}
 
 size_t filmChannels(const Scene& scene, const IntegratorTraits& traits)
 {
@@ -119,17 +93,6 @@ size_t peakResidentBytesSoFar()
     return ::getrusage(RUSAGE_SELF, &usage) == 0 ? size_t(usage.ru_maxrss) * 1024 : 0;
 }
 
-size_t defaultMemoryLimit()
-{
-    size_t physical = fromFile("/proc/meminfo", "MemTotal:");
-    if (physical == 0)
-        physical = size_t(::sysconf(_SC_PHYS_PAGES)) * size_t(::sysconf(_SC_PAGESIZE));
-    const size_t cgroup = cgroupLimit();
-    if (cgroup && cgroup < physical)
-        physical = cgroup;
-    return size_t(0.8 * double(physical));
-}
-
 MemoryPlan estimateMemory(const Scene& scene, const RenderContext& ctx, const RenderPlan& plan)
 {
     const RenderSettings& r = scene.render;
@@ -138,7 +101,7 @@ MemoryPlan estimateMemory(const Scene& scene, const RenderContext& ctx, const Re
     m.residentBytes = residentBytes();
     m.peakSoFar = peakResidentBytesSoFar();
     m.limitDefault = !(r.memoryLimit > 0);
-    m.limitBytes = m.limitDefault ? defaultMemoryLimit() : size_t(std::min(double(r.memoryLimit), 1.8e19));
+    m.limitBytes = memoryLimitBytes(double(r.memoryLimit));
 
     size_t densityBytes = 0;
     for (const VolumePlan& v : plan.volumes)

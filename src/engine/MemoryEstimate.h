@@ -13,6 +13,8 @@
 
 #include "../render/RenderPlan.h"
 
+#include "../core/MemoryLimit.h"  // defaultMemoryLimit, memoryLimitBytes
+
 #include <cstddef>
 
 namespace nimbus {
@@ -22,8 +24,6 @@ struct RenderContext;
 // Bytes resident now, and the most resident so far (Linux).
 size_t residentBytes();
 size_t peakResidentBytesSoFar();
-// 80% of min(MemTotal, cgroup memory.max): the default render.memory_limit.
-size_t defaultMemoryLimit();
 
 // The estimate for the render the planning pass prepared (plan complete but for `memory`).
 MemoryPlan estimateMemory(const Scene& scene, const RenderContext& ctx, const RenderPlan& plan);

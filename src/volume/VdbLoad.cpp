@@ -11,7 +11,9 @@
 
 #include "../core/DataFiles.h"
 #include "../core/Error.h"
+#include "../core/FormatBytes.h"
 #include "../core/Log.h"
+#include "../core/MemoryLimit.h"
 #include "../core/StopFlag.h"
 #include "../scene/SceneJson.h"
 #include "../scene/SceneValidate.h"
@@ -32,6 +34,7 @@
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
+#include <limits>
 #include <map>
 
 namespace nimbus {
@@ -102,6 +105,16 @@ void checkGridTransform(const GridBase& grid, const std::string& what)
                 throw InputError(what + " has a transform whose index axis " + std::to_string(axis) + " is " + text +
                                  " m long, outside [1e-30, 1e30] (damaged?)");
             }
+        }
+        // A file stores a map's inverse beside it (OpenVDB's ScaleMap and ScaleTranslateMap keep
+        // their reciprocal scales), and worldToIndex uses that copy: a damaged one places the voxels
+        // by one transform and looks them up by another (a fuzzed file's density had voxels of
+        // 1.5e-6 m along x and an inverse of 0.1 m voxels; its role grid resampled into 17 GB).
+        for (const openvdb::Vec3d p : {openvdb::Vec3d(0.0), openvdb::Vec3d(1, 0, 0), openvdb::Vec3d(0, 1, 0),
+                                       openvdb::Vec3d(0, 0, 1), openvdb::Vec3d(37, -11, 5)}) {
+            const openvdb::Vec3d back = grid.transform().worldToIndex(grid.transform().indexToWorld(p));
+            if (!((back - p).length() <= 1e-6 * (1.0 + p.length())))
+                throw InputError(what + " has a transform whose stored inverse does not invert it (damaged)");
         }
     } catch (const openvdb::Exception& e) {
         throw InputError(what + " has an invalid transform: " + e.what());
@@ -234,10 +247,17 @@ RoleGrids readVdb(const VolumeSource& source, const std::string& path, bool allR
 // Brings a role grid onto the density grid's voxels (AX reads every grid at the same index
 // coordinates). Trilinear (BoxSampler) resampling, as the renderer would interpolate it.
 // Resampling walks every active value of a role grid onto the density grid's lattice, so its
-// work is bounded by what the bricks could ever hold: a role grid whose active values (tiles
-// counted voxel by voxel), or whose active box mapped onto the density's voxels, exceed
-// kMaxBricks bricks of 8^3 voxels is refused before the walk (a 20 KB file with one active tile
-// of 4096^3 voxels under a skewed transform resampled for hours).
+// work and memory are known from the role grid's active box before the walk, and bounded twice:
+// - by what the bricks could ever hold: a role grid whose active values (tiles counted voxel by
+//   voxel), or whose active box mapped onto the density's voxels, exceed kMaxBricks bricks of 8^3
+//   voxels is refused (a 20 KB file with one active tile of 4096^3 voxels under a skewed
+//   transform resampled for hours);
+// - by render.memory_limit: the leaves the mapped box touches (a thin or slanted box fills few
+//   of each leaf's voxels, so leaves, not voxels, are what it costs), each taken three and a half
+//   times (the resampled leaves, a working copy: the shader's output or the velocities in index
+//   space, and the bricks made from them, 729/512 of a leaf), may not exceed the limit (a 21 KB
+//   file's 729 velocities under a density of 1.5e-6 m by 0.1 m voxels resampled into 663,561
+//   leaves: 17 GB resident and 77 s before the render's own estimate refused it).
 constexpr double kMaxResampledVoxels = double(kMaxBricks) * 512.0;
 
 // OpenVDB's interrupter interface (util/NullInterrupter.h) over a render's StopFlag: the
@@ -249,28 +269,66 @@ struct StopInterrupter {
     bool wasInterrupted(int = -1) const { return stopRaised(stop); }
 };
 
+// The voxels and the 8^3 leaves of `target`'s lattice that the voxels of `box` (index space of
+// `from`) cover, one voxel wider on each side (the box sampler's support). Every corner of the
+// box is mapped, so mirrored, rotated and skewed transforms count right.
+struct MappedBox {
+    double voxels = 0.0, leaves = 0.0;
+};
+MappedBox mapBox(const openvdb::CoordBBox& box, const openvdb::math::Transform& from,
+                 const openvdb::math::Transform& target)
+{
+    MappedBox m;
+    if (box.empty())
+        return m;
+    const double inf = std::numeric_limits<double>::infinity();
+    openvdb::Vec3d lo(inf), hi(-inf);
+    for (int corner = 0; corner < 8; ++corner) {
+        const openvdb::Vec3d c((corner & 1 ? box.max().x() + 0.5 : box.min().x() - 0.5),
+                               (corner & 2 ? box.max().y() + 0.5 : box.min().y() - 0.5),
+                               (corner & 4 ? box.max().z() + 0.5 : box.min().z() - 0.5));
+        const openvdb::Vec3d t = target.worldToIndex(from.indexToWorld(c));
+        lo = openvdb::math::minComponent(lo, t);
+        hi = openvdb::math::maxComponent(hi, t);
+    }
+    m.voxels = m.leaves = 1.0;
+    for (int a = 0; a < 3; ++a) {
+        if (!(std::isfinite(lo[a]) && std::isfinite(hi[a])))
+            return MappedBox{inf, inf};
+        const double first = std::floor(lo[a]) - 1.0, last = std::ceil(hi[a]) + 1.0;
+        m.voxels *= last - first + 1.0;
+        m.leaves *= std::floor(last / 8.0) - std::floor(first / 8.0) + 1.0;
+    }
+    return m;
+}
+
 template <class GridT>
 typename GridT::Ptr resampleTo(const typename GridT::Ptr& grid, const openvdb::math::Transform::Ptr& target,
-                               const std::string& where, const StopFlag* stop)
+                               const std::string& where, size_t limitBytes, const StopFlag* stop)
 {
     if (grid->transform() == *target)
         return grid;
     const double active = double(grid->activeVoxelCount());
-    double mapped = 0.0;
-    const openvdb::CoordBBox box = grid->evalActiveVoxelBoundingBox();
-    if (!box.empty()) {
-        const openvdb::BBoxd onTarget = target->worldToIndex(grid->transform().indexToWorld(box));
-        const openvdb::Vec3d extent = onTarget.extents();
-        mapped = (extent.x() + 1.0) * (extent.y() + 1.0) * (extent.z() + 1.0);
-    }
-    const double worst = std::max(active, mapped);
+    const MappedBox mapped = mapBox(grid->evalActiveVoxelBoundingBox(), grid->transform(), *target);
+    const double worst = std::max(active, mapped.voxels);
     if (!(worst <= kMaxResampledVoxels)) {
         char what[256];
         std::snprintf(what, sizeof what,
                       ": its active region (%.3g voxels, %.3g on the density grid's voxels) is more than the "
                       "%.0f voxels nimbus resamples onto the density grid (damaged, or a transform far from the "
                       "density's)",
-                      active, mapped, kMaxResampledVoxels);
+                      active, mapped.voxels, kMaxResampledVoxels);
+        throw InputError(where + what);
+    }
+    const double bytes = mapped.leaves * 512.0 * double(sizeof(typename GridT::ValueType)) * (2.0 + 729.0 / 512.0);
+    if (!(bytes <= double(limitBytes))) {
+        char what[400];
+        std::snprintf(what, sizeof what,
+                      ": resampling it onto the density grid's voxels would take about %s (%.3g leaves of 8^3 "
+                      "voxels, their bricks and a working copy), more than render.memory_limit (%s); raise "
+                      "render.memory_limit, or give the grid the density's transform",
+                      formatBytes(size_t(std::min(bytes, 1.8e19))).c_str(), mapped.leaves,
+                      formatBytes(limitBytes).c_str());
         throw InputError(where + what);
     }
     typename GridT::Ptr out = GridT::create(grid->background());
@@ -414,15 +472,16 @@ std::shared_ptr<VolumeData> buildVolume(const Scene& scene, size_t index, const 
     }
 
     FloatGrid::Ptr density = openvdb::gridPtrCast<FloatGrid>(grids.front().second);
+    const size_t limitBytes = memoryLimitBytes(double(scene.render.memoryLimit));
     for (size_t i = 1; i < grids.size(); ++i) {
         // Role grids other than the density come from a vdb source only.
         const std::string key = where.key(".source.grids." + grids[i].first) + ": grid '" +
                                 grids[i].second->getName() + "' in '" + vdbPath + "'";
         try {
             if (auto f = openvdb::gridPtrCast<FloatGrid>(grids[i].second))
-                grids[i].second = resampleTo<FloatGrid>(f, density->transformPtr(), key, stop);
+                grids[i].second = resampleTo<FloatGrid>(f, density->transformPtr(), key, limitBytes, stop);
             else if (auto v = openvdb::gridPtrCast<Vec3SGrid>(grids[i].second))
-                grids[i].second = resampleTo<Vec3SGrid>(v, density->transformPtr(), key, stop);
+                grids[i].second = resampleTo<Vec3SGrid>(v, density->transformPtr(), key, limitBytes, stop);
         } catch (const openvdb::Exception& e) {  // OpenVDB's GridTransformer decomposes the pair's transforms
             throw InputError(key + ": cannot be resampled onto the density grid's voxels (" + e.what() + ")");
         }

@@ -6,7 +6,7 @@
 // Input: the file's bytes. Each input is loaded as a scene volume with the default roles
 // (density, temperature, flame or heat); a file that loads is loaded again with velocity blur on
 // (medium.velocity_scale 1, which requires a vec3 "vel" grid), the only other path that reads
-// grids without an AX shader.
+// grids without an AX shader. render.memory_limit is 1 GiB (below libFuzzer's RSS limit).
 //
 // Only InputError may come out (FuzzSupport.h). OpenVDB itself is Debian's GCC build and not
 // instrumented: libFuzzer sees coverage of nimbus's side only, and ASan sees OpenVDB's heap
@@ -30,7 +30,10 @@ Scene sceneWith(const std::string& vdbPath, bool velocityBlur)
     nlohmann::json volume = {{"source", {{"type", "vdb"}, {"file", vdbPath}}}};
     if (velocityBlur)
         volume["medium"] = {{"velocity_scale", 1}};
-    nlohmann::json doc = {{"volumes", nlohmann::json::array({volume})}};
+    // The load checks what it would allocate against render.memory_limit (a role grid's
+    // resampling): 1 GiB here, under libFuzzer's -rss_limit_mb of 2048, so that a file asking for
+    // more is an input error, as it would be on a machine of that memory, not an out-of-memory.
+    nlohmann::json doc = {{"volumes", nlohmann::json::array({volume})}, {"render", {{"memory_limit", 1073741824.0}}}};
     if (velocityBlur)
         doc["camera"] = {{"shutter", {-0.25, 0.25}}};
     return sceneFromJson(doc, "");

@@ -915,3 +915,67 @@ TEST(VdbLoad, CancelEndsTheLoadWithinASecond)
         printf("cancel of %s: %.3f s after the raise\n", c.what, std::chrono::duration<double>(ended - raised).count());
     }
 }
+
+// fuzz_vdb (2026-12-05, session 25): a map's inverse is stored beside it in the file (here a
+// UniformScaleMap's reciprocal scale), and OpenVDB's worldToIndex uses the stored copy. A file
+// whose copy disagrees placed voxels by one transform and looked them up by another; its role
+// grid resampled into 17 GB (tests/fuzz/regressions/vdb/transform_inverse_damaged_resample_17gb.vdb).
+TEST(VdbLoad, TransformWhoseStoredInverseDisagreesIsRefused)
+{
+    ScratchDir dir;
+    const std::string path = dir / "inverse.vdb";
+    FloatGrid::Ptr grid = floatGrid("density", 0.125);
+    grid->tree().setValue(Coord(0, 0, 0), 1.0f);
+    writeVdb(path, {grid});
+    std::string bytes;
+    {
+        std::ifstream in(path, std::ios::binary);
+        bytes.assign(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+    }
+    const size_t map = bytes.find("UniformScaleMap");
+    ASSERT_NE(map, std::string::npos);
+    const double scale = 0.125, other = 0.5;
+    size_t n = 0;
+    for (size_t at = bytes.find(std::string(reinterpret_cast<const char*>(&scale), 8), map);
+         at != std::string::npos && n < 3; at = bytes.find(std::string(reinterpret_cast<const char*>(&scale), 8), at + 8), ++n)
+        std::memcpy(&bytes[at], &other, 8);  // the scale factors, not their stored reciprocals
+    ASSERT_EQ(n, 3u);
+    writeText(path, bytes);
+    const std::string message = inputError(vdbScene(path));
+    EXPECT_NE(message.find("volumes[0].source.grids.density: grid 'density' in '" + path +
+                           "' has a transform whose stored inverse does not invert it (damaged)"),
+              std::string::npos)
+        << message;
+    EXPECT_EQ(message.find('\n'), std::string::npos) << message;
+}
+
+// Memory known before it is spent (issue 18, item 4), in the load: a role grid resampled onto a
+// density grid of much finer voxels along one axis fills every leaf its mapped box touches. 9^3
+// temperatures of 0.1 m over densities of 1 mm by 0.1 m by 0.1 m voxels: a box of 903 x 13 x 13
+// density voxels in 114 x 3 x 3 = 1026 leaves, 6.9 MiB with their bricks and a copy. Under a
+// render.memory_limit of 1 MB it is refused before the walk, naming the grid and the key; under
+// 1 GB it loads.
+TEST(VdbLoad, RoleGridResampledPastTheMemoryLimitIsRefusedBeforeTheWalk)
+{
+    ScratchDir dir;
+    FloatGrid::Ptr d = floatGrid("density", 0.1), t = floatGrid("temperature", 0.1);
+    openvdb::math::Transform::Ptr thin = openvdb::math::Transform::createLinearTransform(1.0);
+    thin->preScale(openvdb::Vec3d(0.001, 0.1, 0.1));
+    d->setTransform(thin);
+    d->tree().fill(CoordBBox(Coord(0), Coord(799, 7, 7)), 1.0f, true);
+    t->tree().fill(CoordBBox(Coord(0), Coord(8)), 1500.0f, true);
+    const std::string path = dir / "thin.vdb";
+    writeVdb(path, {d, t});
+    Scene scene = vdbScene(path);
+    scene.render.memoryLimit = 1e6f;
+    const std::string message = inputError(scene);
+    EXPECT_NE(message.find("volumes[0].source.grids.temperature: grid 'temperature' in '" + path +
+                           "': resampling it onto the density grid's voxels would take about"),
+              std::string::npos)
+        << message;
+    EXPECT_NE(message.find("(1.03e+03 leaves of 8^3 voxels"), std::string::npos) << message;
+    EXPECT_NE(message.find("raise render.memory_limit"), std::string::npos) << message;
+    EXPECT_EQ(message.find('\n'), std::string::npos) << message;
+    scene.render.memoryLimit = 1e9f;
+    EXPECT_NO_THROW(buildVolumes(scene));
+}
