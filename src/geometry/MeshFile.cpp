@@ -8,6 +8,7 @@
 #include <assimp/scene.h>
 
 #include <algorithm>
+#include <array>
 #include <cctype>
 #include <cmath>
 #include <cstdlib>
@@ -151,63 +152,286 @@ std::string plyHeaderProblem(const std::string& path)
     return "";
 }
 
+// Assimp 5.2's OBJ reader, as far as positions and the indices naming them go: objIndexProblem
+// (below) must see the lines Assimp sees and count the positions Assimp keeps. The rules are read
+// from Assimp 5.2.5 (tag v5.2.5: include/assimp/IOStreamBuffer.h, include/assimp/ParsingUtils.h,
+// code/AssetLib/Obj/ObjFileParser.cpp, ObjTools.h, ObjFileImporter.cpp) and each one checked
+// against Debian 12's libassimp 5.2.5 on hand-written files (test_mesh_file.cpp).
+
+// ParsingUtils.h: IsLineEnd, the bytes that end an OBJ line for Assimp, and IsSpace, its blanks.
+bool objLineEnd(char c)
+{
+    return c == '\n' || c == '\r' || c == '\0' || c == '\f';
+}
+
+bool objBlank(char c)
+{
+    return c == ' ' || c == '\t';
+}
+
+// Whether line starts with the word w (ObjTools.h getNameNoSpace: the bytes up to a blank or a line end).
+bool objWord(const char* line, const char* w)
+{
+    const size_t n = std::strlen(w);
+    return std::strncmp(line, w, n) == 0 && (objBlank(line[n]) || objLineEnd(line[n]));
+}
+
+// An OBJ file's lines as ObjFileParser::parseFile gets them from
+// IOStreamBuffer<char>::getNextDataLine(buffer, '\\'): a line ends at any objLineEnd byte (CRLF is a
+// line and an empty one); a '\' before a line end joins the next line on, from the byte after the
+// next '\n', and that byte is taken whatever it is (a line end too). Every line is written into one
+// buffer, over the last, with a '\n' after it; past that '\n' lie the leftovers of earlier, longer
+// lines (zeros at first), which Assimp's tokenisers read on into after a '\' before a line end. Assimp
+// reads the file in blocks of 16 MiB (4096 * 4096, IOStreamBuffer's cache); in a larger file a last
+// line with no line end is dropped. Not followed: in such a file, a '\' continuation that runs past
+// the end of a block (Assimp reads outside its block there).
+class ObjLines {
+public:
+    explicit ObjLines(const std::string& text) : text_(text), buffer_(256, '\0') {}
+
+    // The next line into line(); false when there is none.
+    bool next();
+    // The line, '\n', the leftovers, then '\0' up to size().
+    const char* line() const { return buffer_.data(); }
+    size_t size() const { return buffer_.size(); }
+    // Where in the file the line began.
+    size_t start() const { return start_; }
+
+private:
+    // A byte of the file; Assimp's cache holds '\n' past the end of a file under 16 MiB.
+    char at(size_t i) const { return i < text_.size() ? text_[i] : '\n'; }
+    // Writes n bytes at i; a '\0' stays past every byte ever written.
+    void put(size_t i, const char* bytes, size_t n)
+    {
+        while (i + n >= buffer_.size())
+            buffer_.resize(2 * buffer_.size(), '\0');
+        std::memcpy(&buffer_[i], bytes, n);
+    }
+    // The bytes next() stops at: the line ends and '\'.
+    static constexpr std::array<bool, 256> kSpecial = [] {
+        std::array<bool, 256> special{};
+        for (const unsigned char c : {'\n', '\r', '\0', '\f', '\\'})
+            special[c] = true;
+        return special;
+    }();
+
+    const std::string& text_;
+    std::string buffer_;
+    size_t pos_ = 0, start_ = 0;
+};
+
+bool ObjLines::next()
+{
+    const size_t size = text_.size();
+    if (pos_ >= size)
+        return false;
+    start_ = pos_;
+    size_t length = 0;
+    for (;;) {
+        // The bytes up to the next line end or '\' at once, where Assimp takes them one by one.
+        size_t run = pos_;
+        while (run < size && !kSpecial[static_cast<unsigned char>(text_[run])])
+            ++run;
+        if (run > pos_) {
+            put(length, text_.data() + pos_, run - pos_);
+            length += run - pos_;
+            pos_ = run;
+        } else {
+            const char c = text_[pos_];
+            if (c == '\\' && objLineEnd(at(pos_ + 1))) {
+                ++pos_;
+                while (at(pos_) != '\n')
+                    ++pos_;
+                ++pos_;
+            } else if (objLineEnd(c)) {
+                break;
+            }
+            const char taken = at(pos_);  // the '\', or the byte after the continuation, whatever it is
+            put(length++, &taken, 1);
+            ++pos_;
+        }
+        if (pos_ >= size) {
+            if (size > size_t(4096) * 4096)
+                return false;  // the file read in blocks: the next block is not there, the line is lost
+            break;
+        }
+    }
+    const char end = '\n';
+    put(length, &end, 1);
+    ++pos_;
+    return true;
+}
+
+// The components Assimp 5.2 counts on a 'v' line, from p, the blank after the 'v'
+// (ObjFileParser::getNumComponentsInDataDefinition): the words between blanks up to a line end, a
+// word '\' before a line end stepped over with it (on into the buffer's leftovers); a word counts
+// when it starts with a digit, '+' or '-', or with "nan" or "inf" in any case ("info" counts;
+// ".5", "#" and "x" do not, so "v 1 2 3 # 4" has four, "v .5 .5 .5" none).
+int objComponents(const char* p)
+{
+    const auto lower = [](char c) { return char(std::tolower(static_cast<unsigned char>(c))); };
+    const auto starts = [&](const char* w) {  // stops at the first byte that differs
+        return lower(p[0]) == w[0] && lower(p[1]) == w[1] && lower(p[2]) == w[2];
+    };
+    int count = 0;
+    for (;;) {
+        if (p[0] == '\\' && objLineEnd(p[1]))
+            p += 2;
+        while (objBlank(*p))
+            ++p;
+        if (objLineEnd(*p))
+            return count;
+        const bool number = (*p >= '0' && *p <= '9') || *p == '+' || *p == '-' || starts("nan") || starts("inf");
+        while (!objBlank(*p) && !objLineEnd(*p))
+            ++p;
+        count += number;
+        while (objBlank(*p))
+            ++p;
+        if (objLineEnd(*p))
+            return count;
+    }
+}
+
+// glibc's atoi, with which Assimp 5.2 reads a face's indices: strtol, cut to int (GCC keeps the low
+// 32 bits). A sign and up to 9 digits are read here; white space first, no digit or 10 digits and
+// more go to strtol itself (p's buffer ends in a '\0').
+int objAtoi(const char* p)
+{
+    const bool negative = *p == '-';
+    const char* q = p + (negative || *p == '+');
+    int value = 0, digits = 0;
+    for (; digits < 9 && *q >= '0' && *q <= '9'; ++q, ++digits)
+        value = value * 10 + (*q - '0');
+    if (digits > 0 && !(*q >= '0' && *q <= '9'))
+        return negative ? -value : value;
+    return int(std::strtol(p, nullptr, 10));
+}
+
+// The position indices of a face, line or point statement (any line that starts with 'f', 'l' or
+// 'p', "fo" and "lod" too) as ObjFileParser::getFace walks it, in line, the buffer of `size` bytes
+// that holds it: the first word skipped, then byte by byte up to a line end. A '/' moves to the
+// corner's next field (texture coordinate, normal; the second is the normal's when the file has
+// normals and no texture coordinates yet), a blank back to the position; any other byte is read
+// there by atoi, and the walk moves on by the value's digits (and its '-'), not by the word's bytes:
+// "1-2" is 1 then -2, "01" is 1 twice, and atoi skips white space ('\v', a line end after it). A
+// value in a fourth field makes Assimp skip to the buffer's next line (reportErrorTokenInFace) and
+// walk on there, in the leftovers, or past the buffer's end where the line fills it (a file of one
+// line: an over-read that ASan reports in Assimp's strtol): such a face is no OBJ (a corner has
+// at most v/vt/vn), and the walk returns false for objIndexProblem to refuse the file. Calls
+// position(value) for each value in the position's field until it returns false; stops at a 0
+// (atoi's answer to a word that is no number: Assimp throws "OBJ: Invalid face index." while
+// parsing, before there is any mesh to leak).
+template <class Position>
+bool objFacePositions(const char* line, size_t size, bool texcoords, bool normals, Position&& position)
+{
+    // Past every byte ever written, Assimp's buffer holds zeros, as this one does (and past its size).
+    const auto at = [&](size_t i) { return i < size ? line[i] : '\0'; };
+    size_t i = 0;
+    while (!objBlank(at(i)) && !objLineEnd(at(i)))
+        ++i;
+    while (objBlank(at(i)))
+        ++i;
+    int field = 0;
+    while (!objLineEnd(at(i))) {
+        size_t step = 1;
+        if (line[i] == '/') {
+            ++field;
+        } else if (objBlank(line[i])) {
+            field = 0;
+        } else {
+            const int value = objAtoi(line + i);
+            if (value < 0)
+                ++step;
+            for (int rest = value; (rest /= 10) != 0;)
+                ++step;
+            if (field == 1 && !texcoords && normals)
+                field = 2;
+            if (value == 0)
+                return true;
+            if (field > 2)
+                return false;  // a fourth field: refused (objIndexProblem)
+            if (field == 0 && !position(value))
+                return true;
+        }
+        i += step;
+    }
+    return true;
+}
+
+// The 1-based line of the file at offset, as an editor counts lines ("\r\n", "\n" or "\r" ends one).
+long long objLineNumber(const std::string& text, size_t offset)
+{
+    long long line = 1;
+    for (size_t i = 0; i < offset; ++i)
+        line += text[i] == '\n' || (text[i] == '\r' && (i + 1 >= text.size() || text[i + 1] != '\n'));
+    return line;
+}
+
 // An OBJ file's face, line and point position indices, checked before Assimp reads it. Assimp 5.2
-// finds an index past the file's vertices only after it has allocated the mesh it copies them
-// into, and throws "OBJ: vertex index out of range" leaving that mesh behind (fuzz_mesh: a leak of
-// 1.3-1.6 KB per file, more with the group's faces; in a host application, per load). As Assimp
-// reads them: every line "v ..." is one position; a positive index i names position i (1-based) of
-// the whole file, a negative one the position |i| before the line's. Only indices Assimp would
-// refuse are refused: an index of 0 or one that is not a number is left to Assimp's own error.
-// Returns why not, or "".
+// finds an index past the file's positions only after it has allocated the mesh it copies them
+// into, and throws "OBJ: vertex index out of range" leaving meshes behind (fuzz_mesh: a leak of
+// 1.3-1.6 KB per file, more with the group's faces; in a host application, per load). The positions
+// are counted as Assimp 5.2 counts them (ObjLines, above, and ObjFileParser::parseFile): a line is
+// a position when its first byte is 'v' and its second a blank (an indented line is none: Assimp
+// skips no blank before the keyword) and it holds 3, 4 (homogeneous) or 6 (a colour after it)
+// components as objComponents counts them; any
+// other count is skipped without a word ("v 30 0", two: fuzz_mesh, 1,552 bytes leaked); the lines
+// from one starting with the word "cstype" to one starting with "end" are skipped whole, faces too.
+// A positive index i names position i (1-based) of the whole file, a negative one the position |i|
+// before the line's (ObjFileImporter::createVertexArray refuses what falls outside). The count is
+// exact, not a bound: one position too many would let a leak through, one too few would refuse a
+// file that Assimp reads, and no file that Assimp reads is refused here: only indices that Assimp
+// reads as positions are looked at (objFacePositions), and Assimp checks every one of them (a 0 and
+// a word that is no number are left to Assimp's own error). Returns why not, or "".
 std::string objIndexProblem(const std::string& path)
 {
     std::ifstream in(path, std::ios::binary);
     const std::string text = restOf(in);
-    long long seen = 0, lineNo = 0;          // positions before the line; the line's number
-    long long largest = 0, largestLine = 0;  // the largest positive index, and where
+    ObjLines lines(text);
+    long long seen = 0;  // positions before the line
+    long long largest = 0, relative = 0;
+    size_t largestAt = 0;  // the largest positive index, and the line it is on
     char largestKind = 'f';
-    const char* p = text.data();
-    const char* const end = p + text.size();
-    auto blank = [](char c) { return c == ' ' || c == '\t' || c == '\r'; };
-    while (p < end) {
-        const char* eol = static_cast<const char*>(std::memchr(p, '\n', size_t(end - p)));
-        if (!eol)
-            eol = end;
-        ++lineNo;
-        while (p < eol && (*p == ' ' || *p == '\t'))
-            ++p;
-        const char k = p < eol ? *p : 0;
-        if (p + 1 < eol && blank(p[1]) && (k == 'v' || k == 'f' || k == 'l' || k == 'p')) {
-            if (k == 'v') {
-                ++seen;
-            } else {
-                // The position index opens each token (v, v/vt, v//vn, v/vt/vn).
-                for (const char* q = p + 1; q < eol;) {
-                    while (q < eol && blank(*q))
-                        ++q;
-                    const char* token = q;
-                    while (q < eol && !blank(*q))
-                        ++q;
-                    if (token == q)
-                        break;
-                    char* stop = nullptr;
-                    const long long i = std::strtoll(token, &stop, 10);
-                    if (stop == token || stop > q || i == 0)
-                        continue;  // not a number (strtoll skipped past the token), or 0
-                    if (i < 0 && i < -seen)  // (not -i > seen: -LLONG_MIN overflows)
-                        return "line " + std::to_string(lineNo) + " ('" + std::string(1, k) + "') names position " +
-                               std::to_string(i) + " (relative) after " + std::to_string(seen) +
-                               " positions (damaged)";
-                    if (i > largest)
-                        largest = i, largestLine = lineNo, largestKind = k;
-                }
-            }
+    bool texcoords = false, normals = false, curves = false;
+    while (lines.next()) {
+        const char* line = lines.line();
+        if (curves) {
+            curves = !objWord(line, "end");
+            continue;
         }
-        p = eol + 1;
+        const char k = line[0];
+        if (k == 'v') {
+            if (objBlank(line[1])) {
+                const int components = objComponents(line + 1);
+                seen += components == 3 || components == 4 || components == 6;
+            }
+            texcoords |= line[1] == 't';
+            normals |= line[1] == 'n';
+        } else if (k == 'c') {
+            curves = objWord(line, "cstype");
+        } else if (k == 'f' || k == 'l' || k == 'p') {
+            const bool threeFields = objFacePositions(line, lines.size(), texcoords, normals, [&](int i) {
+                if (i < 0 && i < -seen) {
+                    relative = i;
+                    return false;
+                }
+                if (i > largest)
+                    largest = i, largestAt = lines.start(), largestKind = k;
+                return true;
+            });
+            if (!threeFields)
+                return "line " + std::to_string(objLineNumber(text, lines.start())) + " ('" + std::string(1, k) +
+                       "') has a corner of more than three fields (position/texture/normal) (damaged)";
+            if (relative != 0)
+                return "line " + std::to_string(objLineNumber(text, lines.start())) + " ('" + std::string(1, k) +
+                       "') names position " + std::to_string(relative) + " (relative) after " + std::to_string(seen) +
+                       " positions (damaged)";
+        }
     }
     if (largest > seen)
-        return "line " + std::to_string(largestLine) + " ('" + std::string(1, largestKind) + "') names position " +
-               std::to_string(largest) + " of a file of " + std::to_string(seen) + " positions (damaged)";
+        return "line " + std::to_string(objLineNumber(text, largestAt)) + " ('" + std::string(1, largestKind) +
+               "') names position " + std::to_string(largest) + " of a file of " + std::to_string(seen) +
+               " positions (damaged)";
     return "";
 }
 
