@@ -49,6 +49,27 @@ void writeVdb(const std::string& path, openvdb::GridPtrVec grids)
     openvdb::io::File(path).write(grids);
 }
 
+// Overwrites the three scale factors of the UniformScaleMap in the VDB file at `path` (the first
+// three doubles equal to `scale` after the map's name; its stored reciprocals follow them) with
+// `damaged`, as a corrupt or hand-edited file would hold them. Returns how many it overwrote.
+int damageUniformScale(const std::string& path, double scale, double damaged)
+{
+    std::string bytes;
+    {
+        std::ifstream in(path, std::ios::binary);
+        bytes.assign(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+    }
+    const size_t map = bytes.find("UniformScaleMap");
+    if (map == std::string::npos)
+        return 0;
+    const std::string word(reinterpret_cast<const char*>(&scale), 8);
+    int n = 0;
+    for (size_t at = bytes.find(word, map); at != std::string::npos && n < 3; at = bytes.find(word, at + 8), ++n)
+        std::memcpy(&bytes[at], &damaged, 8);
+    writeText(path, bytes);
+    return n;
+}
+
 // A deterministic point in [lo, hi] (a low-discrepancy sequence, so failures replay).
 float3 samplePoint(int s, float3 lo, float3 hi)
 {
@@ -314,19 +335,7 @@ TEST(VdbLoad, InvalidTransformInTheFileIsAnInputError)
         grid->setTransform(openvdb::math::Transform::createLinearTransform(0.125));
         grid->tree().setValue(Coord(0, 0, 0), 1.0f);
         writeVdb(path, {grid});
-        std::string bytes;
-        {
-            std::ifstream in(path, std::ios::binary);
-            bytes.assign(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
-        }
-        const size_t map = bytes.find("UniformScaleMap");
-        ASSERT_NE(map, std::string::npos);
-        const double scale = 0.125;
-        for (size_t at = bytes.find(std::string(reinterpret_cast<const char*>(&scale), 8), map), n = 0;
-             at != std::string::npos && n < 3;
-             at = bytes.find(std::string(reinterpret_cast<const char*>(&scale), 8), at + 8), ++n)
-            std::memcpy(&bytes[at], &bad, 8);  // the three scale factors
-        writeText(path, bytes);
+        ASSERT_EQ(damageUniformScale(path, 0.125, bad), 3);
         const std::string message = inputError(vdbScene(path));
         EXPECT_NE(message.find("volumes[0].source.grids.density"), std::string::npos) << bad << ": " << message;
         EXPECT_NE(message.find("transform"), std::string::npos) << message;
@@ -927,20 +936,7 @@ TEST(VdbLoad, TransformWhoseStoredInverseDisagreesIsRefused)
     FloatGrid::Ptr grid = floatGrid("density", 0.125);
     grid->tree().setValue(Coord(0, 0, 0), 1.0f);
     writeVdb(path, {grid});
-    std::string bytes;
-    {
-        std::ifstream in(path, std::ios::binary);
-        bytes.assign(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
-    }
-    const size_t map = bytes.find("UniformScaleMap");
-    ASSERT_NE(map, std::string::npos);
-    const double scale = 0.125, other = 0.5;
-    size_t n = 0;
-    for (size_t at = bytes.find(std::string(reinterpret_cast<const char*>(&scale), 8), map);
-         at != std::string::npos && n < 3; at = bytes.find(std::string(reinterpret_cast<const char*>(&scale), 8), at + 8), ++n)
-        std::memcpy(&bytes[at], &other, 8);  // the scale factors, not their stored reciprocals
-    ASSERT_EQ(n, 3u);
-    writeText(path, bytes);
+    ASSERT_EQ(damageUniformScale(path, 0.125, 0.5), 3);  // the scale factors, not their stored reciprocals
     const std::string message = inputError(vdbScene(path));
     EXPECT_NE(message.find("volumes[0].source.grids.density: grid 'density' in '" + path +
                            "' has a transform whose stored inverse does not invert it (damaged)"),
