@@ -146,19 +146,21 @@ void BrickGrid::updateActiveBounds()
 {
     Bbox b;
     mBrickOrigins.assign(mBrickCount, Int3{});
-    for (int z = 0; z < mDims.z; ++z)
-        for (int y = 0; y < mDims.y; ++y)
-            for (int x = 0; x < mDims.x; ++x) {
-                int32_t brick = mTable[(size_t(z) * mDims.y + y) * mDims.x + x];
-                if (brick < 0)
-                    continue;
-                mBrickOrigins[brick] = {(mBrickLo.x + x) * kBrick, (mBrickLo.y + y) * kBrick,
-                                        (mBrickLo.z + z) * kBrick};
-                float3 lo = make_float3(float((mBrickLo.x + x) * kBrick), float((mBrickLo.y + y) * kBrick),
-                                        float((mBrickLo.z + z) * kBrick));
-                b.expand(lo);
-                b.expand(lo + splat(float(kBrick)));  // the apron voxel at lo + 8
-            }
+    // One pass over the table's slots, coordinates only for the allocated ones: a table can be
+    // mostly empty (two bricks far apart span millions of slots; fuzz_vdb: 2 bricks in a table of
+    // 135 MiB, whose three nested loops took 86 s in the instrumented harness).
+    const size_t dx = size_t(mDims.x), dxy = dx * size_t(mDims.y);
+    for (size_t slot = 0; slot < mTable.size(); ++slot) {
+        const int32_t brick = mTable[slot];
+        if (brick < 0)
+            continue;
+        const Int3 origin{(mBrickLo.x + int(slot % dx)) * kBrick, (mBrickLo.y + int(slot % dxy / dx)) * kBrick,
+                          (mBrickLo.z + int(slot / dxy)) * kBrick};
+        mBrickOrigins[brick] = origin;
+        const float3 lo = make_float3(float(origin.x), float(origin.y), float(origin.z));
+        b.expand(lo);
+        b.expand(lo + splat(float(kBrick)));  // the apron voxel at lo + 8
+    }
     mActiveBounds = b;
 }
 
