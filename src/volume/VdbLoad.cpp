@@ -28,6 +28,7 @@
 #include <nlohmann/json.hpp>
 #include <openvdb/openvdb.h>
 #include <openvdb/tools/GridTransformer.h>
+#include <openvdb/tools/Prune.h>
 
 #include <algorithm>
 #include <array>
@@ -246,8 +247,11 @@ RoleGrids readVdb(const VolumeSource& source, const std::string& path, bool allR
 
 // Brings a role grid onto the density grid's voxels (AX reads every grid at the same index
 // coordinates). Trilinear (BoxSampler) resampling, as the renderer would interpolate it.
-// Resampling walks every active value of a role grid onto the density grid's lattice, so its
-// work and memory are known from the role grid's active box before the walk, and bounded twice:
+// OpenVDB's resampler walks every leaf node and every tile that is active or not the background
+// (GridTransformer.h, RangeProcessor), active values or not. nimbus reads a role grid's active
+// values (inactive ones are the background, as in a fog volume), so first the nodes with no active
+// value and the inactive tiles become background (dropInactiveNodes); the walk is then the active
+// region, and its work and memory are known from it before the walk, and bounded three times:
 // - by what the bricks could ever hold: a role grid whose active values (tiles counted voxel by
 //   voxel), or whose active box mapped onto the density's voxels, exceed kMaxBricks bricks of 8^3
 //   voxels is refused (a 20 KB file with one active tile of 4096^3 voxels under a skewed
@@ -257,8 +261,27 @@ RoleGrids readVdb(const VolumeSource& source, const std::string& path, bool allR
 //   times (the resampled leaves, a working copy: the shader's output or the velocities in index
 //   space, and the bricks made from them, 729/512 of a leaf), may not exceed the limit (a 21 KB
 //   file's 729 velocities under a density of 1.5e-6 m by 0.1 m voxels resampled into 663,561
-//   leaves: 17 GB resident and 77 s before the render's own estimate refused it).
+//   leaves: 17 GB resident and 77 s before the render's own estimate refused it);
+// - by the int coordinates the resampler computes in: the walked nodes, on the role grid's
+//   lattice and mapped onto the density's, lie within +-2^30 (kMaxWalkedIndex) voxels (a fuzzed
+//   file's temperature grid had no active value and one inactive leaf near the int limit; its
+//   mapped corners, 1e10, overflowed the sampler's cast to int).
 constexpr double kMaxResampledVoxels = double(kMaxBricks) * 512.0;
+constexpr double kMaxWalkedIndex = double(1 << 30);
+
+// Leaf and internal nodes with no active value become inactive background tiles, and so do the
+// inactive tiles of another value: what remains is what the resampler need walk.
+template <class TreeT>
+void dropInactiveNodes(TreeT& tree)
+{
+    openvdb::tools::pruneInactive(tree);
+    const typename TreeT::ValueType background = tree.background();
+    auto tile = tree.beginValueOff();
+    tile.setMaxDepth(decltype(tile)::LEAF_DEPTH - 1);
+    for (; tile; ++tile)
+        if (!openvdb::math::isExactlyEqual(*tile, background))
+            tile.setValue(background);
+}
 
 // OpenVDB's interrupter interface (util/NullInterrupter.h) over a render's StopFlag: the
 // transformer polls it between slices of its walk.
@@ -274,6 +297,7 @@ struct StopInterrupter {
 // box is mapped, so mirrored, rotated and skewed transforms count right.
 struct MappedBox {
     double voxels = 0.0, leaves = 0.0;
+    double reach = 0.0;  // the largest |index| of the mapped box on target's lattice
 };
 MappedBox mapBox(const openvdb::CoordBBox& box, const openvdb::math::Transform& from,
                  const openvdb::math::Transform& target)
@@ -296,6 +320,7 @@ MappedBox mapBox(const openvdb::CoordBBox& box, const openvdb::math::Transform& 
         if (!(std::isfinite(lo[a]) && std::isfinite(hi[a])))
             return MappedBox{inf, inf};
         const double first = std::floor(lo[a]) - 1.0, last = std::ceil(hi[a]) + 1.0;
+        m.reach = std::max({m.reach, std::fabs(first), std::fabs(last)});
         m.voxels *= last - first + 1.0;
         m.leaves *= std::floor(last / 8.0) - std::floor(first / 8.0) + 1.0;
     }
@@ -308,6 +333,25 @@ typename GridT::Ptr resampleTo(const typename GridT::Ptr& grid, const openvdb::m
 {
     if (grid->transform() == *target)
         return grid;
+    dropInactiveNodes(grid->tree());
+    typename GridT::Ptr out = GridT::create(grid->background());
+    out->setTransform(target);
+    out->setName(grid->getName());
+    if (grid->tree().activeVoxelCount() == 0)
+        return out;  // nothing to walk: the background everywhere
+    openvdb::CoordBBox walked;
+    grid->tree().evalLeafBoundingBox(walked);
+    const double ownReach = std::max(double(std::max(walked.max().x(), std::max(walked.max().y(), walked.max().z()))),
+                                     -double(std::min(walked.min().x(), std::min(walked.min().y(), walked.min().z()))));
+    const double mappedReach = mapBox(walked, grid->transform(), *target).reach;
+    if (!(ownReach <= kMaxWalkedIndex && mappedReach <= kMaxWalkedIndex)) {
+        char what[256];
+        std::snprintf(what, sizeof what,
+                      ": its active values reach index %.3g on its own voxels and %.3g on the density grid's, "
+                      "past the +-2^30 nimbus resamples in (damaged, or a transform far from the density's)",
+                      ownReach, mappedReach);
+        throw InputError(where + what);
+    }
     const double active = double(grid->activeVoxelCount());
     const MappedBox mapped = mapBox(grid->evalActiveVoxelBoundingBox(), grid->transform(), *target);
     const double worst = std::max(active, mapped.voxels);
@@ -331,9 +375,6 @@ typename GridT::Ptr resampleTo(const typename GridT::Ptr& grid, const openvdb::m
                       formatBytes(limitBytes).c_str());
         throw InputError(where + what);
     }
-    typename GridT::Ptr out = GridT::create(grid->background());
-    out->setTransform(target);
-    out->setName(grid->getName());
     StopInterrupter interrupter{stop};
     openvdb::tools::resampleToMatch<openvdb::tools::BoxSampler>(*grid, *out, interrupter);
     throwIfStopped(stop);  // an interrupted walk leaves `out` part-filled

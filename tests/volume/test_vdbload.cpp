@@ -975,3 +975,58 @@ TEST(VdbLoad, RoleGridResampledPastTheMemoryLimitIsRefusedBeforeTheWalk)
     scene.render.memoryLimit = 1e9f;
     EXPECT_NO_THROW(buildVolumes(scene));
 }
+
+// OpenVDB's resampler walks every leaf node and every tile not of the background, active or not
+// (a fuzzed file's temperature grid had no active value and one inactive leaf near the int limit,
+// whose corners mapped onto the density's voxels overflowed the sampler's cast to int:
+// tests/fuzz/regressions/vdb/role_grid_inactive_leaf_near_int_limit_ubsan.vdb). nimbus reads a
+// role grid's active values only, so its inactive nodes are not walked: an inactive leaf at
+// INT_MAX - 20 and an inactive tile of 4096^3 voxels of 1500 K (5.5e11 density voxels, hours of
+// walking) beside 8^3 active temperatures load in seconds, the active ones emitting as before; a
+// temperature grid with only those inactive nodes loads as no temperature at all.
+TEST(VdbLoad, RoleGridNodesWithNoActiveValueAreNotWalked)
+{
+    ScratchDir dir;
+    for (bool anyActive : {true, false}) {
+        FloatGrid::Ptr d = floatGrid("density", 0.5), t = floatGrid("temperature", 1.0);
+        d->tree().fill(CoordBBox(Coord(0), Coord(31)), 1.0f, true);
+        if (anyActive)
+            t->tree().fill(CoordBBox(Coord(0), Coord(7)), 2000.0f, true);  // world [0, 7]
+        t->tree().setValueOff(Coord(std::numeric_limits<int>::max() - 20, 0, 0), 3000.0f);
+        t->tree().fill(CoordBBox(Coord(-8192, 0, 0), Coord(-4097, 4095, 4095)), 1500.0f, false);
+        ASSERT_EQ(t->tree().activeVoxelCount(), anyActive ? 512u : 0u);
+        const std::string path = dir / "inactive.vdb";
+        writeVdb(path, {d, t});
+        const auto start = std::chrono::steady_clock::now();
+        auto v = buildOne(vdbScene(path, {}, "blackbody"));
+        const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+        EXPECT_LT(seconds, 10.0);
+        if (anyActive)
+            EXPECT_GT(emissionAt(*v, make_float3(3, 3, 3)).x, 10.0f);
+        else
+            EXPECT_EQ(emissionAt(*v, make_float3(3, 3, 3)).x, 0.0f);
+        EXPECT_EQ(emissionAt(*v, make_float3(12, 12, 12)).x, 0.0f);
+    }
+}
+
+// The resampler computes in int index coordinates: a role grid whose active values lie past
+// +-2^30 on its own voxels (2^30 + 100), or reach past it mapped onto the density's (6e8 voxels of
+// 1 m onto 0.5 m voxels: 1.2e9), is refused before the walk, naming the grid and the key.
+TEST(VdbLoad, RoleGridReachingPastTwoToTheThirtyIsRefused)
+{
+    ScratchDir dir;
+    for (int x : {(1 << 30) + 100, 600000000}) {
+        FloatGrid::Ptr d = floatGrid("density", 0.5), t = floatGrid("temperature", 1.0);
+        d->tree().fill(CoordBBox(Coord(0), Coord(31)), 1.0f, true);
+        t->tree().fill(CoordBBox(Coord(x, 0, 0), Coord(x + 3, 3, 3)), 2000.0f, true);  // a small box, far out
+        const std::string path = dir / "far.vdb";
+        writeVdb(path, {d, t});
+        const std::string message = inputError(vdbScene(path, {}, "blackbody"));
+        EXPECT_NE(message.find("volumes[0].source.grids.temperature: grid 'temperature' in '" + path +
+                               "': its active values reach index"),
+                  std::string::npos)
+            << message;
+        EXPECT_NE(message.find("past the +-2^30 nimbus resamples in"), std::string::npos) << message;
+        EXPECT_EQ(message.find('\n'), std::string::npos) << message;
+    }
+}
