@@ -544,7 +544,7 @@ std::shared_ptr<VolumeData> buildVolume(const Scene& scene, size_t index, const 
         openvdb::GridPtrVec vec;
         for (auto& [role, grid] : grids)
             vec.push_back(grid);
-        emission = openvdb::gridPtrCast<Vec3SGrid>(shader->run(vec, where.key(".shader")));
+        emission = openvdb::gridPtrCast<Vec3SGrid>(shader->run(vec, where.key(".shader"), stop));
         clamped.add("density", clampGrid(*density));
         if (emission)
             clamped.add("emission", clampGrid(*emission));

@@ -25,6 +25,8 @@ class GridBase;
 
 namespace nimbus {
 
+class StopFlag;
+
 // Where a volume's "shader" field points. A relative name or path (with or without ".ax") is
 // looked for beside the scene (sceneDir; the working directory for a scene with no file), then
 // in each directory of $NIMBUS_SHADER_PATH (':'-separated), then in the built-in shaders/
@@ -55,8 +57,12 @@ public:
     // missing roles are added as empty grids. Writes @density in place and returns the emission
     // grid (openvdb::Vec3SGrid, unclamped) or nullptr when the shader does not write v@emission.
     // Not thread-safe: one executable serves every volume, and $has_<role> is set per run.
+    // The run goes chunk by chunk (runInChunks, VolumeShader.cpp), `stop` polled between chunks
+    // of about `chunkVoxels` active voxels: a raised flag throws Cancelled within one chunk.
     std::shared_ptr<openvdb::GridBase> run(std::vector<std::shared_ptr<openvdb::GridBase>>& grids,
-                                           const std::string& where) const;
+                                           const std::string& where, const StopFlag* stop = nullptr,
+                                           double chunkVoxels = kShaderChunkVoxels) const;
+    static constexpr double kShaderChunkVoxels = 1 << 20;
 
     const std::string& path() const;
     bool writesEmission() const;
