@@ -9,6 +9,7 @@
 
 #include "../abi/nimbus_volume_plugin.h"
 #include "../core/Error.h"
+#include "../core/StopFlag.h"
 
 #include <openvdb/openvdb.h>
 
@@ -173,7 +174,8 @@ std::vector<std::string> pluginCandidates(const std::string& path, const std::st
 }
 
 std::shared_ptr<VdbFloatGrid> makePluginGrid(const VolumeSource& source, const std::string& sceneDir,
-                                             const std::string& keyPath, std::vector<std::string>& gridsRead)
+                                             const std::string& keyPath, std::vector<std::string>& gridsRead,
+                                             const StopFlag* stop)
 {
     const std::string key = keyPath + ".path";
     if (source.pluginPath.empty())
@@ -263,7 +265,7 @@ std::shared_ptr<VdbFloatGrid> makePluginGrid(const VolumeSource& source, const s
         std::vector<Coord> coords;
         char err[kErrorSize];
         auto& mine = made.local();
-        for (size_t i = r.begin(); i != r.end() && !failed.load(std::memory_order_relaxed); ++i) {
+        for (size_t i = r.begin(); i != r.end() && !failed.load(std::memory_order_relaxed) && !stopRaised(stop); ++i) {
             const Coord origin(b0.x() + kBlock * int(i % nb.x()), b0.y() + kBlock * int((i / nb.x()) % nb.y()),
                                b0.z() + kBlock * int(i / (size_t(nb.x()) * nb.y())));
             Coord c0 = origin, c1 = origin + Coord(kBlock - 1);
@@ -313,16 +315,19 @@ std::shared_ptr<VdbFloatGrid> makePluginGrid(const VolumeSource& source, const s
         }
     });
 
+    const bool stopped = stopRaised(stop);  // blocks were skipped: the grid is not whole
     FloatGrid::Ptr grid = FloatGrid::create(0.0f);
     for (auto& list : made)
         for (LeafT* leaf : list) {
-            if (failed)
+            if (failed || stopped)
                 delete leaf;
             else
                 grid->tree().addLeaf(leaf);  // the tree takes ownership
         }
     if (failed)
         throw fail(sampleError);
+    if (stopped)
+        throw Cancelled();  // the state's cleanup runs as it unwinds
     grid->setTransform(openvdb::math::Transform::createLinearTransform(h));
     grid->setName("density");
     grid->setGridClass(openvdb::GRID_FOG_VOLUME);

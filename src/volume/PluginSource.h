@@ -17,6 +17,8 @@
 
 namespace nimbus {
 
+class StopFlag;
+
 // Loads source.pluginPath, runs init(source.pluginParams), bounds, samples the lattice in 8^3
 // blocks on all cores, runs cleanup and unloads the library. Returns a FloatGrid named
 // "density" (fog volume, voxel size and placement from the plugin's bounds) and appends a
@@ -28,7 +30,12 @@ namespace nimbus {
 // working directory; a bare name in each directory of $NIMBUS_PLUGIN_PATH (':'-separated), then
 // sceneDir, then the dynamic linker's own search (LD_LIBRARY_PATH, ld.so.cache). A bare name
 // without ".so" is also tried as "lib<name>.so".
+//
+// `stop` (may be null) is polled before each block: once raised, the blocks stop, what was
+// sampled is freed, cleanup runs and Cancelled is thrown. The plugin's own init and bounds are
+// not interrupted.
 std::shared_ptr<VdbFloatGrid> makePluginGrid(const VolumeSource& source, const std::string& sceneDir,
-                                             const std::string& keyPath, std::vector<std::string>& gridsRead);
+                                             const std::string& keyPath, std::vector<std::string>& gridsRead,
+                                             const StopFlag* stop = nullptr);
 
 }  // namespace nimbus
