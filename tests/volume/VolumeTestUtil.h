@@ -4,13 +4,18 @@
 
 #include "core/Error.h"
 #include "core/Log.h"
+#include "core/StopFlag.h"
 #include "volume/VolumeData.h"
 
 #include <gtest/gtest.h>
 
+#include <chrono>
 #include <filesystem>
 #include <fstream>
+#include <functional>
+#include <optional>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include <unistd.h>
@@ -96,6 +101,30 @@ inline std::string inputError(const Scene& scene)
         return e.what();
     }
     return "";
+}
+
+// Runs `work` with a StopFlag that another thread raises after `delayMs`. Returns the seconds
+// from the raise to the throw of Cancelled, or nothing when `work` ended without it.
+inline std::optional<double> secondsToCancel(const std::function<void(const StopFlag*)>& work, int delayMs)
+{
+    StopFlag stop;
+    std::chrono::steady_clock::time_point raised;
+    std::thread canceller([&] {
+        std::this_thread::sleep_for(std::chrono::milliseconds(delayMs));
+        raised = std::chrono::steady_clock::now();
+        stop.raise();
+    });
+    bool cancelled = false;
+    try {
+        work(&stop);
+    } catch (const Cancelled&) {
+        cancelled = true;
+    }
+    const auto ended = std::chrono::steady_clock::now();
+    canceller.join();
+    if (!cancelled)
+        return std::nullopt;
+    return std::chrono::duration<double>(ended - raised).count();
 }
 
 // Collects warnings while alive.
