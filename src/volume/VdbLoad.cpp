@@ -496,7 +496,8 @@ std::shared_ptr<VolumeData> buildVolume(const Scene& scene, size_t index, const 
         grids.push_back({"density", makeProceduralGrid(volume.source, where.key(".source"), stop)});
         data->gridsRead.push_back("density (" + volume.source.generator + ")");
     } else {
-        grids.push_back({"density", makePluginGrid(volume.source, sceneDir, where.key(".source"), data->gridsRead, stop)});
+        grids.push_back(
+            {"density", makePluginGrid(volume.source, sceneDir, where.key(".source"), data->gridsRead, stop)});
     }
 
     throwIfStopped(stop);

@@ -27,9 +27,9 @@
 #include <algorithm>
 #include <chrono>
 #include <cstdlib>
-#include <map>
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <sstream>
 
 namespace nimbus {
@@ -268,8 +268,7 @@ VolumeShader::VolumeShader(const std::string& path, const std::string& where) : 
             for (const auto& access : registry->data())
                 if (access.writes()) {
                     mImpl->writesEmission |= access.name() == "emission";
-                    if (std::find(mImpl->written.begin(), mImpl->written.end(), access.name()) ==
-                        mImpl->written.end())
+                    if (std::find(mImpl->written.begin(), mImpl->written.end(), access.name()) == mImpl->written.end())
                         mImpl->written.push_back(access.name());
                 }
         }

@@ -393,8 +393,8 @@ static const struct {
      "\"shadow_step\": 1e-2"},
     /* wkb's light volumes of a sphere light (an SH source): shadow rays from every light-grid
      * voxel, at 10^-5 voxels a step. The orders-3+ cache is left out (the kernel carries them). */
-    {"light volumes", "wkb", "{\"type\": \"sphere\", \"position\": [0, 2.5, 0], \"radius\": 0.3, \"radiance\": 5}",
-     "", "\"shadow_step\": 1e-5, \"wkb_orders3\": \"kernel\""},
+    {"light volumes", "wkb", "{\"type\": \"sphere\", \"position\": [0, 2.5, 0], \"radius\": 0.3, \"radiance\": 5}", "",
+     "\"shadow_step\": 1e-5, \"wkb_orders3\": \"kernel\""},
     /* The volumes' load, before any render stage: a procedural cloud of 1.8 * 10^7 voxels beside
      * the ball (~12 s to generate on two cores). */
     {"volume load", "single", "{\"type\": \"distant\", \"direction\": [0.5, -1, -0.3], \"irradiance\": 3}",
@@ -403,8 +403,7 @@ static const struct {
      "\"step\": 1"},
     /* A volume plugin's sampling (the torus of plugins/procedurals at 0.004 m voxels: 5.6 * 10^7
      * lattice points in 8^3 blocks, ~9 s here). The volumes field is a format: %s is the plugin. */
-    {"volume plugin's sampling", "single",
-     "{\"type\": \"distant\", \"direction\": [0.5, -1, -0.3], \"irradiance\": 3}",
+    {"volume plugin's sampling", "single", "{\"type\": \"distant\", \"direction\": [0.5, -1, -0.3], \"irradiance\": 3}",
      ", {\"name\": \"torus\", \"source\": {\"type\": \"plugin\", \"path\": \"%s\", \"params\":"
      " {\"major_radius\": 1.0, \"voxel_size\": 0.004}}}",
      "\"step\": 1"},
@@ -429,8 +428,7 @@ static void testCancelBeforeTheTiles(const TestPaths* paths)
                      "{\"camera\": {\"from\": [0, 0, 4], \"to\": [0, 0, 0], \"fov\": 35, \"resolution\": [16, 12]},"
                      " \"lights\": [%s], \"volumes\": [%s}%s],"
                      " \"render\": {\"method\": \"%s\", \"spp\": 1, \"threads\": 2, %s}}",
-                     kSlowStages[c].lights, kBall, volumes, kSlowStages[c].method,
-                     kSlowStages[c].render);
+                     kSlowStages[c].lights, kBall, volumes, kSlowStages[c].method, kSlowStages[c].render);
             OK(nimbus_scene_load_json(json, NULL, &scene));
             OK(nimbus_session_create(scene, &session));
             OK(nimbus_session_start(session));

@@ -271,14 +271,16 @@ TEST(VolumeShader, ChunkedRunEqualsOneRun)
             expectSameActiveValues(*openvdb::gridPtrCast<Vec3SGrid>(emissionOne),
                                    *openvdb::gridPtrCast<Vec3SGrid>(emissionMany), "emission");
         // The shader ran: the default clamps the negative densities, both shaders change values.
-        FloatGrid::Ptr before = openvdb::gridPtrCast<FloatGrid>(inputs[0]), after = openvdb::gridPtrCast<FloatGrid>(many[0]);
+        FloatGrid::Ptr before = openvdb::gridPtrCast<FloatGrid>(inputs[0]),
+                       after = openvdb::gridPtrCast<FloatGrid>(many[0]);
         float lowest = 0.0f;
         for (auto it = after->tree().cbeginValueOn(); it; ++it)
             lowest = std::min(lowest, *it);
         EXPECT_EQ(lowest, 0.0f) << path;
         EXPECT_LT(before->tree().getValue(Coord(3, 4, 5)), 1.0f);
         if (path.find("mix.ax") != std::string::npos) {  // and computed what it says, voxel by voxel
-            FloatGrid::Ptr t0 = openvdb::gridPtrCast<FloatGrid>(inputs[1]), t1 = openvdb::gridPtrCast<FloatGrid>(many[1]);
+            FloatGrid::Ptr t0 = openvdb::gridPtrCast<FloatGrid>(inputs[1]),
+                           t1 = openvdb::gridPtrCast<FloatGrid>(many[1]);
             for (const Coord& c : {Coord(50), Coord(60, 70, 149), Coord(149), Coord(-200), Coord(170, 100, 120)}) {
                 ASSERT_TRUE(t0->tree().isValueOn(c)) << c;
                 EXPECT_FLOAT_EQ(t1->tree().getValue(c),
@@ -307,9 +309,10 @@ TEST(VolumeShader, CancelStopsTheRunWithinOneChunk)
     const double oneChunk = std::chrono::duration<double>(std::chrono::steady_clock::now() - oneStart).count();
 
     openvdb::GridPtrVec grids = deepCopy(inputs);
-    const std::optional<double> after = secondsToCancel([&](const StopFlag* stop) { shader.run(grids, "x", stop); }, 200);
+    const std::optional<double> after =
+        secondsToCancel([&](const StopFlag* stop) { shader.run(grids, "x", stop); }, 200);
     ASSERT_TRUE(after) << "the run ended before the cancel at 0.2 s";
     EXPECT_LT(*after, 1.0);
-    printf("shader run: %.2f s uncancelled in chunks, %.2f s in one; cancelled %.3f s after the raise\n",
-           uncancelled, oneChunk, *after);
+    printf("shader run: %.2f s uncancelled in chunks, %.2f s in one; cancelled %.3f s after the raise\n", uncancelled,
+           oneChunk, *after);
 }

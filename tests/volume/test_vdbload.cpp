@@ -903,7 +903,8 @@ TEST(VdbLoad, CancelEndsTheLoadWithinASecond)
     } cases[] = {{"a procedural cloud of 1.8e7 voxels", proceduralScene("cloud", {{"voxel_size", 0.01}})},
                  {"a role grid resampled onto the density's voxels", vdbScene(path)}};
     for (const Case& c : cases) {
-        const std::optional<double> after = secondsToCancel([&](const StopFlag* stop) { buildVolumes(c.scene, nullptr, stop); }, 300);
+        const std::optional<double> after =
+            secondsToCancel([&](const StopFlag* stop) { buildVolumes(c.scene, nullptr, stop); }, 300);
         ASSERT_TRUE(after) << c.what << ": the load ended before the cancel at 0.3 s";
         EXPECT_LT(*after, 1.0) << c.what;
         printf("cancel of %s: %.3f s after the raise\n", c.what, *after);
