@@ -253,9 +253,11 @@ RoleGrids readVdb(const VolumeSource& source, const std::string& path, bool allR
 // value and the inactive tiles become background (dropInactiveNodes); the walk is then the active
 // region, and its work and memory are known from it before the walk, and bounded three times:
 // - by what the bricks could ever hold: a role grid whose active values (tiles counted voxel by
-//   voxel), or whose active box mapped onto the density's voxels, exceed kMaxBricks bricks of 8^3
-//   voxels is refused (a 20 KB file with one active tile of 4096^3 voxels under a skewed
-//   transform resampled for hours);
+//   voxel), or whose walked nodes (each leaf's whole 8^3 box, each tile) mapped onto the density's
+//   voxels, exceed kMaxBricks bricks of 8^3 voxels is refused (a 20 KB file with one active tile
+//   of 4096^3 voxels under a skewed transform resampled for hours; one active voxel of 0.1 m over
+//   a density of 0.1 mm voxels walks its leaf's 8000^3 density voxels, hours, though its own value
+//   covers 1000^3);
 // - by render.memory_limit: the leaves the mapped box touches (a thin or slanted box fills few
 //   of each leaf's voxels, so leaves, not voxels, are what it costs), each taken three and a half
 //   times (the resampled leaves, a working copy: the shader's output or the velocities in index
@@ -343,7 +345,8 @@ typename GridT::Ptr resampleTo(const typename GridT::Ptr& grid, const openvdb::m
     grid->tree().evalLeafBoundingBox(walked);
     const double ownReach = std::max(double(std::max(walked.max().x(), std::max(walked.max().y(), walked.max().z()))),
                                      -double(std::min(walked.min().x(), std::min(walked.min().y(), walked.min().z()))));
-    const double mappedReach = mapBox(walked, grid->transform(), *target).reach;
+    const MappedBox walk = mapBox(walked, grid->transform(), *target);
+    const double mappedReach = walk.reach;
     if (!(ownReach <= kMaxWalkedIndex && mappedReach <= kMaxWalkedIndex)) {
         char what[256];
         std::snprintf(what, sizeof what,
@@ -352,18 +355,20 @@ typename GridT::Ptr resampleTo(const typename GridT::Ptr& grid, const openvdb::m
                       ownReach, mappedReach);
         throw InputError(where + what);
     }
+    // The walk's work is its leaves' whole 8^3 boxes and its tiles mapped (a leaf with one active
+    // voxel is walked whole); the memory, below, is what the active values fill.
     const double active = double(grid->activeVoxelCount());
-    const MappedBox mapped = mapBox(grid->evalActiveVoxelBoundingBox(), grid->transform(), *target);
-    const double worst = std::max(active, mapped.voxels);
+    const double worst = std::max(active, walk.voxels);
     if (!(worst <= kMaxResampledVoxels)) {
-        char what[256];
+        char what[300];
         std::snprintf(what, sizeof what,
-                      ": its active region (%.3g voxels, %.3g on the density grid's voxels) is more than the "
-                      "%.0f voxels nimbus resamples onto the density grid (damaged, or a transform far from the "
-                      "density's)",
-                      active, mapped.voxels, kMaxResampledVoxels);
+                      ": its active region (%.3g voxels; its leaves and tiles, as the resampler walks them, %.3g on "
+                      "the density grid's voxels) is more than the %.0f voxels nimbus resamples onto the density "
+                      "grid (damaged, or a transform far from the density's)",
+                      active, walk.voxels, kMaxResampledVoxels);
         throw InputError(where + what);
     }
+    const MappedBox mapped = mapBox(grid->evalActiveVoxelBoundingBox(), grid->transform(), *target);
     const double bytes = mapped.leaves * 512.0 * double(sizeof(typename GridT::ValueType)) * (2.0 + 729.0 / 512.0);
     if (!(bytes <= double(limitBytes))) {
         char what[400];

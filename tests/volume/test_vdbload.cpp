@@ -861,15 +861,21 @@ TEST(VdbLoad, TransformAxesBeyondFloatAreAnInputError)
 // grid too large for the bricks is refused before the walk (a 20 KB fuzzed file with one active
 // tile of 4096^3 voxels resampled for hours: tests/fuzz/regressions/vdb). Both measures count: the
 // role grid's own active voxels (a 4096^3 tile at the density's voxel size, 6.9e10), and its
-// active box on the density's voxels (128^3 voxels of 1 m over a density of 0.01 m voxels, 2e12).
+// walked nodes on the density's voxels: 128^3 voxels of 1 m over a density of 0.01 m voxels, 2e12;
+// and one active voxel of 0.1 m over a density of 0.1 mm voxels, whose leaf OpenVDB walks whole:
+// 8000^3 = 5.1e11 density voxels, though the voxel's own 1000^3 pass the bound (a hang: no answer
+// within 40 s from the release CLI before the walk was counted; refused in 0.18 s now).
 TEST(VdbLoad, RoleGridTooLargeToResampleIsRefusedBeforeTheWalk)
 {
     ScratchDir dir;
-    for (bool hugeTile : {true, false}) {
-        FloatGrid::Ptr d = floatGrid("density", 0.01), t = floatGrid("temperature", hugeTile ? 0.0125 : 1.0);
+    struct Case {
+        double densityVoxel, roleVoxel;
+        int n;  // the role grid's active voxels: n^3 from the origin
+    } cases[] = {{0.01, 0.0125, 4096}, {0.01, 1.0, 128}, {1e-4, 0.1, 1}};
+    for (const Case& c : cases) {
+        FloatGrid::Ptr d = floatGrid("density", c.densityVoxel), t = floatGrid("temperature", c.roleVoxel);
         d->tree().fill(CoordBBox(Coord(0), Coord(15)), 1.0f, true);
-        const int n = hugeTile ? 4096 : 128;
-        t->tree().fill(CoordBBox(Coord(0), Coord(n - 1)), 1500.0f, true);
+        t->tree().fill(CoordBBox(Coord(0), Coord(c.n - 1)), 1500.0f, true);
         const std::string path = dir / "role.vdb";
         writeVdb(path, {d, t});
         const auto start = std::chrono::steady_clock::now();
