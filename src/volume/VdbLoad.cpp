@@ -272,7 +272,9 @@ constexpr double kMaxResampledVoxels = double(kMaxBricks) * 512.0;
 constexpr double kMaxWalkedIndex = double(1 << 30);
 
 // Leaf and internal nodes with no active value become inactive background tiles, and so do the
-// inactive tiles of another value: what remains is what the resampler need walk.
+// inactive tiles of another value: what remains is what the resampler need walk. The inactive
+// voxels of the leaves left become the background too, so that the walk writes nothing where no
+// active value reaches: the resampled leaves are those of the mapped active box, as estimated.
 template <class TreeT>
 void dropInactiveNodes(TreeT& tree)
 {
@@ -283,6 +285,9 @@ void dropInactiveNodes(TreeT& tree)
     for (; tile; ++tile)
         if (!openvdb::math::isExactlyEqual(*tile, background))
             tile.setValue(background);
+    for (auto leaf = tree.beginLeaf(); leaf; ++leaf)
+        for (auto voxel = leaf->beginValueOff(); voxel; ++voxel)
+            voxel.setValue(background);
 }
 
 // OpenVDB's interrupter interface (util/NullInterrupter.h) over a render's StopFlag: the

@@ -1022,3 +1022,23 @@ TEST(VdbLoad, RoleGridReachingPastTwoToTheThirtyIsRefused)
         EXPECT_EQ(message.find('\n'), std::string::npos) << message;
     }
 }
+
+// A role grid's inactive values are the background, also inside a leaf with active ones: the
+// resampled grid holds nothing where no active value reaches, so the shader reads 0 there and the
+// resampling's memory is that of the mapped active box. Temperatures of 0.2 m voxels over
+// densities of 0.1 m: 2000 K active at indices 0-3, 3000 K inactive at 4-7 of the same leaf; at
+// x = 1.2 m (index 6) the default shader emits nothing, at 0.3 m it emits.
+TEST(VdbLoad, InactiveVoxelsOfARoleGridReadAsTheBackground)
+{
+    ScratchDir dir;
+    FloatGrid::Ptr d = floatGrid("density", 0.1), t = floatGrid("temperature", 0.2);
+    d->tree().fill(CoordBBox(Coord(0), Coord(31)), 1.0f, true);
+    t->tree().fill(CoordBBox(Coord(0), Coord(3, 7, 7)), 2000.0f, true);
+    t->tree().fill(CoordBBox(Coord(4, 0, 0), Coord(7, 7, 7)), 3000.0f, false);
+    ASSERT_EQ(t->tree().leafCount(), 1u);
+    const std::string path = dir / "inactive_voxels.vdb";
+    writeVdb(path, {d, t});
+    auto v = buildOne(vdbScene(path));
+    EXPECT_GT(emissionAt(*v, make_float3(0.3f, 0.7f, 0.7f)).x, 10.0f);
+    EXPECT_EQ(emissionAt(*v, make_float3(1.2f, 0.7f, 0.7f)).x, 0.0f);
+}
