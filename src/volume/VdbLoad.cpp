@@ -17,9 +17,10 @@
 #include "../core/StopFlag.h"
 #include "../scene/SceneJson.h"
 #include "../scene/SceneValidate.h"
+#include "ActiveResample.h"
+#include "NanoVdbFileReader.h"
 #include "PluginSource.h"
 #include "Procedural.h"
-#include "NanoVdbFileReader.h"
 #include "VdbFileReader.h"
 #include "VdbToBricks.h"
 #include "VolumeShader.h"
@@ -247,11 +248,12 @@ RoleGrids readVdb(const VolumeSource& source, const std::string& path, bool allR
 
 // Brings a role grid onto the density grid's voxels (AX reads every grid at the same index
 // coordinates). Trilinear (BoxSampler) resampling, as the renderer would interpolate it.
-// OpenVDB's resampler walks every leaf node and every tile that is active or not the background
-// (GridTransformer.h, RangeProcessor), active values or not. nimbus reads a role grid's active
-// values (inactive ones are the background, as in a fog volume), so first the nodes with no active
-// value and the inactive tiles become background (dropInactiveNodes); the walk is then the active
-// region, and its work and memory are known from it before the walk, and bounded three times:
+// nimbus reads a role grid's active values (inactive ones are the background, as in a fog volume),
+// so first the nodes with no active value, the inactive tiles and the leaves' inactive voxels
+// become background (dropInactiveNodes). The walk (resampleActiveRegion, ActiveResample.h) is then
+// each leaf's active voxels and each active tile, mapped; OpenVDB's own resampler, which walks
+// every leaf's whole 8^3 box, only where it downsamples in stages. Its work and memory are known
+// before the walk, and bounded three times:
 // - by what the bricks could ever hold: a role grid whose active values (tiles counted voxel by
 //   voxel), or whose walked nodes (each leaf's whole 8^3 box, each tile) mapped onto the density's
 //   voxels, exceed kMaxBricks bricks of 8^3 voxels is refused (a 20 KB file with one active tile
@@ -300,8 +302,9 @@ struct StopInterrupter {
 };
 
 // The voxels and the 8^3 leaves of `target`'s lattice that the voxels of `box` (index space of
-// `from`) cover, one voxel wider on each side (the box sampler's support). Every corner of the
-// box is mapped, so mirrored, rotated and skewed transforms count right.
+// `from`) reach: the box one voxel wider on each side (the box sampler reads voxel v at every
+// sample point within (v - 1, v + 1)), mapped, and one target voxel more for the rounding. Every
+// corner of the box is mapped, so mirrored, rotated and skewed transforms count right.
 struct MappedBox {
     double voxels = 0.0, leaves = 0.0;
     double reach = 0.0;  // the largest |index| of the mapped box on target's lattice
@@ -315,9 +318,9 @@ MappedBox mapBox(const openvdb::CoordBBox& box, const openvdb::math::Transform& 
     const double inf = std::numeric_limits<double>::infinity();
     openvdb::Vec3d lo(inf), hi(-inf);
     for (int corner = 0; corner < 8; ++corner) {
-        const openvdb::Vec3d c((corner & 1 ? box.max().x() + 0.5 : box.min().x() - 0.5),
-                               (corner & 2 ? box.max().y() + 0.5 : box.min().y() - 0.5),
-                               (corner & 4 ? box.max().z() + 0.5 : box.min().z() - 0.5));
+        const openvdb::Vec3d c((corner & 1 ? box.max().x() + 1.0 : box.min().x() - 1.0),
+                               (corner & 2 ? box.max().y() + 1.0 : box.min().y() - 1.0),
+                               (corner & 4 ? box.max().z() + 1.0 : box.min().z() - 1.0));
         const openvdb::Vec3d t = target.worldToIndex(from.indexToWorld(c));
         lo = openvdb::math::minComponent(lo, t);
         hi = openvdb::math::maxComponent(hi, t);
@@ -385,8 +388,12 @@ typename GridT::Ptr resampleTo(const typename GridT::Ptr& grid, const openvdb::m
                       formatBytes(limitBytes).c_str());
         throw InputError(where + what);
     }
-    StopInterrupter interrupter{stop};
-    openvdb::tools::resampleToMatch<openvdb::tools::BoxSampler>(*grid, *out, interrupter);
+    if (downsamplesInStages(*grid, *out)) {
+        StopInterrupter interrupter{stop};
+        openvdb::tools::resampleToMatch<openvdb::tools::BoxSampler>(*grid, *out, interrupter);
+    } else {
+        resampleActiveRegion(*grid, *out, stop);  // the active region only
+    }
     throwIfStopped(stop);  // an interrupted walk leaves `out` part-filled
     return out;
 }

@@ -939,8 +939,10 @@ TEST(VdbLoad, TransformWhoseStoredInverseDisagreesIsRefused)
 
 // Memory known before it is spent (issue 18, item 4), in the load: a role grid resampled onto a
 // density grid of much finer voxels along one axis fills every leaf its mapped box touches. 9^3
-// temperatures of 0.1 m over densities of 1 mm by 0.1 m by 0.1 m voxels: a box of 903 x 13 x 13
-// density voxels in 114 x 3 x 3 = 1026 leaves, 6.9 MiB with their bricks and a copy. Under a
+// temperatures of 0.1 m over densities of 1 mm by 0.1 m by 0.1 m voxels reach 10 temperature
+// voxels along each axis (the box sampler reads voxel v within (v - 1, v + 1)): a box of 1003 x 13
+// x 13 density voxels (one more each side for the rounding) in 126 x 3 x 3 = 1134 leaves, 7.6 MiB
+// with their bricks and a copy. Under a
 // render.memory_limit of 1 MB it is refused before the walk, naming the grid and the key; under
 // 1 GB it loads.
 TEST(VdbLoad, RoleGridResampledPastTheMemoryLimitIsRefusedBeforeTheWalk)
@@ -961,7 +963,7 @@ TEST(VdbLoad, RoleGridResampledPastTheMemoryLimitIsRefusedBeforeTheWalk)
                            "': resampling it onto the density grid's voxels would take about"),
               std::string::npos)
         << message;
-    EXPECT_NE(message.find("(1.03e+03 leaves of 8^3 voxels"), std::string::npos) << message;
+    EXPECT_NE(message.find("(1.13e+03 leaves of 8^3 voxels"), std::string::npos) << message;
     EXPECT_NE(message.find("raise render.memory_limit"), std::string::npos) << message;
     EXPECT_EQ(message.find('\n'), std::string::npos) << message;
     scene.render.memoryLimit = 1e9f;
