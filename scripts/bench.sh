@@ -35,6 +35,8 @@ echo "== deep output (issue 14, item 5): single and wkb without and with output.
 "$bench/bench_deep" "$report"
 echo "== sky (issue 17)"
 "$bench/bench_sky" "$report"
+echo "== role grid resample (issue 18): nimbus's active-region walk against OpenVDB's resampler"
+"$bench/bench_resample" "$report"
 echo "== path tracer: samples per second with and without the majorant grid"
 {
   echo "PoCL on this machine's CPU cores unless a GPU is present; 128x128 pixels, 16 spp, a 128^3 cloud."
