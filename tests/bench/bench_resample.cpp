@@ -97,8 +97,9 @@ int main(int argc, char** argv)
     std::ostringstream table;
     table << "Side by side in one process, " << rounds << " rounds each (the order alternating), best time of each; "
           << std::thread::hardware_concurrency()
-          << " hardware threads. `voxels`: the output's active voxels (nimbus's; OpenVDB's leaves out the ramp below "
-             "a leaf's low face).\n\n"
+          << " hardware threads. `voxels`: the output's active voxels, nimbus's / OpenVDB's (OpenVDB's walk leaves out "
+             "the ramp below a leaf's low face, and each makes active some voxels on a lattice face that read an "
+             "active voxel with weight 0).\n\n"
           << "| case | voxels (nimbus / OpenVDB) | OpenVDB s | nimbus s | OpenVDB / nimbus |\n|---|---|---|---|---|\n";
     for (const Case& c : cases) {
         double ours = 1e300, theirs = 1e300;
