@@ -52,6 +52,30 @@
 
 namespace nimbus {
 
+// Where the box sampler reads the voxels of `box` (index space of `from`): the box one voxel wider
+// on each side (voxel v is read at sample points within (v - 1, v + 1)), its 8 corners mapped
+// onto `to`'s index space; the least and greatest coordinates along each axis. Every corner is
+// mapped, so mirrored, rotated and skewed transforms count right. The walk below covers it, and
+// VdbLoad's memory estimate counts the leaves it touches.
+struct MappedSupport {
+    openvdb::Vec3d lo, hi;
+};
+inline MappedSupport mapSupport(const openvdb::CoordBBox& box, const openvdb::math::Transform& from,
+                                const openvdb::math::Transform& to)
+{
+    MappedSupport m{openvdb::Vec3d(std::numeric_limits<double>::infinity()),
+                    openvdb::Vec3d(-std::numeric_limits<double>::infinity())};
+    for (int corner = 0; corner < 8; ++corner) {
+        const openvdb::Vec3d c(corner & 1 ? box.max().x() + 1.0 : box.min().x() - 1.0,
+                               corner & 2 ? box.max().y() + 1.0 : box.min().y() - 1.0,
+                               corner & 4 ? box.max().z() + 1.0 : box.min().z() - 1.0);
+        const openvdb::Vec3d q = to.worldToIndex(from.indexToWorld(c));
+        m.lo = openvdb::math::minComponent(m.lo, q);
+        m.hi = openvdb::math::maxComponent(m.hi, q);
+    }
+    return m;
+}
+
 // True where OpenVDB's resampleToMatch<BoxSampler> from `in` onto `out`'s lattice would filter in
 // halving stages: the index-to-index map decomposes into scale, rotation and translation (no
 // shear) and some scale is below 1/2 (GridTransformer's constructor and init).
@@ -120,20 +144,12 @@ void resampleActiveRegion(const GridT& in, GridT& out, const StopFlag* stop)
         }
     }
 
-    // Each box one voxel wider (the sampler's support), its 8 corners mapped onto the output
-    // lattice; the enclosing output voxels, cut into slabs along x of at most 2^16 voxels (work
-    // items for the threads, and a tile's box spread over them).
+    // Each box's support mapped onto the output lattice (mapSupport); the enclosing output voxels,
+    // cut into slabs along x of at most 2^16 voxels (work items for the threads, and a tile's box
+    // spread over them).
     std::vector<openvdb::CoordBBox> work;
     for (const openvdb::CoordBBox& box : inputBoxes) {
-        openvdb::Vec3d lo(std::numeric_limits<double>::infinity()), hi(-lo);
-        for (int corner = 0; corner < 8; ++corner) {
-            const openvdb::Vec3d c(corner & 1 ? box.max().x() + 1.0 : box.min().x() - 1.0,
-                                   corner & 2 ? box.max().y() + 1.0 : box.min().y() - 1.0,
-                                   corner & 4 ? box.max().z() + 1.0 : box.min().z() - 1.0);
-            const openvdb::Vec3d q = to.worldToIndex(from.indexToWorld(c));
-            lo = openvdb::math::minComponent(lo, q);
-            hi = openvdb::math::maxComponent(hi, q);
-        }
+        const auto [lo, hi] = mapSupport(box, from, to);
         const openvdb::Coord first(int(std::floor(lo.x())), int(std::floor(lo.y())), int(std::floor(lo.z())));
         const openvdb::Coord last(int(std::ceil(hi.x())), int(std::ceil(hi.y())), int(std::ceil(hi.z())));
         const double row = double(last.y() - first.y() + 1) * double(last.z() - first.z() + 1);

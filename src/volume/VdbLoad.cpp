@@ -255,7 +255,7 @@ RoleGrids readVdb(const VolumeSource& source, const std::string& path, bool allR
 // every leaf's whole 8^3 box, only where it downsamples in stages. Its work and memory are known
 // before the walk, and bounded three times:
 // - by what the bricks could ever hold: a role grid whose active values (tiles counted voxel by
-//   voxel), or whose walked nodes (each leaf's whole 8^3 box, each tile) mapped onto the density's
+//   voxel), or whose nodes (each leaf's whole 8^3 box, each tile: a bound of either walk) mapped onto the density's
 //   voxels, exceed kMaxBricks bricks of 8^3 voxels is refused (a 20 KB file with one active tile
 //   of 4096^3 voxels under a skewed transform resampled for hours; one active voxel of 0.1 m over
 //   a density of 0.1 mm voxels walks its leaf's 8000^3 density voxels, hours, though its own value
@@ -301,10 +301,9 @@ struct StopInterrupter {
     bool wasInterrupted(int = -1) const { return stopRaised(stop); }
 };
 
-// The voxels and the 8^3 leaves of `target`'s lattice that the voxels of `box` (index space of
-// `from`) reach: the box one voxel wider on each side (the box sampler reads voxel v at every
-// sample point within (v - 1, v + 1)), mapped, and one target voxel more for the rounding. Every
-// corner of the box is mapped, so mirrored, rotated and skewed transforms count right.
+// The voxels and the 8^3 leaves of `target`'s lattice that the box sampler's support around the
+// voxels of `box` (index space of `from`) covers (mapSupport, ActiveResample.h), one target voxel
+// more on each side for the rounding.
 struct MappedBox {
     double voxels = 0.0, leaves = 0.0;
     double reach = 0.0;  // the largest |index| of the mapped box on target's lattice
@@ -316,15 +315,7 @@ MappedBox mapBox(const openvdb::CoordBBox& box, const openvdb::math::Transform& 
     if (box.empty())
         return m;
     const double inf = std::numeric_limits<double>::infinity();
-    openvdb::Vec3d lo(inf), hi(-inf);
-    for (int corner = 0; corner < 8; ++corner) {
-        const openvdb::Vec3d c((corner & 1 ? box.max().x() + 1.0 : box.min().x() - 1.0),
-                               (corner & 2 ? box.max().y() + 1.0 : box.min().y() - 1.0),
-                               (corner & 4 ? box.max().z() + 1.0 : box.min().z() - 1.0));
-        const openvdb::Vec3d t = target.worldToIndex(from.indexToWorld(c));
-        lo = openvdb::math::minComponent(lo, t);
-        hi = openvdb::math::maxComponent(hi, t);
-    }
+    const auto [lo, hi] = mapSupport(box, from, target);
     m.voxels = m.leaves = 1.0;
     for (int a = 0; a < 3; ++a) {
         if (!(std::isfinite(lo[a]) && std::isfinite(hi[a])))
@@ -363,8 +354,9 @@ typename GridT::Ptr resampleTo(const typename GridT::Ptr& grid, const openvdb::m
                       ownReach, mappedReach);
         throw InputError(where + what);
     }
-    // The walk's work is its leaves' whole 8^3 boxes and its tiles mapped (a leaf with one active
-    // voxel is walked whole); the memory, below, is what the active values fill.
+    // The walk's work is at most its leaves' whole 8^3 boxes and its tiles mapped (OpenVDB's walk,
+    // where it downsamples; nimbus's covers only the active voxels' support within them); the
+    // memory, below, is what the active values fill.
     const double active = double(grid->activeVoxelCount());
     const double worst = std::max(active, walk.voxels);
     if (!(worst <= kMaxResampledVoxels)) {
