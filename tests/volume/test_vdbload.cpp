@@ -862,9 +862,10 @@ TEST(VdbLoad, TransformAxesBeyondFloatAreAnInputError)
 // tile of 4096^3 voxels resampled for hours: tests/fuzz/regressions/vdb). Both measures count: the
 // role grid's own active voxels (a 4096^3 tile at the density's voxel size, 6.9e10), and its
 // walked nodes on the density's voxels: 128^3 voxels of 1 m over a density of 0.01 m voxels, 2e12;
-// and one active voxel of 0.1 m over a density of 0.1 mm voxels, whose leaf OpenVDB walks whole:
-// 8000^3 = 5.1e11 density voxels, though the voxel's own 1000^3 pass the bound (a hang: no answer
-// within 40 s from the release CLI before the walk was counted; refused in 0.18 s now).
+// and one active voxel of 0.1 m over a density of 0.1 mm voxels, whose leaf the bound counts
+// whole (OpenVDB's resampler walked it whole): 8000^3 = 5.1e11 density voxels, though the voxel's
+// own 1000^3 pass the bound (a hang: no answer within 40 s from the release CLI before the walk
+// was counted; refused in 0.18 s now).
 TEST(VdbLoad, RoleGridTooLargeToResampleIsRefusedBeforeTheWalk)
 {
     ScratchDir dir;
