@@ -140,6 +140,13 @@ SkyLight::Settings RenderContext::skySettings() const
     ss.order = scene->render.wkbShOrderMax;
     ss.nodesAcross = skyNodesAcross(*scene);
     ss.shadowStep = scene->render.shadowStep;
+    if (scene->camera.width > 0 && scene->camera.height > 0) {
+        const NbCamera nc = makeNbCamera(scene->camera);
+        float3 d;
+        nbCameraRay(nc, 0.5f * float(scene->camera.width), 0.5f * float(scene->camera.height), scene->camera.width,
+                    scene->camera.height, 0.5f, &ss.viewer, &d);
+        ss.hasViewer = true;
+    }
     return ss;
 }
 

@@ -20,7 +20,8 @@ std::string ShadowMapCache::keyOf(const RenderContext& ctx, size_t i)
 std::string ShadowMapCache::skyKeyOf(const RenderContext& ctx, size_t i, const SkyLight::Settings& settings)
 {
     std::string key = keyOf(ctx, i);
-    const float grid[3] = {float(settings.order), float(settings.nodesAcross), settings.shadowStep};
+    const float grid[7] = {float(settings.order), float(settings.nodesAcross), settings.shadowStep,
+                           float(settings.hasViewer), settings.viewer.x, settings.viewer.y, settings.viewer.z};
     key.append(reinterpret_cast<const char*>(grid), sizeof grid);
     const Light& l = ctx.scene->lights[i];
     if (!l.map.empty()) {

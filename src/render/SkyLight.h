@@ -18,10 +18,14 @@
 // along its own direction. The map's own SH projection is exact (no sampling noise); what the
 // grid approximates is T within a cell and between nodes (trilinear).
 //
-// The transmittance is density-weighted over each node's cell (eight octant sub-points, each
-// taking every eighth sky cell's shadow ray, weighted rho_s / mean rho): the march reads the light
-// where the medium is, not T = 1 from a node just outside a surface. Shadow rays march a coarse
-// density (the mean over each node's cell) at settings.shadowStep nodes per step.
+// The transmittance is weighted over each node's cell by what the camera sees there (eight
+// octant sub-points, each taking every eighth sky cell's shadow ray, weighted rho T_cam / mean:
+// the density times the transmittance to the camera's eye): the march reads the light where the
+// medium is, not T = 1 from a node just outside a surface, and where the camera sees it, the
+// first mean free path under a surface. Shadow rays march the full-resolution density near their
+// start, until the coarse density (the mean over each node's cell) is smooth around them, and the
+// coarse density's optical depth from there: one sweep per sky cell with one volume and no
+// shadow casters, else rays at settings.shadowStep nodes per step.
 //
 // Grid: nodes every `spacing` density voxels over the density's active index bounds, in the
 // volume's index space; nodes whose neighbourhood holds no occupied brick are left at zero (no
@@ -57,6 +61,10 @@ public:
         int order = 2;            // SH order J (render.wkb_sh_order_max)
         int nodesAcross = 32;     // grid nodes along a volume's largest extent
         float shadowStep = 1.0f;  // shadow-ray step in node spacings (render.shadow_step)
+        // The camera's eye (world), where the grid is read by camera rays: each node's light is
+        // weighted within its cell by what the camera sees there (build(), "Phase 2").
+        bool hasViewer = false;
+        float3 viewer = make_float3(0, 0, 0);
     };
 
     // The sky's radiance is colour * map(w) (map null: uniform, colour alone). stop: the render's
