@@ -113,7 +113,46 @@ bool ScatterPointSampler::march(const RenderContext& ctx, float3 o, float3 d, fl
             break;
     }
     mEndT = make_float3(T[0], T[1], T[2]);
+    // draw()'s density is largest at a step's start: its probability times the offset's density there.
+    mMaxPdf = 0.0;
+    double previous = 0.0;
+    for (const Step& st : mSteps) {
+        const double probability = (st.cumulative - previous) / mTotal;
+        previous = st.cumulative;
+        const float cMean = (st.c[0] + st.c[1] + st.c[2]) / 3.0f;
+        const double offsetPdf = cMean * st.dt < 1e-4f ? 1.0 / st.dt : cMean / -std::expm1(-double(cMean) * st.dt);
+        mMaxPdf = std::max(mMaxPdf, probability * offsetPdf);
+    }
     return mTotal > 0.0;
+}
+
+ScatterPoint ScatterPointSampler::at(float3 o, float3 d, float t) const
+{
+    ScatterPoint p{};
+    p.x = o + d * t;
+    auto it = std::upper_bound(mSteps.begin(), mSteps.end(), t, [](float v, const Step& s) { return v < s.t; });
+    if (it == mSteps.begin())
+        return p;
+    const Step& st = *(it - 1);
+    const float u = t - st.t;
+    if (!(u >= 0.0f && u <= st.dt))
+        return p;
+    const double prevCumulative = &st == &mSteps.front() ? 0.0 : (&st - 1)->cumulative;
+    const double stepProbability = (st.cumulative - prevCumulative) / mTotal;
+    const float cMean = (st.c[0] + st.c[1] + st.c[2]) / 3.0f;
+    double offsetPdf;
+    if (cMean * st.dt < 1e-4f)
+        offsetPdf = 1.0 / st.dt;
+    else
+        offsetPdf = cMean * std::exp(-double(cMean) * u) / -std::expm1(-double(cMean) * st.dt);
+    p.pdf = stepProbability * offsetPdf;
+    for (int c = 0; c < 3; ++c) {
+        p.T[c] = double(st.T[c]) * std::exp(-double(st.c[c]) * u);
+        p.W[c] = p.T[c] * st.b[c];
+        p.b[c] = st.b[c];
+        p.c[c] = st.c[c];
+    }
+    return p;
 }
 
 ScatterPoint ScatterPointSampler::draw(float3 o, float3 d, int k, int K, NbRng& rng) const
@@ -137,6 +176,7 @@ ScatterPoint ScatterPointSampler::draw(float3 o, float3 d, int k, int K, NbRng& 
         offsetPdf = cMean * std::exp(-cMean * u) / mass;
     }
     const double pdf = stepProbability * double(offsetPdf);
+    p.pdf = pdf;
     for (int c = 0; c < 3; ++c) {
         p.T[c] = double(st.T[c]) * std::exp(-double(st.c[c]) * u);
         p.W[c] = pdf > 0.0 ? p.T[c] * st.b[c] / pdf : 0.0;

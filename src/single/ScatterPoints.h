@@ -25,6 +25,7 @@ struct ScatterPoint {
     double W[3];         // T_c(s) b_c(s) / pdf(s), 1 (dimensionless weight of the gathered radiance)
     double T[3];         // T_c(s), the transmittance from the ray's origin to x
     double b[3], c[3];   // the medium there, 1/m
+    double pdf = 0.0;    // draw()'s density of this point's ray parameter, 1/m (over all K draws)
 };
 
 class ScatterPointSampler {
@@ -46,6 +47,17 @@ public:
     // The transmittance from o to where the march ended (the ray's end, tFar, or under the cut-off in
     // every channel, where it stopped).
     Rgb transmittance() const { return mEndT; }
+    // The ray parameters the march's steps cover, [begin, end] (after a successful march), and the
+    // largest density draw() has over them (1/m).
+    float begin() const { return mSteps.front().t; }
+    float end() const { return mSteps.back().t + mSteps.back().dt; }
+    double maxPdf() const { return mMaxPdf; }
+    // The point at ray parameter t as draw() would return it there, its W the unweighted T_c b_c
+    // (1/m; the caller divides by its own density) and its pdf draw()'s density at t (0 where no
+    // step of the march holds t: no medium, or past where the march stopped). Another technique
+    // combined with draw() by multiple importance sampling reads the medium and draw()'s density
+    // at its own points here.
+    ScatterPoint at(float3 o, float3 d, float t) const;
 
 private:
     struct Step {
@@ -57,6 +69,7 @@ private:
     std::vector<Step> mSteps;
     std::vector<Span> mSpans;
     double mTotal = 0.0;
+    double mMaxPdf = 0.0;
     Rgb mEndT = make_float3(1.0f, 1.0f, 1.0f);
 };
 

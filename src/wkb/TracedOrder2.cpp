@@ -3,6 +3,8 @@
 #include "../single/ScatterPoints.h"
 #include "../single/ScatterSource.h"
 
+#include "../../kernels/shared/equiangular.h"
+
 #include <algorithm>
 #include <cmath>
 
@@ -21,6 +23,8 @@ TracedOrder2::TracedOrder2(const RenderContext& ctx)
         const LightEntry& e = ctx.lights[i];
         if (e.used && e.light.type != NB_LIGHT_ENVIRONMENT)
             mLobeLights.push_back(int(i));
+        if (e.used && (e.light.type == NB_LIGHT_POINT || e.light.type == NB_LIGHT_SPOT))
+            mPointLights.push_back(int(i));
     }
 }
 
@@ -83,6 +87,47 @@ void TracedOrder2::sample(const ScatterPoint& p, float3 d, PhaseMix& phase, NbRn
     const bool tail = !(tSecondary < INFINITY) && nbMaxComponent(Tend) >= ctx.scene->render.tolerance;
     const size_t stride = 3 * ctx.lights.size();
     const int K = kPointsAlong;
+    // The point and spot lights near this ray, each with its equi-angular distribution over the
+    // march's extent (equiangular.h's test: its peak density at least NB_EQUI_MIN_PEAK times the
+    // T b draws' largest).
+    thread_local std::vector<std::pair<int, NbEquiAngular>> equi;
+    equi.clear();
+    const float ta = along.begin(), tb = along.end();
+    for (int li : mPointLights) {
+        const float3 c = nbLoad3(ctx.lights[size_t(li)].light.position);
+        if (nbEquiPeakBound(x, w, c, ta, tb) < NB_EQUI_MIN_PEAK * float(along.maxPdf()))
+            continue;
+        const NbEquiAngular e = nbEquiInit(x, w, c, ta, tb);
+        if (nbEquiWorthwhile(e, float(along.maxPdf())))
+            equi.emplace_back(li, e);
+    }
+    // Adds the point's share: S (its per-light parts in secondaryPerLight) times scale, with the
+    // parts of the lights in `equi` weighted by the balance heuristic, K pTb / (K pTb + pEqui) for
+    // a T b draw, or (onlyLight >= 0, an equi-angular draw toward that light) only that light's
+    // part, with pEqui / (K pTb + pEqui).
+    auto gather = [&](const ScatterPoint& y, const double scale[3], int onlyLight, double equiPdf) {
+        for (const auto& [li, e] : equi) {
+            if (onlyLight >= 0 && li != onlyLight)
+                continue;
+            const double pe = onlyLight >= 0 ? equiPdf : double(nbEquiPdf(e, dot(y.x - x, w)));
+            const double weight = onlyLight >= 0 ? pe / (K * y.pdf + pe) : K * y.pdf / (K * y.pdf + pe);
+            for (int c = 0; c < 3; ++c)
+                secondaryPerLight[size_t(3 * li + c)] *= float(weight);
+        }
+        Rgb S = splat(0.0f);
+        for (size_t i = 0; i < ctx.lights.size(); ++i) {
+            float* part = &secondaryPerLight[3 * i];
+            if (onlyLight >= 0 && int(i) != onlyLight)
+                part[0] = part[1] = part[2] = 0.0f;
+            S += make_float3(part[0], part[1], part[2]);
+        }
+        if (!std::isfinite(S.x + S.y + S.z))
+            return;
+        out.L2plus += make_float3(float(scale[0] * S.x), float(scale[1] * S.y), float(scale[2] * S.z));
+        if (perLight)
+            for (size_t i = 0; i < stride; ++i)
+                perLight[i] += float(scale[i % 3] * secondaryPerLight[i]);
+    };
     for (int k = 0; k < K; ++k) {
         const ScatterPoint y = along.draw(x, w, k, K, rng);
         // T(y, end), the sky tail's share; none where a caster hides the sky or, as single's
@@ -93,16 +138,24 @@ void TracedOrder2::sample(const ScatterPoint& p, float3 d, PhaseMix& phase, NbRn
                                  y.T[1] > 0.0 ? float(Tend.y / y.T[1]) : 0.0f,
                                  y.T[2] > 0.0 ? float(Tend.z / y.T[2]) : 0.0f);
         secondaryPerLight.assign(stride, 0.0f);
-        const Rgb S = singleScatterSource(ctx, y.x, w, behind, rng, secondaryPerLight.data(), seconds);
-        if (!std::isfinite(S.x + S.y + S.z))
-            continue;
+        singleScatterSource(ctx, y.x, w, behind, rng, secondaryPerLight.data(), seconds);
         double scale[3];
         for (int c = 0; c < 3; ++c)
             scale[c] = p.W[c] * dirWeight * y.W[c] / (double(mSamples) * K);
-        out.L2plus += make_float3(float(scale[0] * S.x), float(scale[1] * S.y), float(scale[2] * S.z));
-        if (perLight)
-            for (size_t i = 0; i < stride; ++i)
-                perLight[i] += float(scale[i % 3] * secondaryPerLight[i]);
+        gather(y, scale, -1, 0.0);
+    }
+    for (const auto& [li, e] : equi) {
+        const float t = nbEquiSample(e, nbRngNext(&rng));
+        const double pe = double(nbEquiPdf(e, t));
+        const ScatterPoint y = along.at(x, w, t);
+        if (!(pe > 0.0) || !(y.pdf > 0.0))
+            continue;  // no medium there (a gap, or past where the march stopped): T b is 0
+        secondaryPerLight.assign(stride, 0.0f);
+        singleScatterSource(ctx, y.x, w, splat(0.0f), rng, secondaryPerLight.data(), seconds);  // no sky: its tail unused
+        double scale[3];
+        for (int c = 0; c < 3; ++c)
+            scale[c] = p.W[c] * dirWeight * y.W[c] / (double(mSamples) * pe);
+        gather(y, scale, li, pe);
     }
 }
 

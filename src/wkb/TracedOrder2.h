@@ -17,6 +17,16 @@
 // (a second ScatterPointSampler march). The estimate is unbiased for the piecewise-constant medium
 // of the marches (the quadrature every march here uses), and the straight-line reduction's error
 // at order 2 (no boundary, no curvature) is gone.
+//
+// A point or spot light's L1 along x + t w' falls off as 1 / r^2 from the light: where w' passes
+// near it, the points drawn by T b find a spike that they sample with infinite variance (a point
+// light inside a haze box: beauty relMSE 0.33 at 4 spp, 0.14 at 16, against the path tracer).
+// Along each w' that passes near such a light (its equi-angular density's peak at least half the
+// largest density of the T b draws, the path tracer's test, equiangular.h), one more point is
+// drawn equi-angularly toward it (Kulla and Fajardo 2012; Oppitz eqs. 7.7-7.8) and that light's
+// part of S is combined by the balance heuristic over the K draws and that one,
+// T b S_l / (K p_Tb(t) + p_equi(t)) at every point of either technique; the other lights' parts
+// stay with the T b draws alone. Unbiased (the weights sum to 1 at every t).
 #pragma once
 
 #include "../render/CameraSample.h"
@@ -48,6 +58,7 @@ private:
     int mSamples = 1;              // per camera ray, sharing one march
     std::vector<NbPhase> mPhases;  // per volume
     std::vector<int> mLobeLights;  // lights whose direction gets a sampling lobe
+    std::vector<int> mPointLights;  // point and spot lights: equi-angular points along w'
 };
 
 }  // namespace nimbus::wkb

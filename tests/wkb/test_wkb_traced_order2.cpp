@@ -11,6 +11,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdio>
 #include <random>
 #include <vector>
 
@@ -109,9 +110,25 @@ double sampleExp(double len, double u, double& pdf)
     return t;
 }
 
+// A point on [0, len] of the ray x + t w drawn equi-angularly toward c (Kulla and Fajardo 2012,
+// eqs. 6-7): t = Delta + h tan(theta), theta uniform between the ends' angles; returns t and its pdf.
+double sampleEquiAngular(V3 x, V3 w, V3 c, double len, double u, double& pdf)
+{
+    const double delta = dot(c - x, w);
+    const V3 perp = (c - x) - w * delta;
+    const double h = std::max(1e-9, std::sqrt(dot(perp, perp)));
+    const double a = std::atan((0.0 - delta) / h), b = std::atan((len - delta) / h);
+    const double t = std::min(len, std::max(0.0, delta + h * std::tan(a + u * (b - a))));
+    pdf = h / ((b - a) * (h * h + (t - delta) * (t - delta)));
+    return t;
+}
+
 // Order 2 reaching the camera along o + t d, by brute force: x on the camera ray by e^{-c s},
-// w' by HG about d, y on x + t w' by e^{-c t}, then the light at y.
-double bruteForceOrder2(const LightCase& light, V3 o, V3 d, int n, double& stdErr)
+// w' by HG about d, y on x + t w' by e^{-c t} (or, `equi`, equi-angularly toward the point light:
+// the light inside the box, where the inverse square makes the e^{-c t} draws' variance
+// infinite), then the light at y. Per-sample standard deviation in sampleStd.
+double bruteForceOrder2(const LightCase& light, V3 o, V3 d, int n, double& stdErr, bool equi = false,
+                        double* sampleStd = nullptr)
 {
     std::mt19937_64 gen(12345);
     std::uniform_real_distribution<double> U(0.0, 1.0);
@@ -128,7 +145,7 @@ double bruteForceOrder2(const LightCase& light, V3 o, V3 d, int n, double& stdEr
         const double len = exitDistance(x, w);
         double v = 0.0;
         if (len > 0.0) {
-            const double t = sampleExp(len, U(gen), pdfT);
+            const double t = equi ? sampleEquiAngular(x, w, light.pos, len, U(gen), pdfT) : sampleExp(len, U(gen), pdfT);
             const V3 y = x + w * t;
             const double wT = std::exp(-kSigmaT * t) * kSigmaS / pdfT;
             V3 travel;
@@ -140,6 +157,8 @@ double bruteForceOrder2(const LightCase& light, V3 o, V3 d, int n, double& stdEr
     }
     const double mean = sum / n;
     stdErr = std::sqrt(std::max(0.0, sum2 / n - mean * mean) / n);
+    if (sampleStd)
+        *sampleStd = std::sqrt(std::max(0.0, sum2 / n - mean * mean));
     return mean;
 }
 
@@ -176,7 +195,9 @@ Scene boxScene(const LightCase& lc)
     return s;
 }
 
-void checkAgainstBruteForce(const LightCase& lc)
+// Each ray's traced mean against the brute force's within 3% plus four combined standard errors;
+// with `inside` (a point light inside the box) the brute force draws y equi-angularly.
+void checkAgainstBruteForce(const LightCase& lc, bool inside = false)
 {
     const Scene scene = boxScene(lc);
     auto ctx = RenderContext::create(scene, true);
@@ -186,8 +207,8 @@ void checkAgainstBruteForce(const LightCase& lc)
     int ray = 0;
     for (const V3& target : targets) {
         const V3 d = unit(target - o);
-        double refErr = 0.0;
-        const double ref = bruteForceOrder2(lc, o, d, 400000, refErr);
+        double refErr = 0.0, refStd = 0.0;
+        const double ref = bruteForceOrder2(lc, o, d, 400000, refErr, inside, &refStd);
         const int n = 6000;
         double sum = 0.0, sum2 = 0.0;
         std::vector<float> perLight(3);
@@ -208,6 +229,11 @@ void checkAgainstBruteForce(const LightCase& lc)
         EXPECT_GT(ref, 0.0);
         // The light's own AOV carries the same order 2 (one light).
         EXPECT_NEAR(perLight[0] / n, sum / n, 1e-3 * std::fabs(mean) + 1e-9);
+        if (inside) {
+            const double std = err * std::sqrt(double(n));
+            std::printf("ray %d: traced %.5f +- %.5f (sample std %.4f), brute force %.5f +- %.5f (sample std %.4f)\n",
+                        ray, mean, err, std, ref, refErr, refStd);
+        }
         ++ray;
     }
 }
@@ -222,4 +248,15 @@ TEST(WkbTracedOrder2, MatchesBruteForceUnderDistantLight)
 TEST(WkbTracedOrder2, MatchesBruteForceUnderPointLight)
 {
     checkAgainstBruteForce(LightCase{false, V3{0, 0, 0}, V3{1.2, 1.4, 0.6}, 4.0});
+}
+
+// A point light inside the box: along the secondary directions that pass near it, the T b draws
+// alone meet an inverse-square spike (infinite variance); each such direction also draws a point
+// equi-angularly toward the light, combined by the balance heuristic (TracedOrder2.h). The
+// combination must stay unbiased: with the equi-angular draws' weight left at 1 (counted twice)
+// the traced means came out 1.6x the brute force's and this failed. Its noise: docs/wkb.md
+// "Order 2, traced" (a haze box with a point light inside, beauty relMSE 0.33 -> 0.11).
+TEST(WkbTracedOrder2, MatchesBruteForceWithThePointLightInsideTheMedium)
+{
+    checkAgainstBruteForce(LightCase{false, V3{0, 0, 0}, V3{0.1, 0.05, -0.1}, 0.5}, true);
 }
