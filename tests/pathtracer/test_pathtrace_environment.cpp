@@ -175,8 +175,11 @@ TEST(PathtraceEnvironment, SkyL1OfThickMediaMatchesThePathTracer)
 // A map black but for one texel of radiance L is a distant light of irradiance L * Omega_texel
 // from the texel's centre (to the texel's 1.4 degree extent, far below what the cloud's
 // shadows resolve at this voxel size). Path tracer: the map sample finds the texel, the phase
-// sample almost never (MIS weights it out); z-test of the two path-traced means. Single, with
-// isotropic scattering (the sky grid's order 0 is then exact): within the grid's bound.
+// sample almost never (MIS weights it out); z-test of the two path-traced means. Single's map,
+// with isotropic scattering (the sky grid's order 0 is then exact): within the grid's bound of the
+// path tracer's, plus four standard errors. (It was held against single's distant light until the
+// bound was refitted on 2026-12-06: that difference, +0.4%, holds the sun's shadow map's own error
+// too, and the refitted a, 0.35%, bounds the grid's alone.)
 TEST(PathtraceEnvironment, OneBrightTexelIsTheEquivalentDistantLight)
 {
     const int W = 256, H = 128, ti = 80, tj = 30;
@@ -206,9 +209,10 @@ TEST(PathtraceEnvironment, OneBrightTexelIsTheEquivalentDistantLight)
         EXPECT_LT(std::fabs(a.mean - b.mean), 4 * se);
         if (g == 0.0f) {
             const double single = marchL1(sky, Method::Single), singleSun = marchL1(sun, Method::Single);
-            std::printf("single, g 0: one-texel map %.6f, distant light %.6f (%+.2f%%)\n", single, singleSun,
-                        100 * (single / singleSun - 1));
-            EXPECT_LT(std::fabs(single - singleSun), skyGridBound(0.0) * singleSun);
+            std::printf("single, g 0: one-texel map %.6f (%+.2f%% against the path tracer's), distant light %.6f "
+                        "(%+.2f%%)\n",
+                        single, 100 * (single / a.mean - 1), singleSun, 100 * (single / singleSun - 1));
+            EXPECT_LT(std::fabs(single - a.mean), 4 * a.standardError + skyGridBound(0.0) * a.mean);
         }
     }
 }
