@@ -153,6 +153,7 @@ struct CoarseDensity {
     int nx = 0, ny = 0, nz = 0;
     std::vector<float> rho;
     Rgb sigmaT = splat(0.0f);
+    float spacingMetres = 1.0f;  // the node spacing in metres, by the volume's largest voxel side
     // Per node: whether the coarse density around it (the node and its 26 neighbours) varies by
     // less than kSmoothTau optical depths per node spacing, where the sweep's optical depth,
     // interpolated between nodes, is as good as a full-resolution ray (markSmooth).
@@ -176,7 +177,7 @@ struct CoarseDensity {
             return true;
         return smooth[(size_t(k) * ny + j) * nx + i] != 0;
     }
-    void markSmooth(float spacingMetres)
+    void markSmooth()
     {
         const float limit = kSmoothTau / std::max(1e-30f, std::max(sigmaT.x, std::max(sigmaT.y, sigmaT.z)) * spacingMetres);
         smooth.assign(rho.size(), 0);
@@ -358,11 +359,10 @@ SkyLight SkyLight::build(const VolumeSet& volumes, const EmbreeScene* casters, c
                     }
                 }
         });
-        {
-            const float3 vx = vol.worldFromIndex.vector(make_float3(1, 0, 0)), vy = vol.worldFromIndex.vector(make_float3(0, 1, 0)),
-                         vz = vol.worldFromIndex.vector(make_float3(0, 0, 1));
-            c.markSmooth(g.spacing * std::max(length(vx), std::max(length(vy), length(vz))));
-        }
+        const float3 vx = vol.worldFromIndex.vector(make_float3(1, 0, 0)), vy = vol.worldFromIndex.vector(make_float3(0, 1, 0)),
+                     vz = vol.worldFromIndex.vector(make_float3(0, 0, 1));
+        c.spacingMetres = g.spacing * std::max(length(vx), std::max(length(vy), length(vz)));
+        c.markSmooth();
         sky.mGrids.push_back(std::move(g));
     }
     // One volume and no shadow casters (the common case): the optical depth toward each sky
@@ -387,13 +387,12 @@ SkyLight SkyLight::build(const VolumeSet& volumes, const EmbreeScene* casters, c
             const int b = (a + 1) % 3, d = (a + 2) % 3;
             const float va = un[a] > 0 ? 1.0f : -1.0f, vb = un[b] / std::fabs(un[a]), vd = un[d] / std::fabs(un[a]);
             const float stepMetres = 1.0f / (std::fabs(un[a]) * ul);
-            // One layer's step toward the light in index units, and the samples along it: half a
-            // voxel apart, or a quarter of the densest voxel's mean free path where longer.
+            // One layer's step toward the light in index units, and the samples along it, as far
+            // apart as the shadow rays' full-resolution steps (nearStep).
             float vv[3];
             vv[a] = va, vv[b] = vb, vv[d] = vd;
             const float3 segment = make_float3(vv[0], vv[1], vv[2]) * c.spacing;
-            const float sigmaMax = std::max(c.sigmaT.x, std::max(c.sigmaT.y, c.sigmaT.z)) * c.vol->density.maxValue();
-            const float sampleMetres = std::max(0.5f * stepMetres / length(segment), sigmaMax > 0.0f ? 0.25f / sigmaMax : 1e30f);
+            const float sampleMetres = c.nearStep(segment * (1.0f / stepMetres));
             const int segmentSamples = std::min(stepCount(stepMetres, sampleMetres), kNearStepsMax / 8);
             const int n[3] = {c.nx, c.ny, c.nz};
             std::vector<float>& tau = tauFields[ci];
@@ -552,11 +551,8 @@ SkyLight SkyLight::build(const VolumeSet& volumes, const EmbreeScene* casters, c
         // a brick (8 voxels) that overlaps the neighbourhood holds one of them.
         const int probes = int(std::ceil(2.0f * g.spacing / 4.0f)) + 1;
         const int stride = g.stride;
-        // The shadow rays' full-resolution stretch at most (metres, by the volume's largest voxel
-        // side).
-        const float3 voxel = vol.worldFromIndex.vector(make_float3(1, 0, 0)), voxelY = vol.worldFromIndex.vector(make_float3(0, 1, 0)),
-                     voxelZ = vol.worldFromIndex.vector(make_float3(0, 0, 1));
-        const float nearLength = kNearSpacings * g.spacing * std::max(length(voxel), std::max(length(voxelY), length(voxelZ)));
+        // The shadow rays' full-resolution stretch at most (metres).
+        const float nearLength = kNearSpacings * coarse[v].spacingMetres;
         if (sweep) {
             nearRays.resize(cells.size());
             for (size_t ci = 0; ci < cells.size(); ++ci) {
