@@ -45,6 +45,7 @@ bool ScatterPointSampler::march(const RenderContext& ctx, float3 o, float3 d, fl
     if (mSpans.empty())
         return false;
     const float jitter = nbRngNext(&rng);
+    mJitter = jitter;
     // One still volume with stiff bricks (StiffVoxels.h): there a brick's densest voxel bounds a
     // step's optical depth, which a probe in the thin end of a ramp would miss.
     const StiffVoxels* stiff = ctx.stiff.size() == 1 && ctx.stiff[0].any && !ctx.moving() ? &ctx.stiff[0] : nullptr;

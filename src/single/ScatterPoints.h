@@ -58,6 +58,16 @@ public:
     // combined with draw() by multiple importance sampling reads the medium and draw()'s density
     // at its own points here.
     ScatterPoint at(float3 o, float3 d, float t) const;
+    // The march's table, after a successful march, for a term that integrates its own source over
+    // the same steps (wkb's orders-3+ read, RadianceGrid.h readOrders3): f(t, dt, x, T, b, c) per
+    // step with T b > 0, in order: the step [t, t + dt), the point x where the medium was read,
+    // the transmittance T[3] from o to t, and the step's b[3] and c[3] (1/m). o and d as marched.
+    template <class F>
+    void forEachStep(float3 o, float3 d, F&& f) const
+    {
+        for (const Step& st : mSteps)
+            f(st.t, st.dt, o + d * (st.t + mJitter * st.dt), st.T, st.b, st.c);
+    }
 
 private:
     struct Step {
@@ -70,6 +80,7 @@ private:
     std::vector<Span> mSpans;
     double mTotal = 0.0;
     double mMaxPdf = 0.0;
+    float mJitter = 0.0f;  // each step's probe at t + mJitter dt
     Rgb mEndT = make_float3(1.0f, 1.0f, 1.0f);
 };
 

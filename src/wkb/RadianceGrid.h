@@ -47,6 +47,10 @@
 #include <cstddef>
 #include <vector>
 
+namespace nimbus {
+class ScatterPointSampler;
+}
+
 namespace nimbus::wkb {
 
 class RadianceGrid {
@@ -114,6 +118,14 @@ constexpr float kOrders3StepScale = 2.0f;
 
 float3 marchOrders3(const VolumeSet& volumes, const RadianceGrid& grid, float3 o, float3 d, float tFar, float seconds,
                     float jitter, float stepFraction, float stepScale, float3* perLayer = nullptr);
+
+// The same integral over the steps of a camera ray that a ScatterPointSampler has marched already
+// (traced order 2's, TracedOrder2::add): its steps are marchOrders3's (twice the L1 step, at least
+// half a voxel; split where thick, to T < 1e-4), so the medium is not read a second time. S is
+// read at each step's probe point. Still volumes only: a moving volume's light point is where the
+// frame's light is (VolumeSet::sampleAt), which the sampler does not keep.
+float3 readOrders3(const RadianceGrid& grid, const ScatterPointSampler& steps, float3 o, float3 d,
+                   float3* perLayer = nullptr);
 
 template <class F>
 void RadianceGrid::walk(float3 o, float3 d, float t0, float t1, F&& f) const

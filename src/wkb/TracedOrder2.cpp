@@ -28,17 +28,18 @@ TracedOrder2::TracedOrder2(const RenderContext& ctx)
     }
 }
 
-void TracedOrder2::add(float3 o, float3 d, NbRng& rng, CameraSample& out, float* perLight, float tFar,
-                       float seconds) const
+const ScatterPointSampler* TracedOrder2::add(float3 o, float3 d, NbRng& rng, CameraSample& out, float* perLight,
+                                             float tFar, float seconds) const
 {
     const RenderContext& ctx = *mCtx;
     thread_local ScatterPointSampler points;
     if (!points.march(ctx, o, d, tFar, rng, seconds))
-        return;
+        return nullptr;
     thread_local PhaseMix phase;
     phase.use(mPhases);
     for (int k = 0; k < mSamples && !ctx.stop.raised(); ++k)
         sample(points.draw(o, d, k, mSamples, rng), d, phase, rng, out, perLight, seconds);
+    return &points;
 }
 
 void TracedOrder2::sample(const ScatterPoint& p, float3 d, PhaseMix& phase, NbRng& rng, CameraSample& out,

@@ -46,8 +46,11 @@ public:
     // Adds the mean of render.wkb_order2_samples samples of order 2 along o + s d, s in [0, tFar),
     // to out.L2plus and each light's part to perLight[3 i + c]. Draws its numbers from rng.
     // seconds: the ray's shutter time, at which moving volumes are read (VolumeSet::sampleAt).
-    void add(float3 o, float3 d, NbRng& rng, CameraSample& out, float* perLight, float tFar = INFINITY,
-             float seconds = 0.0f) const;
+    // Returns the march of the camera ray that the points were drawn from (this thread's, valid
+    // until its next call; RadianceGrid.h's readOrders3 integrates orders 3+ over its steps), or
+    // null where the ray meets no scattering medium or the render was stopped.
+    const ScatterPointSampler* add(float3 o, float3 d, NbRng& rng, CameraSample& out, float* perLight,
+                                   float tFar = INFINITY, float seconds = 0.0f) const;
 
 private:
     // One of mSamples draws at the traced point p (d the camera ray's direction).

@@ -127,13 +127,22 @@ void WkbIntegrator::marchRays(int n, const float3* o, const float3* d, const flo
 {
     const size_t stride = 3 * mCtx->lights.size();
     const VolumeSet& vs = mCtx->volumes;
+    // Velocity blur: each ray's shutter fraction as seconds after the frame's time.
+    thread_local std::vector<float> seconds;
+    const bool moving = mCtx->moving() && time;
+    seconds.assign(size_t(n), 0.0f);
+    if (moving)
+        for (int i = 0; i < n; ++i)
+            seconds[size_t(i)] = vs.shutterSeconds(time[i]);
+    // L1 as `single` marches it, the rays together (eight at once where the medium and lights
+    // allow, MarchEightRays.h); each ray draws from its own generator, so the order of the rays
+    // leaves every draw as it was.
+    marchSingleRays(*mCtx, n, o, d, rng, out, perLight, tFar, moving ? seconds.data() : nullptr);
     for (int i = 0; i < n; ++i) {
         float* pl = perLight + stride * size_t(i);
         const float t = tFar ? tFar[i] : INFINITY;
-        const float seconds = mCtx->moving() && time ? vs.shutterSeconds(time[i]) : 0.0f;  // motion blur
-        marchSingle(*mCtx, o[i], d[i], rng[i], out[i], pl, t, seconds);
-        mEmission->add(o[i], d[i], rng[i], out[i], t, seconds);  // single's L1 of emission, the same draws
-        march(o[i], d[i], rng[i], out[i], pl, t, seconds);
+        mEmission->add(o[i], d[i], rng[i], out[i], t, seconds[size_t(i)]);  // single's L1 of emission, the same draws
+        march(o[i], d[i], rng[i], out[i], pl, t, seconds[size_t(i)]);
     }
 }
 
@@ -416,22 +425,27 @@ void WkbIntegrator::march(float3 o, float3 d, NbRng& rng, CameraSample& out, flo
 {
     if (!mSetup.active)
         return;
-    if (mOrder2)
-        mOrder2->add(o, d, rng, out, perLight, tFar, seconds);
+    const ScatterPointSampler* marched = mOrder2 ? mOrder2->add(o, d, rng, out, perLight, tFar, seconds) : nullptr;
     if (mOrders3) {
         // The lights' orders 3+ from the traced radiance cache, projected toward the camera.
         // Each layer of the cache is one light's (its AOV gets it) or several lights' (L2plus only).
-        thread_local std::vector<float3> layers;
-        layers.resize(size_t(mOrders3->layers()));
-        const float3 L3 = marchOrders3(mCtx->volumes, *mOrders3, o, d, tFar, seconds, nbRngNext(&rng),
-                                       mCtx->scene->render.step, kOrders3StepScale, layers.data());
-        out.L2plus += L3;
-        for (int k = 0; k < mOrders3->layers(); ++k) {
-            const int li = mOrders3->layerLight(k);
-            if (li >= 0 && perLight) {
-                perLight[3 * li + 0] += layers[size_t(k)].x;
-                perLight[3 * li + 1] += layers[size_t(k)].y;
-                perLight[3 * li + 2] += layers[size_t(k)].z;
+        // Over traced order 2's march of this ray where there is one (the same steps; where traced
+        // order 2 found no scattering medium on the ray, orders 3+ are 0 too), else marched here.
+        if (marched || !mOrder2 || mCtx->moving()) {
+            thread_local std::vector<float3> layers;
+            layers.resize(size_t(mOrders3->layers()));
+            const float3 L3 = marched && !mCtx->moving()
+                                  ? readOrders3(*mOrders3, *marched, o, d, layers.data())
+                                  : marchOrders3(mCtx->volumes, *mOrders3, o, d, tFar, seconds, nbRngNext(&rng),
+                                                 mCtx->scene->render.step, kOrders3StepScale, layers.data());
+            out.L2plus += L3;
+            for (int k = 0; k < mOrders3->layers(); ++k) {
+                const int li = mOrders3->layerLight(k);
+                if (li >= 0 && perLight) {
+                    perLight[3 * li + 0] += layers[size_t(k)].x;
+                    perLight[3 * li + 1] += layers[size_t(k)].y;
+                    perLight[3 * li + 2] += layers[size_t(k)].z;
+                }
             }
         }
         if (!mKernelSources)
