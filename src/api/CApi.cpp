@@ -13,6 +13,7 @@
 
 #include "../core/Error.h"
 #include "../core/OneLine.h"
+#include "../core/Utf8.h"
 #include "../engine/Renderer.h"
 #include "../io/Outputs.h"
 #include "../scene/SceneJson.h"
@@ -20,6 +21,7 @@
 #include <nlohmann/json.hpp>
 
 #include <cmath>
+#include <cstdio>
 #include <cstring>
 #include <filesystem>
 #include <string>
@@ -76,6 +78,21 @@ T* required(T* p, const char* what)
 const char* requiredString(const char* s, const char* what)
 {
     return required(s, what);
+}
+
+// A string value of the scene format (JSON): UTF-8 text, or NIMBUS_ERROR_WRONG_TYPE naming the key.
+std::string textValue(const char* s, const char* what, const char* key)
+{
+    const std::string v = requiredString(s, what);
+    const size_t bad = firstInvalidUtf8(v);
+    if (bad < v.size()) {
+        char byte[8];
+        std::snprintf(byte, sizeof byte, "0x%02X", unsigned(static_cast<unsigned char>(v[bad])));
+        throw ApiError(NIMBUS_ERROR_WRONG_TYPE, std::string(key ? key : "") + ": not UTF-8 text (byte " + byte +
+                                                    " at offset " + std::to_string(bad) +
+                                                    "; the scene format is JSON, whose strings are UTF-8)");
+    }
+    return v;
 }
 
 HandleRegistry& registry()
@@ -242,7 +259,7 @@ NimbusStatus nimbus_set_floats(NimbusHandle object, const char* name, const doub
 
 NimbusStatus nimbus_set_string(NimbusHandle object, const char* name, const char* value)
 {
-    return guard([&] { return setParam(object, name, json(std::string(requiredString(value, "value")))); });
+    return guard([&] { return setParam(object, name, json(textValue(value, "value", name))); });
 }
 
 NimbusStatus nimbus_set_strings(NimbusHandle object, const char* name, const char* const* values, size_t count)
@@ -252,7 +269,7 @@ NimbusStatus nimbus_set_strings(NimbusHandle object, const char* name, const cha
             required(values, "values");
         json a = json::array();
         for (size_t i = 0; i < count; ++i)
-            a.push_back(std::string(requiredString(values[i], "values[i]")));
+            a.push_back(textValue(values[i], "values[i]", name));
         return setParam(object, name, std::move(a));
     });
 }

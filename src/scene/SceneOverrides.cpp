@@ -6,6 +6,8 @@
 
 #include "SceneValidate.h"
 
+#include "../core/Utf8.h"
+
 #include <nlohmann/json.hpp>
 
 #include <cctype>
@@ -99,8 +101,14 @@ public:
         // JSON if it parses (numbers, arrays, true), else the text itself (wkb, out/a.exr).
         std::string text = mText.substr(eq + 1);
         json value = json::parse(text, nullptr, false);
-        if (value.is_discarded())
+        if (value.is_discarded()) {
+            // The scene format is JSON, whose strings are UTF-8 text.
+            const size_t bad = firstInvalidUtf8(text);
+            if (bad < text.size())  // the key alone: the value's bytes are not text to print
+                throwSceneError(mSourcePath, "", "--set '" + path + "=...': the value is not UTF-8 text (byte " +
+                                                     std::to_string(bad + 1) + " of it)");
             value = text;
+        }
 
         json* node = &document;
         std::string walked;

@@ -164,6 +164,31 @@ static void testParameters(void)
         OK(nimbus_release(vdb));
     }
 
+    /* A string that is not UTF-8 text (the scene format is JSON): refused where it is set, naming
+       the key, and the scene can still be written back as JSON. */
+    {
+        char json[8192];
+        size_t length = 0;
+        NimbusScene named;
+        NimbusVolume cloud;
+        OK(nimbus_scene_create(&named));
+        OK(nimbus_volume_create("procedural", &cloud));
+        CHECK_STATUS(nimbus_set_string(cloud, "name", "bad\xff\xfe"), NIMBUS_ERROR_WRONG_TYPE);
+        CHECK_MESSAGE("name: not UTF-8 text (byte 0xFF at offset 3");
+        CHECK_STATUS(nimbus_set_string(cloud, "name", "\xc0\xaf"), NIMBUS_ERROR_WRONG_TYPE); /* overlong '/' */
+        CHECK_STATUS(nimbus_set_string(cloud, "name", "\xed\xa0\x80"), NIMBUS_ERROR_WRONG_TYPE); /* a surrogate */
+        const char* names[2] = {"beauty", "bad\xff"};
+        CHECK_STATUS(nimbus_set_strings(named, "output.aovs", names, 2), NIMBUS_ERROR_WRONG_TYPE);
+        CHECK_MESSAGE("output.aovs: not UTF-8 text");
+        OK(nimbus_set_string(cloud, "name", "nu\xc3\xa9e \xe2\x98\x81 \xf0\x9f\x8c\xab")); /* nuee, a cloud, fog */
+        OK(nimbus_scene_add_volume(named, cloud));
+        OK(nimbus_commit(named));
+        OK(nimbus_scene_to_json(named, json, sizeof json, &length));
+        CHECK(strstr(json, "nu\xc3\xa9e \xe2\x98\x81 \xf0\x9f\x8c\xab") != NULL);
+        OK(nimbus_release(cloud));
+        OK(nimbus_release(named));
+    }
+
     /* NULL pointers. */
     CHECK_STATUS(nimbus_set_float(scene, NULL, 1), NIMBUS_ERROR_INVALID_ARGUMENT);
     CHECK_STATUS(nimbus_set_string(scene, "output.file", NULL), NIMBUS_ERROR_INVALID_ARGUMENT);

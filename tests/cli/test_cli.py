@@ -22,7 +22,8 @@ NIMBUS = None
 
 
 def run(*args, cwd=None):
-    p = subprocess.run([NIMBUS, *args], capture_output=True, text=True, cwd=cwd, timeout=600)
+    p = subprocess.run([NIMBUS, *args], capture_output=True, text=True, errors="surrogateescape", cwd=cwd,
+                       timeout=600)
     return p.returncode, p.stdout, p.stderr
 
 
@@ -226,6 +227,16 @@ class Cli(unittest.TestCase):
         with open(path, "w") as f:
             f.write('{"camera": {"fov": 30, "resolution": [32, 24], "fov": 40}, "output": {"file": "%s"}}' % self.out)
         self.expect_bad_input(["render", path], "scene.json", "camera.fov", "duplicate")
+
+    def test_value_that_is_not_utf8_is_bad_input(self):  # failure 8: a non-UTF-8 name failed as internal
+        # The scene format is JSON, whose strings are UTF-8 text; the bad bytes are not echoed.
+        line = self.expect_bad_input(["render", "--default", "-o", self.out, "--set", "volumes[0].name=bad\udcff"],
+                                     "volumes[0].name", "not UTF-8 text", "byte 4")
+        self.assertNotIn("\udcff", line)
+        code, _, err = run("render", "--default", "-q", "-o", os.path.join(self.d, "ok.exr"),
+                           "--set", "render.spp=1", "--set", "camera.resolution=[16,16]",
+                           "--set", "volumes[0].name=nu\u00e9e \u2601")
+        self.assertEqual(code, 0, err)
 
     def test_invalid_vdb_transform_is_bad_input(self):
         vdb_path = os.path.join(self.d, "flat.vdb")
