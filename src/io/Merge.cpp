@@ -14,6 +14,8 @@
 #include <set>
 #include <variant>
 
+#include <sys/stat.h>
+
 namespace nimbus {
 
 namespace {
@@ -186,6 +188,16 @@ MergeSummary mergeParts(const std::string& output, const std::vector<std::string
 {
     if (paths.empty())
         throw InputError("merge: no parts given");
+    // The merged frame may not replace a part it is read from (compared by device and inode, after
+    // symlinks, so hard links and other spellings of the path count).
+    struct stat target;
+    if (::stat(output.c_str(), &target) == 0)
+        for (const std::string& path : paths) {
+            struct stat part;
+            if (::stat(path.c_str(), &part) == 0 && part.st_dev == target.st_dev && part.st_ino == target.st_ino)
+                throw InputError("merge: the output " + quoted(output) + " is the part " + quoted(path) +
+                                 "; writing it would destroy it");
+        }
     std::vector<Part> parts;
     for (const std::string& path : paths) {
         for (const Part& p : parts)

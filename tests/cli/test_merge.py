@@ -216,6 +216,24 @@ class Merge(unittest.TestCase):
             f.write("not an image")
         self.expect_refused([t1, self.path("junk.exr")], "junk.exr")
 
+    def test_output_that_is_a_part_is_refused(self):  # issue 18: merge replaced its own input, exit 0
+        scene = self.scene_file(cloud_scene("single", 1))
+        t1 = self.render(scene, "t1.exr", "--tile", "1/2")
+        t2 = self.render(scene, "t2.exr", "--tile", "2/2")
+        os.symlink(t2, self.path("link.exr"))
+        os.link(t1, self.path("hard.exr"))
+        before = {p: open(p, "rb").read() for p in (t1, t2)}
+        for out in (t1, os.path.join(self.d, ".", "t2.exr"), self.path("link.exr"), self.path("hard.exr")):
+            code, _, err = run("merge", out, t1, t2)
+            self.assertEqual(code, 2, err)
+            lines = err.strip().splitlines()
+            self.assertEqual(len(lines), 1, err)
+            self.assertIn("writing it would destroy it", lines[0])
+        for p, data in before.items():
+            self.assertEqual(open(p, "rb").read(), data, f"{p} was touched")
+        self.assertTrue(os.path.islink(self.path("link.exr")))
+        self.merge("ok.exr", [t1, t2])
+
     def test_overlapping_or_unfinished_sample_splits_are_refused(self):
         scene = self.scene_file(cloud_scene("pathtrace", 16))
         a = self.render(scene, "a.exr", "--samples", "0-15")
