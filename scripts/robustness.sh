@@ -175,6 +175,19 @@ check_checkpoint() {
         report "${FUNCNAME}_$v" "exit 2, 1 line(s)" "$(outcome render --default --checkpoint $v -o "$WORK/x.exr")"
     done
 }
+check_tiny_step() { report "$FUNCNAME" "exit 2, 1 line(s)" "$(outcome render --default --set render.step=1e-9 -o "$WORK/x.exr")"; }
+check_not_utf8() { report "$FUNCNAME" "exit 2, 1 line(s)" "$(outcome render --default --set $'volumes[0].name=bad\xff' -o "$WORK/x.exr")"; }
+check_merge_onto_a_part() {
+    scene
+    "$NIMBUS" render "$WORK/s.json" -q -o "$WORK/t1.exr" --tile 1/2 "${SMALL[@]}" 2>/dev/null
+    "$NIMBUS" render "$WORK/s.json" -q -o "$WORK/t2.exr" --tile 2/2 "${SMALL[@]}" 2>/dev/null
+    local before after
+    before=$(md5sum < "$WORK/t1.exr")
+    local seen
+    seen=$(outcome merge "$WORK/t1.exr" "$WORK/t1.exr" "$WORK/t2.exr")
+    after=$(md5sum < "$WORK/t1.exr")
+    report "$FUNCNAME" "exit 2, 1 line(s), part kept" "$seen, $([ "$before" = "$after" ] && echo part kept || echo part replaced)"
+}
 check_scene_not_regular() {
     report "${FUNCNAME}_dev_zero" "exit 2, 1 line(s)" "$(timeout 10 "$NIMBUS" render /dev/zero >/dev/null 2>"$WORK/err"; echo "exit $?, $(grep -c . "$WORK/err") line(s)")"
     truncate -s 70M "$WORK/big.json"
@@ -182,7 +195,8 @@ check_scene_not_regular() {
 }
 
 # Cancel within a second (issue 18, item 3), through the Python module (the C ABI's session): a
-# render slow inside its tiles (render.step = 1e-5 voxels, the cloud filling the frame) is let
+# render slow inside its tiles (render.step = 1e-3 voxels, the finest accepted, at 512 samples per
+# pixel, the cloud filling the frame) is let
 # run two seconds, into its tiles, cancelled, and waited for. The C ABI test (tests/api, testCancelWithinASecond) also times the release.
 check_cancel_slow() {
     scene
@@ -192,7 +206,8 @@ check_cancel_slow() {
 import json, sys, time, nimbus
 s = nimbus.load_dict(json.load(open(sys.argv[1])))
 s['render.method'] = sys.argv[2]
-s['render.step'] = 1e-5
+s['render.step'] = 1e-3
+s['render.spp'] = 512
 s.camera['fov'] = 5  # the cloud fills the frame: no tile is empty, and so quick
 s.commit()
 session = nimbus.Session(s)

@@ -352,7 +352,10 @@ void checkRender(const Checker& c, const RenderSettings& r)
     c.range("render.adaptive_threshold", r.adaptiveThreshold, Range{0, 1, false, false, "relative standard error"});
     c.range("render.adaptive_max_spp", r.adaptiveMaxSpp, Range{0, 1 << 24, false, false, "samples per pixel"});
     c.range("render.filter_width", r.filterWidth, Range{0, 16, true, false, "pixels"});
-    c.range("render.step", r.step, Range{0, 100, true, false, "voxels"});
+    // A floor, not 0: a finer camera step changes the image by less than float rounding and only
+    // multiplies the march's time (at 1e-9 voxels a render made no progress for minutes: issue 18,
+    // failure 6), so such a step is refused naming the key rather than rendered for hours.
+    c.range("render.step", r.step, Range{kMinRenderStep, 100, false, false, "voxels"});
     c.range("render.shadow_map_resolution", r.shadowMapResolution, Range{8, 16384, false, false, "texels"});
     c.range("render.tolerance", r.tolerance, Range{0, 0.5, true, false, ""});
     c.range("render.shadow_step", r.shadowStep, Range{0, 100, true, false, "voxels"});

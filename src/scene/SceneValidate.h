@@ -18,6 +18,8 @@ namespace nimbus {
 // products of sigma_t with step lengths, radiance and sums of both, so 1e30 keeps eight orders
 // of headroom, and is twenty-five orders beyond the densest smoke (about 1e4 1/m).
 constexpr double kMaxExtinction = 1e30;
+// The finest render.step (voxels): a thousandth of a voxel, 500 times finer than the default.
+constexpr double kMinRenderStep = 1e-3;
 
 // max over channels of (sigma_s + sigma_a) * density_scale, in double (the float product of
 // huge values is already inf): the medium's extinction at density 1, 1/m.

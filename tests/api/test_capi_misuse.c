@@ -359,8 +359,9 @@ static void stopWithinASecond(NimbusSession session, int release, const char* wh
 }
 
 /* Cancel within a second (issue 18, item 3), in single and wkb, on a render slow inside a tile:
- * at render.step = 1e-5 voxels one tile row of the sphere (16 pixels x 4 samples) marches about
- * 10^8 samples, seconds of work, so a cancel polled only between tiles or tile rows would take
+ * at render.step = 1e-3 voxels (the finest accepted) and 512 samples per pixel one tile row of the
+ * sphere (16 pixels) marches about 3 x 10^8 samples, seconds of work, so a cancel polled only
+ * between tiles or tile rows would take
  * far longer than the second allowed. Both ways out are timed: cancel then wait, and release
  * (which cancels and joins). The render is let run half a second first, so that the cancel lands
  * inside the march, not before it starts. */
@@ -370,12 +371,12 @@ static void testCancelWithinASecond(void)
     int m, release;
     for (m = 0; m < 2; ++m)
         for (release = 0; release < 2; ++release) {
-            NimbusScene scene = makeTestScene(64, 48, 4);
+            NimbusScene scene = makeTestScene(64, 48, 512);
             NimbusSession session;
             NimbusSessionState state;
             float progress = 0;
             OK(nimbus_set_string(scene, "render.method", methods[m]));
-            OK(nimbus_set_float(scene, "render.step", 1e-5));
+            OK(nimbus_set_float(scene, "render.step", 1e-3));
             OK(nimbus_commit(scene));
             OK(nimbus_session_create(scene, &session));
             OK(nimbus_session_start(session));

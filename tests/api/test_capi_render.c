@@ -126,6 +126,35 @@ static void testAovs(void)
     OK(nimbus_release(scene));
 }
 
+/* A tiny field of view renders finite pixels through the C ABI (issue 18, failure 4: an int
+ * overflow in tile culling wrote out of bounds at fov 1e-10 and killed the host application). */
+static void testTinyFieldOfView(void)
+{
+    const char* methods[2] = {"single", "wkb"};
+    const double fovs[2] = {1e-10, 1e-30};
+    int m, f;
+    for (m = 0; m < 2; ++m)
+        for (f = 0; f < 2; ++f) {
+            NimbusScene scene = makeTestScene(16, 12, 1);
+            NimbusCamera camera;
+            NimbusFrame frame;
+            NimbusAov beauty;
+            int i, finite = 1;
+            OK(nimbus_scene_get_camera(scene, &camera));
+            OK(nimbus_set_float(camera, "fov", fovs[f]));
+            OK(nimbus_release(camera));
+            OK(nimbus_set_string(scene, "render.method", methods[m]));
+            OK(nimbus_commit(scene));
+            frame = renderFrame(scene);
+            OK(nimbus_frame_find_aov(frame, "beauty", &beauty));
+            for (i = 0; i < 16 * 12 * 4; ++i)
+                finite = finite && isfinite(beauty.pixels[i]);
+            CHECK(finite);
+            OK(nimbus_release(frame));
+            OK(nimbus_release(scene));
+        }
+}
+
 /* Code, JSON text and the written-back JSON are one scene: the same floats. */
 static void testSameSceneThreeWays(void)
 {
@@ -326,6 +355,7 @@ void testRender(const TestPaths* paths)
 {
     testVersion();
     testAovs();
+    testTinyFieldOfView();
     testSameSceneThreeWays();
     testEditLoadedScene();
     testBackgroundRender();

@@ -209,6 +209,12 @@ class Cli(unittest.TestCase):
             # Tile-wide buffers at this spp would take over 4000 MiB; the scene itself ~100.
             self.assertLess(peak_mib, 768.0, f"{method}: peak {peak_mib:.0f} MiB at spp 1e7 on 4x4 pixels")
 
+    # Failure 5 of issue 18: at 65536^2 pixels the only message was a bare std::bad_alloc (exit 1).
+    def test_huge_image_is_refused_with_the_estimate(self):
+        line = self.expect_bad_input(["render", "--default", "-o", self.out, "--set", "camera.resolution=[65536,65536]"],
+                                     "render.memory_limit", "the film", "follows camera.resolution")
+        self.assertIn("MiB", line)
+
     # Failure 8 of issue 18, the minor items.
     def test_bad_checkpoint_interval_is_one_line(self):
         for value in ("nan", "-1", "0", "inf", "soon"):

@@ -213,7 +213,7 @@ def keys():
     rows = [("seed", 0, 4294967295, False, False, True), ("threads", 0, None, False, False, True),
             ("spp", 0, 4096, False, False, True), ("adaptive_threshold", 0, 1, False, False, False),
             ("adaptive_max_spp", 0, 4096, False, False, True), ("filter_width", 0, 16, True, False, False),
-            ("step", 0, 100, True, False, False), ("shadow_map_resolution", 8, 16384, False, False, True),
+            ("step", 0.001, 100, False, False, False), ("shadow_map_resolution", 8, 16384, False, False, True),
             ("tolerance", 0, 0.5, True, False, False), ("shadow_step", 0, 100, True, False, False),
             ("light_samples", 1, 4096, False, False, True), ("emission_samples", 1, 1024, False, False, True),
             ("wkb_order2_samples", 1, 1024, False, False, True), ("wkb_blur_k", 0, 1000, True, False, False),

@@ -90,6 +90,17 @@ class Arrays(unittest.TestCase):
     def setUpClass(cls):
         cls.frame = nimbus.render(nimbus.load_dict(SCENE))
 
+    def test_tiny_field_of_view_renders_finite(self):
+        # Issue 18, failure 4: an int overflow in tile culling at fov 1e-10 wrote out of bounds and
+        # killed the host process (Python included).
+        for method in ("single", "wkb"):
+            doc = json.loads(json.dumps(SCENE))
+            doc["camera"]["fov"] = 1e-10
+            doc["camera"]["resolution"] = [16, 12]
+            doc["render"].update(method=method, spp=1)
+            frame = nimbus.render(nimbus.load_dict(doc))
+            self.assertTrue(np.all(np.isfinite(frame["beauty"])), method)
+
     def test_shapes_and_dtypes(self):
         f = self.frame
         self.assertEqual(f.keys(), ["beauty", "L0", "L1", "alpha", "depth", "light_sun", "light_bulb"])

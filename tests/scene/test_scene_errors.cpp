@@ -202,8 +202,9 @@ TEST(SceneErrors, Transforms)
 TEST(SceneErrors, RenderRanges)
 {
     EXPECT_ERROR(R"({"render": {"spp": -1}})", "render.spp: must be at least 0, got -1");
-    EXPECT_ERROR(R"({"render": {"step": 0}})", "render.step: must be in (0, 100] voxels, got 0");
-    EXPECT_ERROR(R"({"render": {"step": 101}})", "render.step: must be in (0, 100]");
+    EXPECT_ERROR(R"({"render": {"step": 0}})", "render.step: must be in [0.001, 100] voxels, got 0");
+    EXPECT_ERROR(R"({"render": {"step": 1e-9}})", "render.step: must be in [0.001, 100] voxels, got 1e-09");
+    EXPECT_ERROR(R"({"render": {"step": 101}})", "render.step: must be in [0.001, 100]");
     EXPECT_ERROR(R"({"render": {"shadow_map_resolution": 4}})", "render.shadow_map_resolution: must be in [8, 16384]");
     EXPECT_ERROR(R"({"render": {"shadow_map_resolution": 20000}})", "render.shadow_map_resolution: must be in");
     EXPECT_ERROR(R"({"render": {"tolerance": 0}})", "render.tolerance: must be in (0, 0.5]");
