@@ -4,7 +4,7 @@
 #
 #   scripts/fuzz.sh [--time SECONDS | --runs N] [--jobs J] [HARNESS...] [-- LIBFUZZER OPTIONS]
 #
-#   HARNESS     scene vdb mesh depth envmap (default: all)
+#   HARNESS     scene vdb nvdb mesh depth envmap (default: all)
 #   --time S    stop each harness after S seconds (default 3600)
 #   --runs N    stop each harness after N executions instead (e.g. 1000000)
 #   --jobs J    harnesses run at once (default NIMBUS_JOBS or 1), each on one core
@@ -27,7 +27,7 @@ set -euo pipefail
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 cd "$root"
 
-all=(scene vdb mesh depth envmap)
+all=(scene vdb nvdb mesh depth envmap)
 stop=(-max_total_time=3600)
 jobs=${NIMBUS_JOBS:-1}
 build=build-san

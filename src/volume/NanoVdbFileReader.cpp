@@ -70,21 +70,40 @@ std::string layoutError(const nanovdb::NanoGrid<T>& grid, uint64_t size)
             !inside(reinterpret_cast<const uint8_t*>(tree) + tree->mNodeOffset[level], count * nodeSize[level]))
             return "its level-" + std::to_string(level) + " nodes lie outside the grid";
     }
+    // A child `offset` bytes from its parent `from` (a node inside the grid), as a pointer when a
+    // node of `bytes` there lies inside the grid; null otherwise. The offset is checked as an
+    // integer before any pointer is formed: NanoVDB's own getChild adds it to the parent's address,
+    // and a damaged offset overflows the pointer (undefined behaviour; fuzz_nvdb's first finding).
+    auto child = [&](const void* from, int64_t offset, uint64_t bytes) -> const uint8_t* {
+        const int64_t origin = int64_t(static_cast<const uint8_t*>(from) - base);
+        if (offset < -origin || offset > int64_t(size) - origin)
+            return nullptr;
+        const uint64_t at = uint64_t(origin + offset);
+        if (bytes > size - at || at % NANOVDB_DATA_ALIGNMENT != 0)
+            return nullptr;
+        return base + at;
+    };
+    using Upper = typename Tree::Node2;
+    using Lower = typename Tree::Node1;
+    const uint64_t leafBytes =
+        std::is_same_v<T, nanovdb::FpN> ? sizeof(typename Tree::LeafNodeType::DataType) : sizeof(typename Tree::LeafNodeType);
     const auto* rootData = root.data();
     for (uint32_t i = 0; i < rootData->mTableSize; ++i) {
         const auto* tile = rootData->tile(i);
         if (!tile->isChild())
             continue;
-        const auto* upper = rootData->getChild(tile);
-        if (!inside(upper, sizeof(*upper)))
+        const auto* upper = reinterpret_cast<const Upper*>(child(rootData, tile->child, sizeof(Upper)));
+        if (!upper)
             return "a root tile's child lies outside the grid";
-        for (auto it = upper->beginChild(); it; ++it) {
-            const auto* lower = &*it;
-            if (!inside(lower, sizeof(*lower)))
+        const auto* upperData = upper->data();
+        for (auto n = upperData->mChildMask.beginOn(); n; ++n) {
+            const auto* lower =
+                reinterpret_cast<const Lower*>(child(upperData, upperData->mTable[*n].child, sizeof(Lower)));
+            if (!lower)
                 return "an upper node's child lies outside the grid";
-            for (auto leaf = lower->beginChild(); leaf; ++leaf)
-                if (!inside(&*leaf, std::is_same_v<T, nanovdb::FpN> ? sizeof(typename Tree::LeafNodeType::DataType)
-                                                                     : sizeof(*leaf)))
+            const auto* lowerData = lower->data();
+            for (auto m = lowerData->mChildMask.beginOn(); m; ++m)
+                if (!child(lowerData, lowerData->mTable[*m].child, leafBytes))
                     return "a lower node's child lies outside the grid";
         }
     }
@@ -141,7 +160,11 @@ NanoVdbFileReader::NanoVdbFileReader(const std::string& path) : mPath(path)
                                          ? "a NanoVDB file of the other byte order"
                                          : "not a NanoVDB file (no NanoVDB magic number where a segment begins)");
         if (header.version.getMajor() != NANOVDB_MAJOR_VERSION_NUMBER)
-            throw std::runtime_error("written by NanoVDB " + std::string(header.version.c_str()) +
+            // (Not Version::c_str(): it returns a malloc'd buffer for the caller to free, which
+            // leaked here: fuzz_nvdb's second finding.)
+            throw std::runtime_error("written by NanoVDB " + std::to_string(header.version.getMajor()) + "." +
+                                     std::to_string(header.version.getMinor()) + "." +
+                                     std::to_string(header.version.getPatch()) +
                                      "; this nimbus reads NanoVDB " + std::to_string(NANOVDB_MAJOR_VERSION_NUMBER) +
                                      ".x files (convert it again with that version)");
         if (uint16_t(header.codec) >= uint16_t(nanovdb::io::Codec::END))

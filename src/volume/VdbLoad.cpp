@@ -551,6 +551,30 @@ std::shared_ptr<VolumeData> buildVolume(const Scene& scene, size_t index, const 
             logInfo("shader '" + shaderFile.path + "' compiled in " +
                     std::to_string(int(shader->compileSeconds() * 1000.0 + 0.5)) + " ms");
         }
+        // The run's worst case, checked before it starts (VolumeShader.cpp): AX streams an active
+        // tile to voxels wherever its result is not uniform there, so every active value of the
+        // grids it runs over, tiles counted voxel by voxel, may become a voxel of the density (4
+        // bytes) and of the emission (12). A fuzzed file's density of 365 active tiles with
+        // value 0 (7.7e8 voxels) ran the default shader for 40 s to a 1.8 GB peak under a 64 MiB
+        // render.memory_limit (fuzz_nvdb; the same grids as a .vdb alike).
+        double shaded = 0.0;
+        for (auto& [role, grid] : grids)
+            if (role != "vel")
+                shaded += double(grid->activeVoxelCount());
+        const double shaderBytes = shaded * double(sizeof(float) + sizeof(openvdb::Vec3s));
+        if (!(shaderBytes <= double(limitBytes))) {
+            char what[400];
+            std::snprintf(what, sizeof what,
+                          " would run over %.3g active voxels (tiles counted voxel by voxel), up to %s of density "
+                          "and emission voxels, more than render.memory_limit (%s); raise render.memory_limit, or "
+                          "give the grids fewer active voxels",
+                          shaded, formatBytes(size_t(std::min(shaderBytes, 1.8e19))).c_str(),
+                          formatBytes(limitBytes).c_str());
+            const std::string grids = vdbPath.empty() ? "" : " on the grids of '" + vdbPath + "'";
+            throw InputError((shaderFile.isDefault ? where.key(".source") + ": the default (emission) shader"
+                                                   : where.key(".shader") + ": the shader") +
+                             grids + what);
+        }
         openvdb::GridPtrVec vec;
         for (auto& [role, grid] : grids)
             vec.push_back(grid);

@@ -52,9 +52,14 @@ extern "C" int LLVMFuzzerInitialize(int*, char***)
     return 0;
 }
 
+// The file's extension picks the reader (VdbLoad.cpp): fuzz_nvdb.cpp includes this file with ".nvdb".
+#ifndef NIMBUS_FUZZ_VDB_EXTENSION
+#define NIMBUS_FUZZ_VDB_EXTENSION ".vdb"
+#endif
+
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size)
 {
-    const std::string path = fuzz::writeInput(data, size, ".vdb");
+    const std::string path = fuzz::writeInput(data, size, NIMBUS_FUZZ_VDB_EXTENSION);
     bool loaded = false;
     fuzz::expectOnlyInputErrors([&] {
         buildVolumes(sceneWith(path, false));

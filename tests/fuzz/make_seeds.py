@@ -142,6 +142,21 @@ def vdb_seeds():
     vdb.write(os.path.join(d, "vec3_density.vdb"), grids=[wrong])
 
 
+# ---- nvdb: the VDB seeds as NanoVDB files ------------------------------------------------------
+
+def nvdb_seeds():
+    """The vdb seeds converted by OpenVDB's vdb_tool (libopenvdb-tools), compressed (ZIP, one
+    BLOSC): an uncompressed NanoVDB file holds each upper internal node's whole 32^3 table
+    (~270 KB for the smallest grid), too large a seed."""
+    import subprocess
+    d = fresh("nvdb")
+    src = os.path.join(CORPUS, "vdb")
+    for name, codec in (("ball", "zip"), ("fire", "zip"), ("velocity", "zip"), ("skew_heat", "zip"),
+                        ("levelset", "zip"), ("tiles", "blosc")):
+        subprocess.run(["vdb_tool", "-read", os.path.join(src, name + ".vdb"), "-write", "codec=" + codec,
+                        os.path.join(d, f"{name}_{codec}.nvdb")], check=True, capture_output=True)
+
+
 # ---- mesh: OBJ and PLY, hand-written ----------------------------------------------------------
 
 def mesh_seeds():
@@ -231,6 +246,7 @@ def envmap_seeds():
 if __name__ == "__main__":
     scene_seeds()
     vdb_seeds()
+    nvdb_seeds()
     mesh_seeds()
     depth_seeds()
     envmap_seeds()

@@ -971,6 +971,35 @@ TEST(VdbLoad, RoleGridResampledPastTheMemoryLimitIsRefusedBeforeTheWalk)
     EXPECT_NO_THROW(buildVolumes(scene));
 }
 
+// The shader's run is bounded before it starts (issue 18, item 4): AX may stream every active
+// tile to voxels, so the grids' active voxels, tiles counted, times 16 bytes (a density and an
+// emission voxel) may not pass render.memory_limit. A density of one active tile of 128^3 voxels
+// (2.1e6, 32 MiB at that rate) beside a temperature: refused under 16 MiB naming the source, loaded
+// under 1 GB. (A fuzzed file's density of 365 such tiles ran the default shader for 40 s to a
+// 1.8 GB peak under a 64 MiB limit: tests/fuzz/regressions/nvdb/zero_density_tiles_*.)
+TEST(VdbLoad, ShaderRunPastTheMemoryLimitIsRefusedBeforeItStarts)
+{
+    ScratchDir dir;
+    FloatGrid::Ptr d = floatGrid("density", 0.1), t = floatGrid("temperature", 0.1);
+    d->tree().addTile(2, Coord(0), 0.5f, true);  // a tile of a lower internal node: 128^3 voxels
+    t->tree().fill(CoordBBox(Coord(0), Coord(7)), 1500.0f, true);
+    const std::string path = dir / "tiles.vdb";
+    writeVdb(path, {d, t});
+    Scene scene = vdbScene(path);
+    scene.render.memoryLimit = 16.0f * 1024 * 1024;
+    const std::string message = inputError(scene);
+    EXPECT_EQ(message.rfind("scene.json: volumes[0].source: the default (emission) shader on the grids of '" + path +
+                                "' would run over 2.1e+06 active voxels",
+                            0),
+              0u)
+        << message;
+    EXPECT_NE(message.find("more than render.memory_limit (16.0 MiB)"), std::string::npos) << message;
+    EXPECT_EQ(message.find('\n'), std::string::npos) << message;
+    scene.render.memoryLimit = 1e9f;
+    auto v = buildOne(scene);
+    EXPECT_TRUE(v->hasEmission());
+}
+
 // OpenVDB's resampler walks every leaf node and every tile not of the background, active or not
 // (a fuzzed file's temperature grid had no active value and one inactive leaf near the int limit,
 // whose corners mapped onto the density's voxels overflowed the sampler's cast to int:
