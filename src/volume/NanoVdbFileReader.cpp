@@ -55,9 +55,13 @@ std::string layoutError(const nanovdb::NanoGrid<T>& grid, uint64_t size)
     if (sizeof(nanovdb::GridData) + sizeof(typename Tree::DataType) > size)
         return "shorter than its grid and tree headers";
     const auto* tree = reinterpret_cast<const typename Tree::DataType*>(&grid.tree());
-    if (tree->mNodeOffset[3] > size || !inside(&grid.tree().root(), sizeof(typename Tree::RootType::DataType)))
+    // The root's place checked as an integer first: Tree::root() binds a reference to it, which
+    // must be aligned (UBSan: fuzz_nvdb's third finding).
+    const uint64_t treeAt = uint64_t(reinterpret_cast<const uint8_t*>(tree) - base);
+    if (tree->mNodeOffset[3] > size - treeAt ||
+        !inside(base + treeAt + tree->mNodeOffset[3], sizeof(typename Tree::RootType::DataType)))
         return "its root node lies outside the grid";
-    const auto& root = grid.tree().root();
+    const auto& root = *reinterpret_cast<const typename Tree::RootType*>(base + treeAt + tree->mNodeOffset[3]);
     if (!inside(&root, root.memUsage()))
         return "its root's tile table lies outside the grid";
     const uint64_t nodeSize[3] = {std::is_same_v<T, nanovdb::FpN> ? 0 : uint64_t(sizeof(typename Tree::LeafNodeType)),
@@ -66,8 +70,8 @@ std::string layoutError(const nanovdb::NanoGrid<T>& grid, uint64_t size)
         const uint64_t count = tree->mNodeCount[level];
         if (count == 0)
             continue;
-        if (tree->mNodeOffset[level] > size || (nodeSize[level] && count > size / nodeSize[level]) ||
-            !inside(reinterpret_cast<const uint8_t*>(tree) + tree->mNodeOffset[level], count * nodeSize[level]))
+        if (tree->mNodeOffset[level] > size - treeAt || (nodeSize[level] && count > size / nodeSize[level]) ||
+            !inside(base + treeAt + tree->mNodeOffset[level], count * nodeSize[level]))
             return "its level-" + std::to_string(level) + " nodes lie outside the grid";
     }
     // A child `offset` bytes from its parent `from` (a node inside the grid), as a pointer when a
