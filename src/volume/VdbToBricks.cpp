@@ -68,8 +68,10 @@ BrickGrid toBricks(const GridT& grid, int channels, const std::string& where)
     const Coord dims = hi - lo + Coord(1);
     const uint64_t slots = uint64_t(dims.x()) * uint64_t(dims.y()) * uint64_t(dims.z());
     if (slots > kMaxTableSlots)
-        throw InputError(where + ": the active region spans " + std::to_string(dims.x() * 8) + " x " +
-                         std::to_string(dims.y() * 8) + " x " + std::to_string(dims.z() * 8) +
+        // (The voxel counts in 64 bits: dims * 8 passes INT_MAX for a region near the int limits,
+        // UBSan in fuzz_nvdb.)
+        throw InputError(where + ": the active region spans " + std::to_string(uint64_t(dims.x()) * 8) + " x " +
+                         std::to_string(uint64_t(dims.y()) * 8) + " x " + std::to_string(uint64_t(dims.z()) * 8) +
                          " voxels, too large for nimbus's brick table");
     auto slotOf = [&](int bx, int by, int bz) {
         return (uint64_t(bz - lo.z()) * dims.y() + uint64_t(by - lo.y())) * dims.x() + uint64_t(bx - lo.x());
