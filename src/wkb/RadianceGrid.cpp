@@ -70,6 +70,24 @@ bool RadianceGrid::fetch(float3 x, float* out) const
     return true;
 }
 
+namespace {
+
+// The layers' sums ([layer][rgb]) as colours: their total, and each layer's into perLayer (or null).
+float3 layerSums(const std::vector<double>& sums, int layers, float3* perLayer)
+{
+    float3 total = make_float3(0, 0, 0);
+    for (int layer = 0; layer < layers; ++layer) {
+        const double* q = sums.data() + 3 * layer;
+        const float3 v = make_float3(float(q[0]), float(q[1]), float(q[2]));
+        if (perLayer)
+            perLayer[layer] = v;
+        total += v;
+    }
+    return total;
+}
+
+}  // namespace
+
 float3 marchOrders3(const VolumeSet& volumes, const RadianceGrid& grid, float3 o, float3 d, float tFar, float seconds,
                     float jitter, float stepFraction, float stepScale, float3* perLayer)
 {
@@ -119,15 +137,7 @@ float3 marchOrders3(const VolumeSet& volumes, const RadianceGrid& grid, float3 o
         if (std::max(T[0], std::max(T[1], T[2])) < 1e-4)
             break;
     }
-    float3 total = make_float3(0, 0, 0);
-    for (int layer = 0; layer < layers; ++layer) {
-        const double* q = sums.data() + 3 * layer;
-        const float3 v = make_float3(float(q[0]), float(q[1]), float(q[2]));
-        if (perLayer)
-            perLayer[layer] = v;
-        total += v;
-    }
-    return total;
+    return layerSums(sums, layers, perLayer);
 }
 
 float3 readOrders3(const RadianceGrid& grid, const ScatterPointSampler& steps, float3 o, float3 d, float3* perLayer)
@@ -149,15 +159,7 @@ float3 readOrders3(const RadianceGrid& grid, const ScatterPointSampler& steps, f
                 sums[size_t(3 * layer + ch)] += w * double(S[size_t(3 * layer + ch)]);
         }
     });
-    float3 total = make_float3(0, 0, 0);
-    for (int layer = 0; layer < layers; ++layer) {
-        const double* q = sums.data() + 3 * layer;
-        const float3 v = make_float3(float(q[0]), float(q[1]), float(q[2]));
-        if (perLayer)
-            perLayer[layer] = v;
-        total += v;
-    }
-    return total;
+    return layerSums(sums, layers, perLayer);
 }
 
 }  // namespace nimbus::wkb
