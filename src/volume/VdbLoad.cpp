@@ -415,7 +415,7 @@ ClampCount clampVelocity(Vec3SGrid& grid)
 // the density's index space a velocity is indexFromFile's linear part times v (the volume's
 // transform cancels: it moves the grid and its velocities alike).
 void buildVelocity(VolumeData& data, const Vec3SGrid& vel, const Transform& fileFromIndex, float scale,
-                   const std::string& key)
+                   const std::string& key, size_t limitBytes)
 {
     const Transform indexFromFile = fileFromIndex.inverse();
     Vec3SGrid::Ptr index = vel.deepCopy();
@@ -428,7 +428,7 @@ void buildVelocity(VolumeData& data, const Vec3SGrid& vel, const Transform& file
     }
     if (!std::isfinite(maxSpeed))
         throw InputError(key + ": velocities times velocity_scale overflow float");
-    data.velocity = toBricks(*index, 3, key);
+    data.velocity = toBricks(*index, 3, key, limitBytes);
     data.maxSpeed = maxSpeed;
 }
 
@@ -588,8 +588,10 @@ std::shared_ptr<VolumeData> buildVolume(const Scene& scene, size_t index, const 
     data->clampedVoxels = clamped.warn(label);
 
     const std::string densityKey =
-        volume.source.type == SourceType::Vdb ? where.key(".source.grids.density") : where.key(".source");
-    data->density = toBricks(*density, 1, densityKey);
+        volume.source.type == SourceType::Vdb
+            ? where.key(".source.grids.density") + ": grid '" + density->getName() + "' in '" + vdbPath + "'"
+            : where.key(".source");
+    data->density = toBricks(*density, 1, densityKey, limitBytes);
     // Extinction overflow (docs/volumes.md, "Extinction range"): the densest voxel times the
     // medium's coefficients, which validateScene bounded at density 1.
     const double densest = double(data->density.maxValue());
@@ -603,7 +605,7 @@ std::shared_ptr<VolumeData> buildVolume(const Scene& scene, size_t index, const 
         throw InputError(where.key(".medium.density_scale") + what);
     }
     if (emission)
-        data->emission = toBricks(*emission, 3, where.key(".shader"));
+        data->emission = toBricks(*emission, 3, where.key(".shader"), limitBytes);
     throwIfStopped(stop);
 
     // Placement: the grid's own index-to-world, then the volume's transform.
@@ -622,7 +624,9 @@ std::shared_ptr<VolumeData> buildVolume(const Scene& scene, size_t index, const 
     for (auto& [role, grid] : grids)
         if (role == "vel")
             buildVelocity(*data, *openvdb::gridPtrCast<Vec3SGrid>(grid), fromVdb(density->transform()),
-                          volume.medium.velocityScale, where.key(".source.grids.vel"));
+                          volume.medium.velocityScale,
+                          where.key(".source.grids.vel") + ": grid '" + grid->getName() + "' in '" + vdbPath + "'",
+                          limitBytes);
     return data;
 }
 

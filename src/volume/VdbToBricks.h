@@ -14,6 +14,7 @@
 
 #include <openvdb/openvdb.h>
 
+#include <cstdint>
 #include <string>
 
 namespace nimbus {
@@ -24,8 +25,10 @@ constexpr uint64_t kMaxBricks = uint64_t(1) << 21;
 
 // The bricks of `grid`'s active values, `channels` floats per voxel (1 for a float grid, 3 for
 // a vec3s one). Throws InputError, prefixed by `where`, when the active region is too large for
-// the brick table or the brick pool. Instantiated for openvdb::FloatGrid and openvdb::Vec3SGrid.
+// the brick table or the brick pool, or when the pool would take more than limitBytes (the
+// render.memory_limit, checked before the pool is allocated). Instantiated for
+// openvdb::FloatGrid and openvdb::Vec3SGrid.
 template <class GridT>
-BrickGrid toBricks(const GridT& grid, int channels, const std::string& where);
+BrickGrid toBricks(const GridT& grid, int channels, const std::string& where, size_t limitBytes = SIZE_MAX);
 
 }  // namespace nimbus
