@@ -545,16 +545,10 @@ std::shared_ptr<VolumeData> buildVolume(const Scene& scene, size_t index, const 
         if (shaderFile.path.empty())
             throw InputError(where.key(".shader") + ": the default shader 'default.ax' is not installed in " +
                              dataPath(DataFile::Shaders) + "; set NIMBUS_SHADER_PATH");
-        auto& shader = shaders[shaderFile.path + fileStamp(shaderFile.path)];
-        if (!shader) {
-            shader = std::make_shared<VolumeShader>(shaderFile.path, where.key(".shader"));
-            logInfo("shader '" + shaderFile.path + "' compiled in " +
-                    std::to_string(int(shader->compileSeconds() * 1000.0 + 0.5)) + " ms");
-        }
-        // The run's worst case, checked before it starts (VolumeShader.cpp): AX streams an active
-        // tile to voxels wherever its result is not uniform there, so every active value of the
-        // grids it runs over, tiles counted voxel by voxel, may become a voxel of the density (4
-        // bytes) and of the emission (12). A fuzzed file's density of 365 active tiles with
+        // The run's worst case, checked before the shader is compiled and run (VolumeShader.cpp):
+        // AX streams an active tile to voxels wherever its result is not uniform there, so every
+        // active value of the grids it runs over, tiles counted voxel by voxel, may become a voxel
+        // of the density (4 bytes) and of the emission (12). A fuzzed file's density of 365 active tiles with
         // value 0 (7.7e8 voxels) ran the default shader for 40 s to a 1.8 GB peak under a 64 MiB
         // render.memory_limit (fuzz_nvdb; the same grids as a .vdb alike).
         double shaded = 0.0;
@@ -574,6 +568,13 @@ std::shared_ptr<VolumeData> buildVolume(const Scene& scene, size_t index, const 
             throw InputError((shaderFile.isDefault ? where.key(".source") + ": the default (emission) shader"
                                                    : where.key(".shader") + ": the shader") +
                              grids + what);
+        }
+        // Compiled after that check: a run refused for its size costs no compile (~0.2 s here).
+        auto& shader = shaders[shaderFile.path + fileStamp(shaderFile.path)];
+        if (!shader) {
+            shader = std::make_shared<VolumeShader>(shaderFile.path, where.key(".shader"));
+            logInfo("shader '" + shaderFile.path + "' compiled in " +
+                    std::to_string(int(shader->compileSeconds() * 1000.0 + 0.5)) + " ms");
         }
         openvdb::GridPtrVec vec;
         for (auto& [role, grid] : grids)

@@ -1002,8 +1002,8 @@ TEST(VdbLoad, ShaderRunPastTheMemoryLimitIsRefusedBeforeItStarts)
 
 // The brick pool is checked against render.memory_limit before it is allocated (issue 18, item 4):
 // a density of one active tile of 128^3 voxels of 0.5 fills 17^3 bricks (the tile's 16^3 and the
-// apron layer below it) of 9^3 floats, 14 MiB with the table: refused under 8 MiB naming the grid,
-// its file and the key, loaded under 1 GB. (A fuzzed file's density of active tiles filled 4.9 GB
+// apron layer below it) of 9^3 floats, 13.7 MiB with the table: refused under 12 MiB naming the
+// grid, its file and the key (under 8 MiB by the floor of its own bricks), loaded under 1 GB. (A fuzzed file's density of active tiles filled 4.9 GB
 // of bricks under a 64 MiB limit: tests/fuzz/regressions/nvdb/active_tiles_fill_gigabytes_of_bricks.nvdb.)
 TEST(VdbLoad, BrickPoolPastTheMemoryLimitIsRefusedBeforeItIsAllocated)
 {
@@ -1013,11 +1013,16 @@ TEST(VdbLoad, BrickPoolPastTheMemoryLimitIsRefusedBeforeItIsAllocated)
     const std::string path = dir / "tile.vdb";
     writeVdb(path, {d});
     Scene scene = vdbScene(path);
+    scene.render.memoryLimit = 12.0f * 1024 * 1024;
+    EXPECT_EQ(inputError(scene), "scene.json: volumes[0].source.grids.density: grid 'density' in '" + path +
+                                     "': 4913 bricks of 8^3 voxels are active, 13.7 MiB with their table, more than "
+                                     "render.memory_limit (12.0 MiB); raise render.memory_limit");
+    // Under the floor (the tile's own 16^3 bricks, 11.4 MiB: before the apron's are listed and
+    // sorted) it is refused at once.
     scene.render.memoryLimit = 8.0f * 1024 * 1024;
-    const std::string message = inputError(scene);
-    EXPECT_EQ(message, "scene.json: volumes[0].source.grids.density: grid 'density' in '" + path +
-                           "': 4913 bricks of 8^3 voxels are active, 13.7 MiB with their table, more than "
-                           "render.memory_limit (8.0 MiB); raise render.memory_limit");
+    EXPECT_EQ(inputError(scene), "scene.json: volumes[0].source.grids.density: grid 'density' in '" + path +
+                                     "': at least 4096 bricks of 8^3 voxels are active, 11.4 MiB or more with their "
+                                     "table, more than render.memory_limit (8.0 MiB); raise render.memory_limit");
     scene.render.memoryLimit = 1e9f;
     auto v = buildOne(scene);
     EXPECT_EQ(densityAt(*v, make_float3(6.4f, 6.4f, 6.4f)), 0.5f);
