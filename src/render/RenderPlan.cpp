@@ -41,7 +41,11 @@ std::string RenderPlan::describe() const
                           v.maxSpeed, v.maxDisplacement, v.maxDisplacement > 0.0f ? "" : " (closed or still: no blur)");
             s << buf;
         }
-        if (wkb.enabled && wkb.l2plus) {
+        if (wkb.enabled && wkb.l2plus && !wkb.lightGrid) {
+            char buf[96];
+            std::snprintf(buf, sizeof buf, "%.2g", v.l2plusBound);
+            s << "      L2+: no light grid (every source traced); bound " << buf << " E/4pi\n";
+        } else if (wkb.enabled && wkb.l2plus) {
             s << "      L2+ light grid: " << v.lightGrid << " (" << v.lightVoxelFactor << " density voxels each), "
               << v.mipLevels << " mip levels, " << formatBytes(v.pyramidBytes) << "; ";
             char buf[96];
@@ -71,13 +75,19 @@ std::string RenderPlan::describe() const
     if (wkb.enabled) {
         char buf[200];
         if (wkb.l2plus) {
-            std::snprintf(buf, sizeof buf, "K %.3g, l step %.3g, orders <= %d, %d channels per light voxel", wkb.blurK,
-                          wkb.lStep, wkb.orderCap, wkb.channels);
-            s << "  L2+ (wkb): kernel " << wkb.kernel << "; source " << wkb.source << "; " << buf << "\n";
-            std::snprintf(buf, sizeof buf, " (estimated, %.2f x, budget %.2f x)",
-                          double(wkb.pyramidBytes) / double(std::max<size_t>(wkb.densityBytes, 1)), wkb.memoryBudget);
-            s << "    light pyramids " << formatBytes(wkb.pyramidBytes) << " for density grids of "
-              << formatBytes(wkb.densityBytes) << buf << "\n";
+            if (wkb.lightGrid) {
+                std::snprintf(buf, sizeof buf, "K %.3g, l step %.3g, orders <= %d, %d channel%s per light voxel",
+                              wkb.blurK, wkb.lStep, wkb.orderCap, wkb.channels, wkb.channels == 1 ? "" : "s");
+                s << "  L2+ (wkb): kernel " << wkb.kernel << "; source " << wkb.source << "; " << buf << "\n";
+                std::snprintf(buf, sizeof buf, " (estimated, %.2f x, budget %.2f x)",
+                              double(wkb.pyramidBytes) / double(std::max<size_t>(wkb.densityBytes, 1)),
+                              wkb.memoryBudget);
+                s << "    light pyramids " << formatBytes(wkb.pyramidBytes) << " for density grids of "
+                  << formatBytes(wkb.densityBytes) << buf << "\n";
+            } else {
+                s << "  L2+ (wkb): kernel " << wkb.kernel << "; no light volumes: every source is traced, and "
+                  << "the kernel's march is not run\n";
+            }
         } else {
             std::snprintf(buf, sizeof buf, "%.2g", wkb.l2plusBound);
             s << "  L2+ (wkb): not computed (bound " << buf << " E/4pi)\n";

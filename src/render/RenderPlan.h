@@ -73,6 +73,7 @@ struct WkbPlan {
     float blurK = 0, lStep = 0;
     int orderCap = 0;
     int channels = 0;  // per light-grid voxel: density + 3 per delta source + 3 (J+1)^2 per SH source
+    bool lightGrid = true;  // light volumes built: false where every source is traced (no kernel source)
     size_t pyramidBytes = 0, densityBytes = 0;  // estimated light pyramids; the density grids
     float memoryBudget = 0;
 };

@@ -95,8 +95,8 @@ void LightVolumes::build(const RenderContext& ctx, const WkbSetup& setup, Render
     mOwnMaps.clear();
     mOwnMaps.resize(setup.sources.size());
     mMaps.assign(setup.sources.size(), nullptr);
-    if (!setup.active)
-        return;
+    if (!setup.active || !setup.kernelSources)
+        return;  // nothing reads them: every source is traced (WkbPlanner)
     auto t0 = std::chrono::steady_clock::now();
     DeepShadowMap::Settings dsm;
     dsm.resolution = ctx.scene->render.shadowMapResolution;
@@ -106,7 +106,7 @@ void LightVolumes::build(const RenderContext& ctx, const WkbSetup& setup, Render
     dsm.stop = &ctx.stop;  // the builds here throw Cancelled once the render is stopped
     for (size_t i = 0; i < setup.sources.size(); ++i) {
         const SourcePlan& sp = setup.sources[i];
-        if (sp.mode != SourceMode::Delta)
+        if (sp.mode != SourceMode::Delta || !sp.kernel)
             continue;
         // The context's map where it built one (the engine builds them for wkb); a context made
         // without shadow maps (a tool, a test) gets the light's own map here instead.
@@ -155,7 +155,7 @@ void LightVolumes::fillLevel0(const RenderContext& ctx, const WkbSetup& setup, s
     const EmbreeScene* casters = ctx.shadowCasters();
     int maxShOrder = 0;
     for (const SourcePlan& sp : setup.sources)
-        if (sp.mode == SourceMode::Sh)
+        if (sp.mode == SourceMode::Sh && sp.kernel)
             maxShOrder = std::max(maxShOrder, sp.order);
 
     tbb::parallel_for(tbb::blocked_range<size_t>(0, pyr.level0BrickCount()), [&](const tbb::blocked_range<size_t>& r) {
@@ -197,6 +197,8 @@ void LightVolumes::fillLevel0(const RenderContext& ctx, const WkbSetup& setup, s
                             nb_uint(qi * 73856093) ^ nb_uint(qj * 19349663) ^ nb_uint(qk * 83492791);
                         for (size_t si = 0; si < setup.sources.size(); ++si) {
                             const SourcePlan& sp = setup.sources[si];
+                            if (!sp.kernel)
+                                continue;  // traced, not read from here (WkbPlanner)
                             if (sp.mode == SourceMode::Delta) {
                                 for (int s = 0; s < 8; ++s) {
                                     if (rho[s] <= 0.0f)

@@ -95,6 +95,10 @@ WkbIntegrator::WkbIntegrator(const RenderContext& ctx, const RenderPlan& plan, R
     if (!setup)
         throw std::logic_error("WkbIntegrator: the plan has no wkb part (plan it with planWkb)");
     mSetup = *setup;
+    if (mSetup.active && mSetup.tracedOrders3 && !mOrders3)
+        // The plan left the lights' orders 3+ (and order 2 with it, in the cache) to the radiance
+        // cache: without it they would be missing, not approximated (IntegratorRegistry builds it).
+        throw std::logic_error("WkbIntegrator: the plan traces orders 3+, and no radiance cache was given");
     mModel = mSetup.randomWalk ? PlacementModel::RandomWalk : PlacementModel::Straight;
     for (auto& v : ctx.volumes.volumes()) {
         mSigmaS.push_back(v->sigmaS());
@@ -111,15 +115,11 @@ WkbIntegrator::WkbIntegrator(const RenderContext& ctx, const RenderPlan& plan, R
     if (mSetup.volumes.empty())
         mMinLightVoxel = 1.0f;
     for (const SourcePlan& sp : mSetup.sources)
-        if (sp.mode == SourceMode::Sh)
+        if (sp.mode == SourceMode::Sh && sp.kernel)
             mMaxShOrder = std::max(mMaxShOrder, sp.order);
     mOrder2Outside = mOrder2 != nullptr || mSetup.cachedOrder2;
-    if (mOrders3 && mOrder2Outside) {
-        // Both of the lights' parts the kernel would give are traced: it is left with emission.
-        mKernelSources = false;
-        for (const SourcePlan& sp : mSetup.sources)
-            mKernelSources = mKernelSources || (sp.emission && sp.mode != SourceMode::Skip);
-    }
+    // Where both of the lights' parts the kernel would give are traced, it is left with emission.
+    mKernelSources = mSetup.kernelSources;
 }
 
 void WkbIntegrator::marchRays(int n, const float3* o, const float3* d, const float* tFar, const float* time,
@@ -383,8 +383,8 @@ void WkbIntegrator::evaluateNode(Scratch& sc, float3 o, float3 d, const TableEnt
 
     for (size_t si = 0; si < mSetup.sources.size(); ++si) {
         const SourcePlan& sp = mSetup.sources[si];
-        if (sp.mode == SourceMode::Skip || (mOrders3 && mOrder2Outside && !sp.emission))
-            continue;  // traced order 2 and orders 3+ (marchOrders3) replace the lights' kernel
+        if (sp.mode == SourceMode::Skip || !sp.kernel)
+            continue;  // traced order 2 and orders 3+ (the radiance cache) replace the lights' kernel
         const std::vector<double>& coef = splitLights && !sp.emission ? sc.coefLights : sc.coef;
         double S[3] = {0, 0, 0};
         if (sp.mode == SourceMode::Delta) {

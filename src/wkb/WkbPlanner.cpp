@@ -199,6 +199,9 @@ WkbSetup planWkb(const RenderContext& ctx, RenderPlan& plan)
                     first.order, 0.5 * setup.lStep, first.tailBound * 4.0 * kPi) +
                 fmt(" (max |g| %.3g)", gmax));
     }
+    // Both of the lights' parts the kernel would give are traced (WkbIntegrator: the kernel is then
+    // left with emission).
+    const bool lightsTraced = tracedOrders3 && (setup.tracedOrder2 || setup.cachedOrder2);
     const Bbox& vb = ctx.volumes.worldBounds();
     const float3 vc = vb.center();
     const float vr = 0.5f * length(vb.extent());
@@ -243,7 +246,16 @@ WkbSetup planWkb(const RenderContext& ctx, RenderPlan& plan)
             sp.order = shOrder;
             sp.description = fmt("SH order %.0f (%.0f channels)", shOrder, 3.0 * shCount(shOrder));
         }
-        if (sp.mode != SourceMode::Skip) {
+        if (sp.mode != SourceMode::Skip && lightsTraced) {
+            // Neither of the kernel's parts reads this light: no channels, no shadow map built
+            // for it (at 1024 voxels across, a sky's 32 shadow rays per light voxel were 95%
+            // of a 27-minute render: docs/benchmarks.md "Scale").
+            sp.kernel = false;
+            sp.needsOwnShadowMap = false;
+            sp.description = setup.cachedOrder2 ? "traced: orders 2+ from the radiance cache (no light volume)"
+                                                : "traced: order 2 per camera ray, orders 3+ from the radiance cache "
+                                                  "(no light volume)";
+        } else if (sp.mode != SourceMode::Skip) {
             sp.offset = offset;
             sp.channelCount = sp.mode == SourceMode::Delta ? 3 : 3 * shCount(sp.order);
             offset += sp.channelCount;
@@ -267,8 +279,12 @@ WkbSetup planWkb(const RenderContext& ctx, RenderPlan& plan)
     setup.channels = offset;
     wp.channels = offset;
     bool anySource = false;
-    for (const SourcePlan& sp : setup.sources)
+    setup.kernelSources = false;
+    for (const SourcePlan& sp : setup.sources) {
         anySource |= sp.mode != SourceMode::Skip;
+        setup.kernelSources |= sp.mode != SourceMode::Skip && sp.kernel;
+    }
+    wp.lightGrid = setup.kernelSources;
     if (!anySource) {
         plan.notes.push_back("wkb: no light reaches a volume, L2+ is zero");
         return setup;
@@ -298,7 +314,8 @@ WkbSetup planWkb(const RenderContext& ctx, RenderPlan& plan)
             const int channels = vs.l2plus ? setup.channels : 1;
             const float maxSigma = largestExtentVoxels(vols[v]->density) / float(f);
             int levels = 0;
-            size_t bytes = estimatePyramidBytes(vols[v]->density, f, channels, maxSigma, &levels);
+            const size_t bytes =
+                setup.kernelSources ? estimatePyramidBytes(vols[v]->density, f, channels, maxSigma, &levels) : 0;
             total += bytes;
             if (commit) {
                 vs.factor = f;

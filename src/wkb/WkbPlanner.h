@@ -24,8 +24,12 @@ struct SourcePlan {
     int lightIndex = -1;  // in RenderContext::lights; -1 for emission
     bool emission = false;
     int order = 0;                   // SH order (mode Sh)
+    // Read by the kernel's march, so kept in the light volumes: false for a light whose order 2
+    // and orders 3+ are both traced (the radiance cache, TracedOrder2), which then has no channels
+    // and no shadow map of its own there; emission always is.
+    bool kernel = true;
     int offset = 0;                  // first channel in the light volumes
-    int channelCount = 0;            // 3 (delta) or 3 (order+1)^2 (SH)
+    int channelCount = 0;            // 3 (delta) or 3 (order+1)^2 (SH); 0 where !kernel
     NbLight light{};                 // as evaluated for E(y): may stand in for a small area light
     bool directional = false;        // delta source whose direction N is the same everywhere
     bool needsOwnShadowMap = false;  // delta source without a map in RenderContext
@@ -66,6 +70,9 @@ struct WkbSetup : IntegratorPlan {
     float blurK = 24.0f, lStep = 0.25f, tolerance = 0.002f;
     int orderCap = 128;
     int channels = 1;
+    // Some source is evaluated by the kernel's l-march (SourcePlan::kernel): only then are the
+    // light volumes built and the l-march run (the lights traced, without emission: neither).
+    bool kernelSources = true;
     double omegaMax = 0.0;  // largest albedo over volumes and channels
     std::vector<SourcePlan> sources;
     std::vector<VolumeSetup> volumes;  // index-aligned with RenderContext::volumes.volumes()

@@ -717,10 +717,42 @@ TEST(WkbRender, OverlappingVolumesMix)
     haze.name = "haze";
     s.volumes.push_back(haze);
     s.lights.push_back(sun(make_float3(0.3f, -1, 0.2f), 2.0f));
+    s.render.wkbOrders3 = WkbOrders3::Kernel;  // the kernel's march is what reads the pyramids
     RenderResult r = render(s);
     expectFiniteNonNegativeBounded(r.film, 1e30, "overlap");
     EXPECT_GT(mean(aov(r.film, "L2plus")), 0.0);
     ASSERT_EQ(r.stats.volumes.size(), 2u);
     EXPECT_GT(r.stats.volumes[0].pyramidBytes, 0u);
     EXPECT_GT(r.stats.volumes[1].pyramidBytes, 0u);
+}
+
+// Where both of a light's parts of L2+ are traced (order 2 per camera ray or in the cache, orders
+// 3+ in the radiance cache: the defaults), nothing reads its light volume: none is built, nor a
+// shadow map of its own (a soft sun's), and without emission no pyramid at all; with emission the
+// pyramids hold the density and emission's channels only. (A sky's 32 shadow rays per light
+// voxel were 95% of a 1024-across cloud's render before: docs/benchmarks.md "Scale".)
+TEST(WkbRender, TracedLightsBuildNoLightVolumes)
+{
+    Scene s = baseScene(16, 12, make_float3(0, 0.3f, 5), make_float3(0, 0, 0), 35);
+    s.volumes.push_back(
+        proceduralVolume("cloud", {{"radius", 0.8}, {"voxel_size", 0.05}}, splat(5.0f), splat(0.05f), 0.6f));
+    Light soft = sun(make_float3(0.3f, -1, 0.2f), 2.0f);
+    soft.angle = 0.53f;
+    s.lights.push_back(soft);
+    Light sky;
+    sky.name = "sky";
+    sky.type = LightType::Environment;
+    sky.radiance = make_float3(0.1f, 0.2f, 0.4f);
+    s.lights.push_back(sky);
+    RenderResult r = render(s);
+    EXPECT_FALSE(r.plan.wkb.lightGrid);
+    EXPECT_EQ(r.plan.wkb.pyramidBytes, 0u);
+    EXPECT_EQ(r.stats.pyramidBytes, 0u);
+    ASSERT_EQ(r.stats.lights.size(), 2u);
+    EXPECT_EQ(r.stats.lights[0].l2plusShadowMapBytes, 0u);
+    EXPECT_GT(mean(aov(r.film, "L2plus")), 0.0);
+    for (const char* light : {"light_sun", "light_sky"})
+        EXPECT_GT(mean(aov(r.film, light)), 0.0) << light;
+    EXPECT_NE(r.plan.describe().find("no light volumes: every source is traced"), std::string::npos)
+        << r.plan.describe();
 }
