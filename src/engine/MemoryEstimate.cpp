@@ -162,7 +162,7 @@ MemoryPlan estimateMemory(const Scene& scene, const RenderContext& ctx, const Re
         m.items.push_back({"shadow bakes on the voxels", bakes});
         m.items.push_back({"sky grids", sky});
     }
-    if (plan.wkb.enabled)
+    if (plan.wkb.enabled && plan.wkb.lightGrid)
         m.items.push_back({"light pyramids", plan.wkb.pyramidBytes});
     const auto* wkbSetup = dynamic_cast<const wkb::WkbSetup*>(plan.integrator.get());
     if (wkbSetup && wkbSetup->active && wkbSetup->tracedOrders3) {  // IntegratorRegistry.cpp builds it then
@@ -171,7 +171,13 @@ MemoryPlan estimateMemory(const Scene& scene, const RenderContext& ctx, const Re
         o.maxPaths = vrl::orders3PathCap(*ctx.scene);
         o.maxCells = r.wkbOrders3Grid;
         m.items.push_back({"orders-3+ radiance cache, while filled", vrl::orders3FillBytes(ctx, o)});
+        // Its light paths walk the path tracer's flattened volumes (buildPathtraceScene): a copy of
+        // the brick tables, pools and majorants while they are traced. Left out until session 30,
+        // wkb's estimate was 0.74 of the measured peak at 1024 voxels across (docs/benchmarks.md).
+        m.items.push_back({"orders-3+ light paths' flattened volumes, while traced", densityBytes});
     }
+    if (r.method == Method::Vrl)  // the same copy, for the whole render (VrlIntegrator)
+        m.items.push_back({"flattened volumes for the light paths", densityBytes});
     if (r.method != Method::Pathtrace) {  // single and wkb march camera rays in batches
         const size_t workers = size_t(r.threads > 0 ? r.threads : tbb::info::default_concurrency());
         m.items.push_back({"camera-ray batches",

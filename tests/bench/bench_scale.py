@@ -91,6 +91,8 @@ def run_render(nimbus, scene, sets, workdir):
         "volume_s": float(volumes.group(1)),
         "render_s": total - float(volumes.group(1)),
         "peak_mib": float(spec.getattribute("nimbus:memory_peak_bytes")) / 2**20,
+        # The render's own estimate, made before its large allocations (issue 18, item 4).
+        "estimate_mib": float(spec.getattribute("nimbus:memory_estimate_bytes")) / 2**20,
         "cpu_s": usage.ru_utime + usage.ru_stime,
         "process_s": wall,
     }
@@ -165,11 +167,12 @@ def main():
           "cloud: " + ", ".join(f"{n} across " + ("reused from --workdir" if t is None else f"{t:.0f} s")
                                      for n, t in sorted(generated.items())) + ".\n")
     print("| ladder | method | voxels across | pixels | voxels in bricks | volume load s | render s | process CPU s "
-          "| process wall s | peak MiB |")
-    print("|---|---|---|---|---|---|---|---|---|---|")
+          "| process wall s | peak MiB | estimate MiB | estimate / peak |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|---|")
     for ladder, method, across, res, nvox, r in rows:
         print(f"| {ladder} | {method} | {across} | {res[0]}x{res[1]} | {nvox:.3g} | {r['volume_s']:.2f} | {r['render_s']:.2f} | "
-              f"{r['cpu_s']:.1f} | {r['process_s']:.1f} | {r['peak_mib']:.0f} |")
+              f"{r['cpu_s']:.1f} | {r['process_s']:.1f} | {r['peak_mib']:.0f} | {r['estimate_mib']:.0f} | "
+              f"{r['estimate_mib'] / r['peak_mib']:.2f} |")
     print("\nGrowth exponents (least-squares slope in log-log; render time = the render's own time less the volume "
           "load; CPU = the process's user + system time, which a loaded machine inflates less than wall time):\n")
     print("| method | render time vs voxels | CPU vs voxels | peak memory vs voxels | render time vs pixels "
