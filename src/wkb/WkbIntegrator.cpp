@@ -95,10 +95,9 @@ WkbIntegrator::WkbIntegrator(const RenderContext& ctx, const RenderPlan& plan, R
     if (!setup)
         throw std::logic_error("WkbIntegrator: the plan has no wkb part (plan it with planWkb)");
     mSetup = *setup;
-    if (mSetup.active && mSetup.tracedOrders3 && !mOrders3)
-        // The plan left the lights' orders 3+ (and order 2 with it, in the cache) to the radiance
-        // cache: without it they would be missing, not approximated (IntegratorRegistry builds it).
-        throw std::logic_error("WkbIntegrator: the plan traces orders 3+, and no radiance cache was given");
+    // Where the plan traces orders 3+ (SourcePlan::kernel false for the lights) and no cache came
+    // (IntegratorRegistry's traceOrders3 makes none where its light pass has no path, the lights
+    // carrying no power into the volumes), the lights' orders 3+ are zero, as they are then.
     mModel = mSetup.randomWalk ? PlacementModel::RandomWalk : PlacementModel::Straight;
     for (auto& v : ctx.volumes.volumes()) {
         mSigmaS.push_back(v->sigmaS());
