@@ -91,6 +91,17 @@ std::string layoutError(const nanovdb::NanoGrid<T>& grid, uint64_t size)
     using Lower = typename Tree::Node1;
     const uint64_t leafBytes =
         std::is_same_v<T, nanovdb::FpN> ? sizeof(typename Tree::LeafNodeType::DataType) : sizeof(typename Tree::LeafNodeType);
+    // A tree reaches each node once, so the walk meets at most the header's count of nodes per
+    // level. More means children shared between parents: a graph that nanoToOpenVDB would unfold
+    // into a tree of up to 32768 x 4096 leaves per upper node, gigabytes from a grid of kilobytes,
+    // before any memory check (fuzz_nvdb's out-of-memory finding). The count also ends the walk.
+    uint64_t reached[3] = {0, 0, 0};
+    auto tooMany = [&](int level) {
+        return ++reached[level] > tree->mNodeCount[level];
+    };
+    auto shared = [](int level) {
+        return "more level-" + std::to_string(level) + " nodes are reached than its header counts (children shared)";
+    };
     const auto* rootData = root.data();
     for (uint32_t i = 0; i < rootData->mTableSize; ++i) {
         const auto* tile = rootData->tile(i);
@@ -99,16 +110,23 @@ std::string layoutError(const nanovdb::NanoGrid<T>& grid, uint64_t size)
         const auto* upper = reinterpret_cast<const Upper*>(child(rootData, tile->child, sizeof(Upper)));
         if (!upper)
             return "a root tile's child lies outside the grid";
+        if (tooMany(2))
+            return shared(2);
         const auto* upperData = upper->data();
         for (auto n = upperData->mChildMask.beginOn(); n; ++n) {
             const auto* lower =
                 reinterpret_cast<const Lower*>(child(upperData, upperData->mTable[*n].child, sizeof(Lower)));
             if (!lower)
                 return "an upper node's child lies outside the grid";
+            if (tooMany(1))
+                return shared(1);
             const auto* lowerData = lower->data();
-            for (auto m = lowerData->mChildMask.beginOn(); m; ++m)
+            for (auto m = lowerData->mChildMask.beginOn(); m; ++m) {
                 if (!child(lowerData, lowerData->mTable[*m].child, leafBytes))
                     return "a lower node's child lies outside the grid";
+                if (tooMany(0))
+                    return shared(0);
+            }
         }
     }
     return "";
