@@ -135,10 +135,13 @@ std::string layoutError(const nanovdb::NanoGrid<T>& grid, uint64_t size)
 // Checks a decoded grid of value type T and converts it; nullptr for another type. Order: the
 // header and partial checksum (GridValidator without its node walk), the node layout above, then
 // the full checksum when the file stored one (it walks the nodes, hence after the layout).
+// `index`: the grid's own mGridIndex (a grid written from a buffer of several keeps its place in
+// it, and GridHandle::grid(i) walks the buffer by gridSize until it meets that index).
 template <class T>
-openvdb::GridBase::Ptr convert(const nanovdb::GridHandle<nanovdb::HostBuffer>& handle, const std::string& name)
+openvdb::GridBase::Ptr convert(const nanovdb::GridHandle<nanovdb::HostBuffer>& handle, const std::string& name,
+                               uint32_t index)
 {
-    const nanovdb::NanoGrid<T>* grid = handle.template grid<T>();
+    const nanovdb::NanoGrid<T>* grid = handle.template grid<T>(index);
     if (!grid)
         return nullptr;
     auto damaged = [&](const std::string& why) {
@@ -285,13 +288,20 @@ openvdb::GridBase::Ptr NanoVdbFileReader::readGrid(const std::string& name)
     const auto* data = reinterpret_cast<const nanovdb::GridData*>(handle.data());
     if (!data || data->mGridSize != e->gridSize)
         throw std::runtime_error("grid '" + name + "' decodes to a grid whose size differs from its metadata (damaged)");
+    // The buffer holds this one grid: GridHandle::grid(i) walks from it by gridSize to the grid
+    // whose index is i, past the buffer for an index the grid does not have (UBSan: fuzz_nvdb,
+    // session 31). Asked for its own index, it returns it without a step.
+    const uint32_t index = data->mGridIndex;
+    if (data->mGridCount == 0 || index >= data->mGridCount)
+        throw std::runtime_error("grid '" + name + "' says it is grid " + std::to_string(index) + " of " +
+                                 std::to_string(data->mGridCount) + " in its buffer (damaged)");
     openvdb::GridBase::Ptr grid;
-    if (!(grid = convert<float>(handle, name)) && !(grid = convert<double>(handle, name)) &&
-        !(grid = convert<nanovdb::Fp4>(handle, name)) && !(grid = convert<nanovdb::Fp8>(handle, name)) &&
-        !(grid = convert<nanovdb::Fp16>(handle, name)) && !(grid = convert<nanovdb::FpN>(handle, name)) &&
-        !(grid = convert<nanovdb::Vec3f>(handle, name)) && !(grid = convert<nanovdb::Vec3d>(handle, name)) &&
-        !(grid = convert<int32_t>(handle, name)) && !(grid = convert<int64_t>(handle, name)) &&
-        !(grid = convert<bool>(handle, name)) && !(grid = convert<nanovdb::ValueMask>(handle, name)))
+    if (!(grid = convert<float>(handle, name, index)) && !(grid = convert<double>(handle, name, index)) &&
+        !(grid = convert<nanovdb::Fp4>(handle, name, index)) && !(grid = convert<nanovdb::Fp8>(handle, name, index)) &&
+        !(grid = convert<nanovdb::Fp16>(handle, name, index)) && !(grid = convert<nanovdb::FpN>(handle, name, index)) &&
+        !(grid = convert<nanovdb::Vec3f>(handle, name, index)) && !(grid = convert<nanovdb::Vec3d>(handle, name, index)) &&
+        !(grid = convert<int32_t>(handle, name, index)) && !(grid = convert<int64_t>(handle, name, index)) &&
+        !(grid = convert<bool>(handle, name, index)) && !(grid = convert<nanovdb::ValueMask>(handle, name, index)))
         throw std::runtime_error("grid '" + name + "' has the NanoVDB type " +
                                  nanovdb::toStr(nanovdb::GridType(std::min<uint32_t>(
                                      e->gridType, uint32_t(nanovdb::GridType::End)))) +
