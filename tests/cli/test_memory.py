@@ -15,6 +15,7 @@ import os
 import random
 import re
 import resource
+import shutil
 import subprocess
 import sys
 import tempfile
@@ -252,6 +253,27 @@ class Memory(unittest.TestCase):
                 self.assertEqual(len(lines), 1, result["stderr"])
                 self.assertIn(name, lines[0])
                 self.assertLess(result["maxrss"], DAMAGED_VDB_RSS_LIMIT, lines[0])
+
+    def test_fuzzed_nanovdb_with_shared_children_is_refused_within_a_bounded_memory(self):
+        # fuzz_nvdb's finding (tests/fuzz/regressions/nvdb): a 300 KB grid whose upper node points
+        # many times at the same lower node. Every offset lay inside the grid; NanoVDB's conversion
+        # unfolded the shared nodes into 2.6 GB of distinct ones before any memory check, and the
+        # load ended in "volume empty" with exit 0. The layout check counts the nodes it reaches.
+        for name in ("shared_lower_nodes_unfold_to_2_6_gb.nvdb", "shared_lower_nodes_unfold_to_1_7_gb.nvdb"):
+            found = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "fuzz", "regressions", "nvdb", name)
+            bad = os.path.join(self.d, "grid.nvdb")  # the reader knows NanoVDB by its extension
+            shutil.copyfile(found, bad)
+            s = small_scene()
+            s["volumes"][0]["source"] = {"type": "vdb", "file": bad}
+            s["render"]["memory_limit"] = 64 * 1024 * 1024
+            result = run_measured("info", self.scene_file(s))
+            with self.subTest(name):
+                self.assertEqual(result["code"], 2, result["stderr"])
+                lines = [l for l in result["stderr"].splitlines() if l.strip()]
+                self.assertEqual(len(lines), 1, result["stderr"])
+                self.assertIn("children shared", lines[0])
+                self.assertLess(result["maxrss"], DAMAGED_VDB_RSS_LIMIT, lines[0])
+
 
 if __name__ == "__main__":
     NIMBUS = os.path.abspath(sys.argv.pop(1))
