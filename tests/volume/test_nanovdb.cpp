@@ -203,6 +203,10 @@ TEST(NanoVdb, ErrorsAreThoseOfAVdbFile)
     const size_t firstGrid = 16 + meta + 8 + meta + 12;
     ASSERT_EQ(header.substr(firstGrid + offsetof(nanovdb::GridData, mGridName), 7), "density");
     header[firstGrid + offsetof(nanovdb::GridData, mGridName)] = 'D';
+    // The grid's index in its buffer past its count: NanoVDB's GridHandle would walk past the
+    // buffer looking for grid 0 (fuzz_nvdb's UBSan finding, session 31).
+    std::string index = bytes;
+    index[firstGrid + offsetof(nanovdb::GridData, mGridIndex)] = char(33);
     struct Case {
         std::string file, expect;
     } cases[] = {
@@ -213,6 +217,7 @@ TEST(NanoVdb, ErrorsAreThoseOfAVdbFile)
         {writeBytes("size.nvdb", gridSize), "in memory from"},
         {writeBytes("header.nvdb", header), "cannot read grid 'density' from '" + (dir / "header.nvdb") +
                                                 "': grid 'density' is damaged (NanoVDB: Mis-matching checksum)"},
+        {writeBytes("index.nvdb", index), "grid 'density' says it is grid 33 of 1 in its buffer (damaged)"},
     };
     for (const Case& c : cases) {
         std::string e = inputError(vdbScene(c.file));
