@@ -45,7 +45,7 @@ IntegratorEntry wkbEntry()
             vrl::Orders3Options o;
             o.paths = rs.wkbOrders3Paths;  // 0: adaptive, up to the cap
             o.maxPaths = vrl::orders3PathCap(*ctx.scene);
-            o.maxCells = rs.wkbOrders3Grid;
+            o.maxCells = vrl::orders3GridCells(ctx);
             o.seed = rs.seed;
             o.firstOrder = setup->cachedOrder2 ? 1 : 2;
             // Per-light layers where a light's AOV is in the film (setupFilm's rule).

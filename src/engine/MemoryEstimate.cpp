@@ -169,7 +169,7 @@ MemoryPlan estimateMemory(const Scene& scene, const RenderContext& ctx, const Re
         vrl::Orders3Options o;
         o.paths = r.wkbOrders3Paths;
         o.maxPaths = vrl::orders3PathCap(*ctx.scene);
-        o.maxCells = r.wkbOrders3Grid;
+        o.maxCells = vrl::orders3GridCells(ctx);
         m.items.push_back({"orders-3+ radiance cache, while filled", vrl::orders3FillBytes(ctx, o)});
         // Its light paths walk the path tracer's flattened volumes (buildPathtraceScene): a copy of
         // the brick tables, pools and majorants while they are traced. Left out until session 30,

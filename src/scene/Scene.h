@@ -238,7 +238,7 @@ struct RenderSettings {
     int wkbOrder2Samples = 4;                 // traced order-2 samples per camera ray
     WkbOrders3 wkbOrders3 = WkbOrders3::Traced;  // orders 3+ of the lights' L2+ (docs/wkb.md)
     int wkbOrders3Paths = 0;                     // traced: light paths of the radiance cache; 0: from its measured noise (traceOrders3)
-    int wkbOrders3Grid = 48;                     // traced: cache cells along the volumes' longest side
+    int wkbOrders3Grid = 0;                      // traced: cache cells along the volumes' longest side (0: automatic)
     float wkbBlurK = 24.0f;         // K in the blur width s sqrt(K mu l), Tessendorf eq. 79
     float wkbLStep = 0.25f;         // l-march step, scattering lengths; grows as l_step * l past l = 1
     int wkbOrderMax = 128;          // cap on the Legendre order j of the angular sum (eq. 88)

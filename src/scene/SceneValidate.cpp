@@ -374,7 +374,8 @@ void checkRender(const Checker& c, const RenderSettings& r)
     c.range("render.emission_samples", r.emissionSamples, Range{1, 1024, false, false, "per camera ray"});
     c.range("render.wkb_order2_samples", r.wkbOrder2Samples, Range{1, 1024, false, false, "per camera ray"});
     c.range("render.wkb_orders3_paths", r.wkbOrders3Paths, Range{0, 1 << 26, false, false, "light paths (0: from the image)"});
-    c.range("render.wkb_orders3_grid", r.wkbOrders3Grid, Range{2, 512, false, false, "cells"});
+    if (r.wkbOrders3Grid != 0)
+        c.range("render.wkb_orders3_grid", r.wkbOrders3Grid, Range{2, 512, false, false, "cells (0: automatic)"});
     c.range("render.wkb_sh_order_max", r.wkbShOrderMax, Range{0, 8, false, false, ""});
     if (r.lightVolumeResolution != 0)
         c.range("render.light_volume_resolution", r.lightVolumeResolution,

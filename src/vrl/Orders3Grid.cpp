@@ -51,6 +51,27 @@ constexpr double kCacheNoiseTarget = 0.002;
 // light paths"), kBalance = sqrt(t0 / (samples a e0)) measured on the calibration suite's
 // cumulus_lit (A 1364, e0 0.0059, t0 / samples 24 us, a 3.6 us per path).
 constexpr double kBalance = 34.0;
+// The most paths the adaptive count may take, per square root of the camera's samples
+// (orders3PathCap): the smallest power of two under which every calibration scene's count reaches
+// kCacheNoiseTarget (the largest ask, cumulus_dense_against's, 7.2 M paths at 64x64 and 4 spp,
+// against 8.4 M; 4096 capped it at 0.52 M: beauty relMSE 0.0335 against 0.0113; docs/validation.md
+// "Session 32"). Only scenes whose cache's noise asks for more than the old cap are slower.
+constexpr double kPathCapPerSample = 65536.0;
+// The cache's cells along the box's longest side where render.wkb_orders3_grid is 0 (its
+// default): kGridCells, or more, up to kMaxGridCells, where the densest medium would make a cell
+// more than kMaxCellTransportLengths transport mean free paths 1 / (sigma_t (1 - g omega)) across
+// without making it a skin cell (SkinCells.h: 2 transport lengths, or 1 diffusion length). Under
+// a dense medium's face the radiance toward the camera bends over about a transport length (the
+// diffusion solution's extrapolated zero lies 0.71 of one outside the face), and the camera sees
+// about a mean free path into it: a cell of 0.75 transport lengths read trilinearly left the dark
+// face of a sphere of optical radius 30 at albedo 0.9995 +7% bright. Fitted on the calibration
+// suite's two scenes in that regime (docs/validation.md "Session 32": sphere_dense_side, cells
+// of 0.70, 0.47 and 0.35 transport lengths: beauty relMSE 0.0051, 0.0038, 0.0038 and L2plus -1.3%,
+// -1.1%, -0.8%; cumulus_dense_against, 0.96, 0.64, 0.48: 0.0296, 0.0161, 0.0134): finer is no
+// worse down to the smallest tried, which 96 cells reach on both.
+constexpr int kGridCells = 48;
+constexpr double kMaxCellTransportLengths = 0.375;
+constexpr int kMaxGridCells = 96;
 // The pilot rays' random stream, keyed apart from the others.
 constexpr uint32_t kPilotKey = 0x70696c6fu;
 
@@ -315,12 +336,39 @@ NoiseEstimate cacheNoise(const RenderContext& ctx, const PilotRays& pilots, cons
 
 }  // namespace
 
+int orders3GridCells(const RenderContext& ctx)
+{
+    const int fixed = ctx.scene ? ctx.scene->render.wkbOrders3Grid : 0;
+    if (fixed > 0)
+        return fixed;
+    const Bbox box = ctx.volumes.worldBounds();
+    const double longest = std::max({double(box.hi.x - box.lo.x), double(box.hi.y - box.lo.y), double(box.hi.z - box.lo.z)});
+    if (!(longest > 0.0))
+        return kGridCells;
+    const double cell = longest / double(kGridCells);
+    double want = double(kGridCells);
+    for (const auto& v : ctx.volumes.volumes()) {
+        const Rgb st = v->sigmaT(), ss = v->sigmaS();
+        const double g = double(nbPhaseMeanCos(v->medium.phase)), density = double(v->density.maxValue());
+        for (int c = 0; c < 3; ++c) {
+            const double t = double((&st.x)[c]) * density;
+            const double omega = double((&st.x)[c]) > 0.0 ? std::min(1.0, double((&ss.x)[c]) / double((&st.x)[c])) : 1.0;
+            const double transport = cell * t * (1.0 - g * omega);  // the cell in transport mean free paths
+            const double diffusion = cell * t * std::sqrt(std::max(0.0, 3.0 * (1.0 - omega) * (1.0 - g * omega)));
+            if (transport >= double(kSkinTransportLengths) || diffusion >= double(kSkinDiffusionLengths))
+                continue;  // skin cells where the camera sees such a medium
+            want = std::max(want, std::ceil(double(kGridCells) * transport / kMaxCellTransportLengths));
+        }
+    }
+    return int(std::min(want, double(kMaxGridCells)));
+}
+
 long long orders3PathCap(const Scene& scene)
 {
     const RenderSettings& r = scene.render;
     if (r.wkbOrders3Paths > 0)
         return r.wkbOrders3Paths;
-    const double p = 4096.0 * std::sqrt(cameraSamples(scene));
+    const double p = kPathCapPerSample * std::sqrt(cameraSamples(scene));
     return (long long)std::llround(std::clamp(p, 65536.0, double(1 << 24)));
 }
 

@@ -51,13 +51,16 @@ struct Orders3Options {
 // The most light paths the cache of `scene` may take: render.wkb_orders3_paths, or where it is 0
 // (the default: the count adapts to the cache's noise, traceOrders3)
 //
-//     P_max = 4096 sqrt(pixels x spp),   clamped to [65536, 2^24]
+//     P_max = 65536 sqrt(pixels x spp),   clamped to [65536, 2^24]
 //
-// (spp: the scene's, or the march's default 4: 524288 at 64x64, 2.1 M at 256x256, 11.8 M at
-// 1920x1080; docs/wkb.md "How many light paths"): four times the count that minimises the product
-// of error and time on the cloud the first rule was fitted on, so that a noisier scene may take
-// more and a cap still bounds the pass's time for the image's size.
+// (spp: the scene's, or the march's default 4: 8.4 M at 64x64, 2^24 from 256x256 up; docs/wkb.md
+// "How many light paths"): a bound on the pass's time for the image's size that lets every
+// calibration scene's count reach the cache's noise target.
 long long orders3PathCap(const Scene& scene);
+
+// The cache's cells along the volumes' longest side: render.wkb_orders3_grid, or where it is 0 (the
+// default) 48, more where a cell would be too coarse for the radiance under a dense medium's face.
+int orders3GridCells(const RenderContext& ctx);
 
 // What traceOrders3 decided, for `nimbus render --explain` (RenderStats::orders3).
 struct Orders3Report {

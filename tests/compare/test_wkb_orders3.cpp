@@ -197,7 +197,7 @@ double wkbOrders3(const Scene& s, const RenderContext& ctx, int firstOrder, bool
     o.skinCells = skin;
     o.focus = focus;
     o.maxPaths = vrl::orders3PathCap(s);  // paths 0: the adaptive count, as a render has it
-    o.maxCells = s.render.wkbOrders3Grid;
+    o.maxCells = vrl::orders3GridCells(ctx);
     o.seed = 5;
     o.firstOrder = firstOrder;
     if (flip) {
@@ -289,10 +289,10 @@ Scene twoLights()
 // A small cache over the two lights' scene: `paths` light paths, at most `maxCells` cells across,
 // perLightAovs as the film asks.
 // The adaptive count as a render of `s` has it (Orders3Options::paths 0), seed 5.
-vrl::Orders3Options adaptiveCache(const Scene& s)
+vrl::Orders3Options adaptiveCache(const Scene& s, const RenderContext& ctx)
 {
     vrl::Orders3Options o;
-    o.maxCells = s.render.wkbOrders3Grid;
+    o.maxCells = vrl::orders3GridCells(ctx);
     o.maxPaths = vrl::orders3PathCap(s);
     o.seed = 5;
     return o;
@@ -340,7 +340,7 @@ TEST(WkbOrders3, PerLightLayersMatchEachLightsPathTracedOrders3)
     const auto ctx = RenderContext::create(s, true);
     vrl::Orders3Options o;
     o.maxPaths = vrl::orders3PathCap(s);  // paths 0: the adaptive count, as a render has it
-    o.maxCells = s.render.wkbOrders3Grid;
+    o.maxCells = vrl::orders3GridCells(*ctx);
     o.seed = 5;
     const auto summed = vrl::traceOrders3(*ctx, o);
     o.perLightAovs = {1, 1};
@@ -392,7 +392,7 @@ TEST(WkbOrders3, TracedOrder2sMarchReadsTheCacheAsItsOwnMarch)
 {
     const Scene s = twoLights();
     const auto ctx = RenderContext::create(s, true);
-    vrl::Orders3Options o = smallCache(65536, s.render.wkbOrders3Grid, {1, 1});
+    vrl::Orders3Options o = smallCache(65536, vrl::orders3GridCells(*ctx), {1, 1});
     o.seed = 5;
     const auto grid = vrl::traceOrders3(*ctx, o);
     ASSERT_TRUE(grid);
@@ -558,7 +558,7 @@ TEST(WkbOrders3, AimedDepositsKeepTheMeanAndLowerTheNoise)
     constexpr int kSeeds = 4;
     const int W = s.camera.width, H = s.camera.height;
     auto image = [&](bool aim, uint32_t seed) {
-        vrl::Orders3Options o = smallCache(65536, s.render.wkbOrders3Grid, {});
+        vrl::Orders3Options o = smallCache(65536, vrl::orders3GridCells(*ctx), {});
         o.seed = seed;
         o.aimDeposits = aim;
         const auto grid = vrl::traceOrders3(*ctx, o);
@@ -647,7 +647,7 @@ TEST(WkbOrders3, AdaptivePathCountMeasuresTheCachesNoise)
     s.camera.width = s.camera.height = 64;
     useTempKernelCache();
     const auto ctx = RenderContext::create(s, true);
-    const vrl::Orders3Options o = adaptiveCache(s);
+    const vrl::Orders3Options o = adaptiveCache(s, *ctx);
     vrl::Orders3Report report, again;
     const auto grid = vrl::traceOrders3(*ctx, o, &report);
     const auto grid2 = vrl::traceOrders3(*ctx, o, &again);
@@ -746,7 +746,7 @@ TEST(WkbOrders3, AdaptiveCountLeavesAQuietCacheSharp)
                                    0.25f, 0.9f, 0.3f));  // optical diameter 0.5
     useTempKernelCache();
     const auto ctx = RenderContext::create(s, true);
-    const vrl::Orders3Options o = adaptiveCache(s);
+    const vrl::Orders3Options o = adaptiveCache(s, *ctx);
     vrl::Orders3Report report;
     const auto grid = vrl::traceOrders3(*ctx, o, &report);
     ASSERT_TRUE(grid);
@@ -761,4 +761,29 @@ TEST(WkbOrders3, AdaptiveCountLeavesAQuietCacheSharp)
     const auto blurred = vrl::traceOrders3(*ctx, fixed);
     ASSERT_TRUE(blurred);
     EXPECT_NE(grid->data(), blurred->data());
+}
+
+// The cache's cells along the box's longest side (render.wkb_orders3_grid 0, the default;
+// orders3GridCells): 48, more where the densest medium makes a 48th of the box more than 0.375
+// transport mean free paths 1 / (sigma_t (1 - g omega)) across while it is no skin cell (under 2
+// transport lengths and 1 diffusion length), at most 96; a key's value as given. The procedural
+// sphere of radius 1 at voxel 0.05 spans 2.4 m (a 48th: 0.05 m).
+TEST(WkbOrders3, CacheCellsFollowTheDensestMediumsTransportLength)
+{
+    auto cells = [](float sigmaT, float albedo, float g, int key = 0) {
+        Scene s = baseScene(make_float3(0.0f, 0.3f, -4.0f), make_float3(0, -0.08f, -1));
+        s.volumes.push_back(greyVolume("sphere", "sphere", {{"radius", 1.0}, {"voxel_size", 0.05}, {"falloff", 0.05}},
+                                       sigmaT, albedo, g));
+        s.render.wkbOrders3Grid = key;
+        const auto ctx = RenderContext::create(s, true);
+        const Bbox box = ctx->volumes.worldBounds();
+        EXPECT_NEAR(box.hi.x - box.lo.x, 2.4f, 1e-4f);
+        return vrl::orders3GridCells(*ctx);
+    };
+    EXPECT_EQ(cells(2.0f, 0.95f, 0.7f), 48);    // a 48th is 0.034 transport lengths
+    EXPECT_EQ(cells(20.0f, 0.995f, 0.3f), 90);  // 0.70 transport lengths: ceil(48 x 0.7015 / 0.375)
+    EXPECT_EQ(cells(30.0f, 0.9995f, 0.5f), 96); // 0.75: 96 would be exceeded (ceil 97), so the most
+    EXPECT_EQ(cells(300.0f, 0.95f, 0.3f), 48);  // 10.7 transport lengths: skin cells, not finer ones
+    EXPECT_EQ(cells(20.0f, 0.5f, 0.0f), 48);    // 1 transport length, but 1.22 diffusion lengths: skin
+    EXPECT_EQ(cells(30.0f, 0.9995f, 0.5f, 40), 40);
 }
