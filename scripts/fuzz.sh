@@ -8,6 +8,8 @@
 #   --time S    stop each harness after S seconds (default 3600)
 #   --runs N    stop each harness after N executions instead (e.g. 1000000)
 #   --jobs J    harnesses run at once (default NIMBUS_JOBS or 1), each on one core
+#   (-- -fork=2: libFuzzer's fork mode, two jobs on one corpus counted as one run; the 10^6 runs
+#   of nvdb, whose inputs load whole grids, in session 32)
 #   --fast      UBSan only (no ASan, no leak check), built in build-fuzz: for the 10^6-execution
 #               runs of harnesses whose inputs allocate large buffers (Assimp's OBJ reader takes a
 #               zeroed 16 MiB buffer per file, which ASan maps and unmaps each time: from the
@@ -41,7 +43,7 @@ while [ $# -gt 0 ]; do
     --jobs) jobs=$2; shift 2 ;;
     --fast) build=build-fuzz; sanitizers=undefined; shift ;;
     --) shift; extra=("$@"); break ;;
-    -h|--help) sed -n '2,24p' "$0"; exit 0 ;;
+    -h|--help) sed -n '2,27p' "$0"; exit 0 ;;
     *) harnesses+=("$1"); shift ;;
   esac
 done
@@ -86,6 +88,15 @@ summary() {
   cov=$(sed -n 's/.* cov: \([0-9]*\).*/\1/p' <<<"$last")
   ft=$(sed -n 's/.* ft: \([0-9]*\).*/\1/p' <<<"$last")
   corp=$(sed -n 's/.* corp: \([0-9]*\/[0-9]*[a-zA-Z]*\).*/\1/p' <<<"$last")
+  # -fork=N (libFuzzer's fork mode: N jobs on one corpus, one run's count) prints no final stats:
+  # its executions from its last line, its corpus as a file count, its rate from its time.
+  if [ -z "$execs" ] && grep -q '^INFO: fuzzed for' "$log"; then
+    execs=$(sed -n 's/^INFO: fuzzed for \([0-9]*\) iterations.*/\1/p' "$log" | tail -1)
+    corp=$(sed -n 's/.* corp: \([0-9]*\) exec.*/\1/p' <<<"$last")
+    local secs
+    secs=$(sed -n 's/^INFO: exiting: .* time: \([0-9]*\)s.*/\1/p' "$log" | tail -1)
+    [ -n "$secs" ] && [ "$secs" -gt 0 ] && rate=$((execs / secs))
+  fi
   found=$(find "$out/artifacts" -name "$h-*" | wc -l)
   printf '%-7s exit %-3s executions %-10s exec/s %-6s cov %-6s ft %-7s corpus %-12s peak RSS %-5s MB  findings %s\n' \
     "$h" "$code" "${execs:-?}" "${rate:-?}" "${cov:-?}" "${ft:-?}" "${corp:-?}" "${rss:-?}" "$found"
