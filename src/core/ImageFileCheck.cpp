@@ -1,9 +1,12 @@
 #include "ImageFileCheck.h"
 
+#include "FormatBytes.h"
+
 #include <algorithm>
 #include <cstdint>
 #include <cstdio>
 #include <cstring>
+#include <filesystem>
 #include <fstream>
 #include <string>
 
@@ -63,8 +66,8 @@ int linesPerChunk(int compression)
 }
 double maxRatio(int compression)
 {
-    static const double ratio[] = {1.0, 64.0, 1100.0, 1100.0, 4096.0, 1500.0, 4.0, 16.0, 100000.0, 100000.0};
-    return compression >= 0 && compression < 10 ? ratio[compression] : 100000.0;
+    static const double ratio[] = {1.0, 64.0, 1100.0, 1100.0, 4096.0, 1500.0, 4.0, 16.0, kMaxImageRatio, kMaxImageRatio};
+    return compression >= 0 && compression < 10 ? ratio[compression] : kMaxImageRatio;
 }
 
 std::string describe(const char* what, uint64_t claimed, uint64_t left)
@@ -271,6 +274,9 @@ std::string hdrProblem(std::ifstream& in, uint64_t fileSize)
     long long n1 = 0, n2 = 0;
     if (std::sscanf(head.c_str() + blank + 2, "%2s %lld %2s %lld", a, &n1, b, &n2) != 4 || n1 < 0 || n2 < 0)
         return "";
+    const auto axis = [](const char* s) { return (s[0] == '-' || s[0] == '+') && (s[1] == 'X' || s[1] == 'Y'); };
+    if (!axis(a) || !axis(b))
+        return "";  // not a Radiance size line (another format's bytes)
     const double pixelBytes = 4.0 * double(n1) * double(n2);
     if (pixelBytes > 128.0 * double(fileSize)) {
         char out[256];
@@ -301,9 +307,37 @@ std::string imageHeaderProblem(const std::string& path)
         return "";
     if (std::memcmp(magic, "\x76\x2f\x31\x01", 4) == 0)
         return exrProblem(in, fileSize);
-    if (std::memcmp(magic, "#?", 2) == 0) {
-        in.seekg(0);
-        return hdrProblem(in, fileSize);
+    // OpenImageIO 2.4's Radiance reader takes a header without its "#?" too (fuzz_envmap: a
+    // "v/RADIANCE" file named .exr, which OpenEXR refuses and the .hdr reader then opens), so any
+    // other file whose first 64 KiB hold a Radiance size line is held to the Radiance bound.
+    in.seekg(0);
+    return hdrProblem(in, fileSize);
+}
+
+std::string imagePixelsProblem(const std::string& path, int64_t width, int64_t height, int channels,
+                               double loaderBytesPerPixel, size_t limitBytes)
+{
+    std::error_code ec;
+    const uintmax_t fileSize = std::filesystem::file_size(path, ec);
+    const double pixels = double(width) * double(height);
+    char line[320];
+    // Every format's pixels: 4 bytes a channel at the most lenient ratio of any (DWA's).
+    if (!ec && pixels * 4.0 * double(std::max(1, channels)) > kMaxImageRatio * std::max(1.0, double(fileSize))) {
+        std::snprintf(line, sizeof line,
+                      "its header describes %lld x %lld pixels of %d channels, more than its %llu bytes can hold "
+                      "(truncated or damaged)",
+                      static_cast<long long>(width), static_cast<long long>(height), channels,
+                      static_cast<unsigned long long>(fileSize));
+        return line;
+    }
+    const double bytes = pixels * loaderBytesPerPixel;
+    if (bytes > double(limitBytes)) {
+        std::snprintf(line, sizeof line,
+                      "its %lld x %lld pixels take %.3g bytes to load, more than render.memory_limit (%s); raise "
+                      "render.memory_limit or give a smaller image",
+                      static_cast<long long>(width), static_cast<long long>(height), bytes,
+                      formatBytes(limitBytes).c_str());
+        return line;
     }
     return "";
 }

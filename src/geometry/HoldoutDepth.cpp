@@ -3,6 +3,7 @@
 #include "../core/Error.h"
 #include "../core/ImageFileCheck.h"
 #include "../core/Log.h"
+#include "../core/MemoryLimit.h"
 
 #include "../../kernels/shared/holdoutdepth.h"
 
@@ -63,6 +64,11 @@ std::unique_ptr<HoldoutDepth> HoldoutDepth::load(const Scene& scene)
         throw InputError(where + "camera.holdout_depth.channel: no channel '" + spec.channel + "' in " + quoted +
                          " (channels: " + names + ")");
     const int w = is.width, h = is.height, cw = scene.camera.width, ch = scene.camera.height;
+    // Before a pixel is allocated: the depth channel read (a float a pixel) and the map kept.
+    const std::string size =
+        imagePixelsProblem(spec.file, w, h, is.nchannels, 8.0, memoryLimitBytes(double(scene.render.memoryLimit)));
+    if (!size.empty())
+        throw InputError(fileKey + ": cannot read " + quoted + ": " + size);
     if (w != cw || h != ch) {
         // Same aspect within half a pixel of the larger image: a proxy or a higher-resolution
         // render of the same frame.

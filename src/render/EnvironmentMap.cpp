@@ -2,6 +2,7 @@
 
 #include "../core/Error.h"
 #include "../core/ImageFileCheck.h"
+#include "../core/MemoryLimit.h"
 
 #include <OpenImageIO/imageio.h>
 
@@ -87,6 +88,12 @@ std::shared_ptr<const EnvironmentMap> EnvironmentMap::load(const Scene& scene, s
     const int w = is.width, h = is.height, nc = is.nchannels;
     if (w < 1 || h < 1 || is.depth > 1)
         throw InputError(where + ": " + quoted + " is not a 2-D image");
+    // Before a pixel is allocated: the reading buffer (nc floats a pixel), the RGB copy (3) and
+    // the map with its sampling CDFs (4) are held at once.
+    const std::string size =
+        imagePixelsProblem(l.map, w, h, nc, 4.0 * (nc + 3 + 4), memoryLimitBytes(double(scene.render.memoryLimit)));
+    if (!size.empty())
+        throw InputError(where + ": cannot read " + quoted + ": " + size);
     std::vector<float> pixels(size_t(w) * size_t(h) * size_t(nc));
     if (!in->read_image(0, 0, 0, nc, OIIO::TypeDesc::FLOAT, pixels.data()))
         throw InputError(where + ": cannot read " + quoted + ": " + in->geterror());

@@ -35,6 +35,10 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size)
     Scene scene;
     scene.sourcePath = "fuzz.json";
     scene.camera.width = scene.camera.height = 16;
+    // The loader checks a map's pixels against render.memory_limit before allocating them: 64 MiB,
+    // well under libFuzzer's -rss_limit_mb, so an image that loads fits and one that does not is
+    // the loader's InputError (as in fuzz_vdb).
+    scene.render.memoryLimit = 67108864.0f;
     scene.camera.holdoutDepth.file = fuzz::writeInput(data, size, ".exr");
     fuzz::expectOnlyInputErrors([&] {
         const std::unique_ptr<HoldoutDepth> depth = HoldoutDepth::load(scene);

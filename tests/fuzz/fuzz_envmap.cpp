@@ -37,6 +37,10 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size)
     const bool hdr = size >= 2 && std::memcmp(data, "#?", 2) == 0;
     Scene scene;
     scene.sourcePath = "fuzz.json";
+    // The loader checks a map's pixels against render.memory_limit before allocating them: 64 MiB,
+    // well under libFuzzer's -rss_limit_mb, so an image that loads fits and one that does not is
+    // the loader's InputError (as in fuzz_vdb).
+    scene.render.memoryLimit = 67108864.0f;
     Light light;
     light.type = LightType::Environment;
     light.map = fuzz::writeInput(data, size, hdr ? ".hdr" : ".exr");

@@ -273,3 +273,35 @@ TEST(EnvironmentMap, HeaderWhoseAttributeSizesDisagreeWithTheirValuesIsRefused)
     EXPECT_NE(what.find("attribute 'channels' (chlist) says 55 bytes but its value takes"), std::string::npos)
         << what;
 }
+
+// OpenImageIO 2.4 opens a Radiance header without its "#?" (fuzz_envmap, 2026-12-06: a 161-byte
+// "v/RADIANCE" file named .exr, "-Y 4 +X 888..." read as 2^31 - 1 pixels wide; the load then
+// allocated 103 GB). Refused before a pixel is allocated, naming the light's key.
+TEST(EnvironmentMap, RadianceHeaderWithoutItsMagicIsHeldToTheFilesSize)
+{
+    const std::string finding = std::string(NIMBUS_TEST_DIR) +
+                                "/../fuzz/regressions/envmap/radiance_header_without_magic_width_int_max_103_gb.exr";
+    const std::string what = loadError(finding);
+    EXPECT_NE(what.find("lights[0].map: cannot read"), std::string::npos) << what;
+    EXPECT_NE(what.find("more than its 161 bytes can hold"), std::string::npos) << what;
+}
+
+// A map that the file holds but render.memory_limit does not: refused before its pixels are
+// allocated, naming the key to raise.
+TEST(EnvironmentMap, MapLargerThanTheMemoryLimitIsRefusedBeforeItsPixelsAreRead)
+{
+    const std::string good = test::writeEnvMap("envmap_limit.exr", 64, 32, std::vector<float>(64 * 32 * 3, 0.5f));
+    Scene scene = sceneWithMap(good);
+    scene.render.memoryLimit = 4096.0f;
+    std::string what = "(no error)";
+    try {
+        EnvironmentMap::load(scene, 0);
+    } catch (const InputError& e) {
+        what = e.what();
+    }
+    EXPECT_NE(what.find("lights[0].map: cannot read"), std::string::npos) << what;
+    EXPECT_NE(what.find("its 64 x 32 pixels take"), std::string::npos) << what;
+    EXPECT_NE(what.find("render.memory_limit (4.0 KiB)"), std::string::npos) << what;
+    scene.render.memoryLimit = 0.0f;  // the default: 80% of physical memory
+    EXPECT_NE(EnvironmentMap::load(scene, 0), nullptr);
+}
