@@ -355,7 +355,7 @@ int orders3GridCells(const RenderContext& ctx)
             const double omega = double((&st.x)[c]) > 0.0 ? std::min(1.0, double((&ss.x)[c]) / double((&st.x)[c])) : 1.0;
             const double transport = cell * t * (1.0 - g * omega);  // the cell in transport mean free paths
             const double diffusion = cell * t * std::sqrt(std::max(0.0, 3.0 * (1.0 - omega) * (1.0 - g * omega)));
-            if (transport >= double(kSkinTransportLengths) || diffusion >= double(kSkinDiffusionLengths))
+            if (skinCellScale(transport, diffusion))
                 continue;  // skin cells where the camera sees such a medium
             want = std::max(want, std::ceil(double(kGridCells) * transport / kMaxCellTransportLengths));
         }

@@ -119,8 +119,7 @@ SkinCells findSkinCells(const RenderContext& ctx, const wkb::RadianceGrid& grid)
             }
         }
         const double cellTau = double(grid.cellSize()) * sigmaT;
-        if (cellTau * std::sqrt(absorb) < double(kSkinDiffusionLengths) &&
-            cellTau * transport < double(kSkinTransportLengths))
+        if (!skinCellScale(cellTau * transport, cellTau * std::sqrt(absorb)))
             return skin;
     }
     const Camera& cam = ctx.scene->camera;
@@ -255,10 +254,9 @@ SkinCells findSkinCells(const RenderContext& ctx, const wkb::RadianceGrid& grid)
         const double sigmaT = a[kStMax];  // the medium under the face, not the ramp the camera sees into
         const double omega = std::min(1.0, a[kSs] / a[kSt]);
         const double g = a[kSs] > 0.0 ? a[kSg] / a[kSs] : 0.0;
-        const double diffusion = 1.0 / (sigmaT * std::sqrt(std::max(1e-12, 3.0 * (1.0 - omega) * (1.0 - g * omega))));
-        const double transport = 1.0 / (sigmaT * (1.0 - g * omega));
-        if (double(grid.cellSize()) < double(kSkinDiffusionLengths) * diffusion &&
-            double(grid.cellSize()) < double(kSkinTransportLengths) * transport)
+        const double cellTau = double(grid.cellSize()) * sigmaT;
+        if (!skinCellScale(cellTau * (1.0 - g * omega),
+                           cellTau * std::sqrt(std::max(1e-12, 3.0 * (1.0 - omega) * (1.0 - g * omega)))))
             continue;
         skin.slot[c] = int(skin.count());
         for (int k = 0; k < 3; ++k)

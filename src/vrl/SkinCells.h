@@ -72,6 +72,14 @@ constexpr float kSkinTransportLengths = 2.0f;
 // The skin cells' neighbourhood whose numerators and denominators are summed (cells each side).
 constexpr int kSkinRadius = 2;
 
+// Whether a cell this many transport mean free paths 1 / (sigma_t (1 - g omega)) and diffusion
+// lengths 1 / (sigma_t sqrt(3 (1 - omega)(1 - g omega))) across is of a skin cell's size (the
+// thresholds above); findSkinCells, and orders3GridCells, which refines the cells short of it.
+inline bool skinCellScale(double transportLengths, double diffusionLengths)
+{
+    return transportLengths >= double(kSkinTransportLengths) || diffusionLengths >= double(kSkinDiffusionLengths);
+}
+
 struct SkinCells {
     std::vector<int> slot;      // per cell of the grid: its index among the skin cells, or -1
     std::vector<float> weight;  // per skin cell: int sigma_s T_cam dV per channel (m^2)
