@@ -70,6 +70,23 @@ double maxRatio(int compression)
     return compression >= 0 && compression < 10 ? ratio[compression] : kMaxImageRatio;
 }
 
+// A name from the file as it may appear in a message: printable ASCII kept, any other byte as
+// \xNN (a damaged header's names are arbitrary bytes; a message is one line of valid UTF-8).
+std::string printable(const std::string& name)
+{
+    std::string out;
+    for (const unsigned char c : name) {
+        if (c >= 0x20 && c < 0x7f && c != '\\') {
+            out += char(c);
+        } else {
+            char hex[8];
+            std::snprintf(hex, sizeof hex, "\\x%02x", unsigned(c));
+            out += hex;
+        }
+    }
+    return out;
+}
+
 std::string describe(const char* what, uint64_t claimed, uint64_t left)
 {
     char line[256];
@@ -138,7 +155,8 @@ std::string exrProblem(std::ifstream& in, uint64_t fileSize)
             if (r.bad)
                 return "its header ends early (truncated)";
             if (size < 0 || uint64_t(size) > left)
-                return describe(("its header attribute '" + name + "' claims").c_str(), uint64_t(uint32_t(size)), left);
+                return describe(("its header attribute '" + printable(name) + "' claims").c_str(), uint64_t(uint32_t(size)),
+                                left);
             const uint64_t end = here + uint64_t(size);
             // OpenEXR's C++ reader takes what a known type's value needs, not the size field
             // (a channel list up to its empty name, a fixed-size value whole, a preview its
@@ -150,7 +168,7 @@ std::string exrProblem(std::ifstream& in, uint64_t fileSize)
                 char line[512];
                 std::snprintf(line, sizeof line,
                               "its header attribute '%s' (%s) says %lld bytes but its value takes %llu (damaged)",
-                              name.c_str(), type.c_str(), static_cast<long long>(size),
+                              printable(name).c_str(), printable(type).c_str(), static_cast<long long>(size),
                               static_cast<unsigned long long>(takes));
                 return std::string(line);
             };
@@ -191,8 +209,12 @@ std::string exrProblem(std::ifstream& in, uint64_t fileSize)
                 std::string value(size_t(size), '\0');
                 in.read(&value[0], size);
                 p.deep = value.compare(0, 4, "deep") == 0;
-            } else if (name == "channels" && type == "chlist") {
-                // As OpenEXR reads it: up to the empty name, wherever the size field ends.
+            } else if (type == "chlist") {
+                // As OpenEXR reads it: up to the empty name, wherever the size field ends, and
+                // whatever the attribute's name (it reads a value by its type: fuzz_envmap, a
+                // 223-byte file whose "channel\x92s" list ran past its size field into a string
+                // attribute of 2 GB). Only "channels" describes the pixels.
+                const bool pixels = name == "channels";
                 std::string channel;
                 for (;;) {
                     if (!r.name(channel))
@@ -205,8 +227,10 @@ std::string exrProblem(std::ifstream& in, uint64_t fileSize)
                     const int64_t xs = std::max<int32_t>(1, r.i32()), ys = std::max<int32_t>(1, r.i32());
                     if (r.bad)
                         return "its header ends early (truncated)";
-                    p.bytesPerPixel += (pixelType == 1 ? 2.0 : 4.0) / double(xs * ys);
-                    p.bytesPerTilePixel += pixelType == 1 ? 2 : 4;
+                    if (pixels) {
+                        p.bytesPerPixel += (pixelType == 1 ? 2.0 : 4.0) / double(xs * ys);
+                        p.bytesPerTilePixel += pixelType == 1 ? 2 : 4;
+                    }
                 }
                 if (r.offset() != end)
                     return disagrees(r.offset() - here);

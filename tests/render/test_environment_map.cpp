@@ -305,3 +305,17 @@ TEST(EnvironmentMap, MapLargerThanTheMemoryLimitIsRefusedBeforeItsPixelsAreRead)
     scene.render.memoryLimit = 0.0f;  // the default: 80% of physical memory
     EXPECT_NE(EnvironmentMap::load(scene, 0), nullptr);
 }
+
+// OpenEXR reads an attribute's value by its type, whatever its name: a channel list named
+// "channel\x92s" is read up to its empty channel name, past its size field (fuzz_envmap,
+// 2026-12-06: a 223-byte file whose misnamed list ran 18 bytes past its 73 into a string
+// attribute that then claimed 2 GB). Refused unread, the name's byte escaped in the message.
+TEST(EnvironmentMap, ChannelListIsReadByItsTypeWhateverItsName)
+{
+    const std::string finding = std::string(NIMBUS_TEST_DIR) +
+                                "/../fuzz/regressions/envmap/exr_misnamed_channel_list_runs_into_2gb_string.exr";
+    const std::string what = loadError(finding);
+    EXPECT_NE(what.find("lights[0].map"), std::string::npos) << what;
+    EXPECT_NE(what.find("attribute 'channel\\x92s' (chlist) says 73 bytes but its value takes 91"), std::string::npos)
+        << what;
+}
