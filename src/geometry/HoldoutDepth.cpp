@@ -4,6 +4,7 @@
 #include "../core/ImageFileCheck.h"
 #include "../core/Log.h"
 #include "../core/MemoryLimit.h"
+#include "../core/OpenImageFile.h"
 
 #include "../../kernels/shared/holdoutdepth.h"
 
@@ -48,9 +49,10 @@ std::unique_ptr<HoldoutDepth> HoldoutDepth::load(const Scene& scene)
     const std::string claims = imageHeaderProblem(spec.file);
     if (!claims.empty())
         throw InputError(fileKey + ": cannot read " + quoted + ": " + claims);
-    auto in = OIIO::ImageInput::open(spec.file);
+    std::string openError;
+    auto in = openImageFile(spec.file, openError);
     if (!in)
-        throw InputError(fileKey + ": cannot read " + quoted + ": " + OIIO::geterror());
+        throw InputError(fileKey + ": cannot read " + quoted + ": " + openError);
     const OIIO::ImageSpec& is = in->spec();
     int channel = -1;
     std::string names;

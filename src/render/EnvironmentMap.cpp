@@ -3,6 +3,7 @@
 #include "../core/Error.h"
 #include "../core/ImageFileCheck.h"
 #include "../core/MemoryLimit.h"
+#include "../core/OpenImageFile.h"
 
 #include <OpenImageIO/imageio.h>
 
@@ -81,9 +82,10 @@ std::shared_ptr<const EnvironmentMap> EnvironmentMap::load(const Scene& scene, s
     const std::string claims = imageHeaderProblem(l.map);
     if (!claims.empty())
         throw InputError(where + ": cannot read " + quoted + ": " + claims);
-    auto in = OIIO::ImageInput::open(l.map);
+    std::string openError;
+    auto in = openImageFile(l.map, openError);
     if (!in)
-        throw InputError(where + ": cannot read " + quoted + ": " + OIIO::geterror());
+        throw InputError(where + ": cannot read " + quoted + ": " + openError);
     const OIIO::ImageSpec& is = in->spec();
     const int w = is.width, h = is.height, nc = is.nchannels;
     if (w < 1 || h < 1 || is.depth > 1)

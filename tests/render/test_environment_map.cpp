@@ -11,6 +11,7 @@
 #include "../../kernels/shared/rng.h"
 
 #include <boost/math/distributions/chi_squared.hpp>
+#include <OpenImageIO/imageio.h>
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -318,4 +319,33 @@ TEST(EnvironmentMap, ChannelListIsReadByItsTypeWhateverItsName)
     EXPECT_NE(what.find("lights[0].map"), std::string::npos) << what;
     EXPECT_NE(what.find("attribute 'channel\\x92s' (chlist) says 73 bytes but its value takes 91"), std::string::npos)
         << what;
+}
+
+// A map is read by the reader its extension names, and no other (src/core/OpenImageFile.h): a
+// PNG named .exr is refused as "not an OpenEXR file" instead of going to every reader
+// OpenImageIO has; the same PNG named .png, or without an extension, loads.
+TEST(EnvironmentMap, MapIsReadAsTheFormatItsExtensionNames)
+{
+    const std::string exr = test::writeEnvMap("envmap_as_png.exr", 8, 4, std::vector<float>(8 * 4 * 3, 0.5f));
+    const std::string dir = std::string(::testing::TempDir());
+    const std::string png = dir + "envmap_real.png", misnamed = dir + "envmap_png_named.exr",
+                      bare = dir + "envmap_png_no_extension";
+    {
+        auto in = OIIO::ImageInput::open(exr);
+        ASSERT_TRUE(in);
+        std::vector<float> pixels(8 * 4 * 3);
+        ASSERT_TRUE(in->read_image(0, 0, 0, 3, OIIO::TypeDesc::FLOAT, pixels.data()));
+        auto out = OIIO::ImageOutput::create(png);
+        ASSERT_TRUE(out);
+        ASSERT_TRUE(out->open(png, OIIO::ImageSpec(8, 4, 3, OIIO::TypeDesc::UINT8)));
+        ASSERT_TRUE(out->write_image(OIIO::TypeDesc::FLOAT, pixels.data()));
+        ASSERT_TRUE(out->close());
+    }
+    std::filesystem::copy_file(png, misnamed, std::filesystem::copy_options::overwrite_existing);
+    std::filesystem::copy_file(png, bare, std::filesystem::copy_options::overwrite_existing);
+    const std::string what = loadError(misnamed);
+    EXPECT_NE(what.find("lights[0].map: cannot read"), std::string::npos) << what;
+    EXPECT_NE(what.find("is not an OpenEXR file"), std::string::npos) << what;
+    EXPECT_EQ(loadError(png), "(no error)");
+    EXPECT_EQ(loadError(bare), "(no error)");
 }
