@@ -261,30 +261,35 @@ TEST(EnvironmentMap, HeadersClaimingMoreThanTheFileHoldsAreRefusedUnread)
     EXPECT_NE(message.find("more than its"), std::string::npos) << message;
 }
 
-// OpenEXR reads a channel list up to its empty name and a fixed-size value whole, whatever the
-// attribute's size field says; where the two disagree it reads the rest of the header from
-// elsewhere than the check would (fuzz bug 9: a 204-byte file whose channel list "of 55 bytes"
-// ends elsewhere, after which OpenEXR read an opaque attribute of 842 MB). Refused unread.
-TEST(EnvironmentMap, HeaderWhoseAttributeSizesDisagreeWithTheirValuesIsRefused)
+// Saved fuzz_envmap findings whose headers describe more than the file holds, each refused
+// before OpenImageIO or the loader allocates what it claims, with the line that says why:
+// - OpenEXR reads a channel list up to its empty name and a fixed-size value whole, whatever the
+//   attribute's size field says; where the two disagree it reads the rest of the header from
+//   elsewhere than the check would (fuzz bug 9: a 204-byte file whose channel list "of 55 bytes"
+//   ends elsewhere, after which OpenEXR read an opaque attribute of 842 MB);
+// - it reads a value by its type whatever its name (2026-12-06: a channel list named
+//   "channel\x92s" ran 18 bytes past its 73 into a string attribute that claimed 2 GB; the
+//   name's byte escaped in the message);
+// - OpenImageIO 2.4 opens a Radiance header without its "#?" (2026-12-06: a 161-byte
+//   "v/RADIANCE" file named .exr, "-Y 4 +X 888..." read as 2^31 - 1 pixels wide; the load then
+//   allocated 103 GB).
+TEST(EnvironmentMap, SavedFindingsAreRefusedUnread)
 {
-    const std::string finding = std::string(NIMBUS_TEST_DIR) +
-                                "/../fuzz/regressions/envmap/exr_channel_list_size_disagrees_then_842mb_attribute_oom.exr";
-    const std::string what = loadError(finding);
-    EXPECT_NE(what.find("lights[0].map"), std::string::npos) << what;
-    EXPECT_NE(what.find("attribute 'channels' (chlist) says 55 bytes but its value takes"), std::string::npos)
-        << what;
-}
-
-// OpenImageIO 2.4 opens a Radiance header without its "#?" (fuzz_envmap, 2026-12-06: a 161-byte
-// "v/RADIANCE" file named .exr, "-Y 4 +X 888..." read as 2^31 - 1 pixels wide; the load then
-// allocated 103 GB). Refused before a pixel is allocated, naming the light's key.
-TEST(EnvironmentMap, RadianceHeaderWithoutItsMagicIsHeldToTheFilesSize)
-{
-    const std::string finding = std::string(NIMBUS_TEST_DIR) +
-                                "/../fuzz/regressions/envmap/radiance_header_without_magic_width_int_max_103_gb.exr";
-    const std::string what = loadError(finding);
-    EXPECT_NE(what.find("lights[0].map: cannot read"), std::string::npos) << what;
-    EXPECT_NE(what.find("more than its 161 bytes can hold"), std::string::npos) << what;
+    const struct {
+        const char* file;
+        const char* why;
+    } findings[] = {
+        {"exr_channel_list_size_disagrees_then_842mb_attribute_oom.exr",
+         "attribute 'channels' (chlist) says 55 bytes but its value takes 24"},
+        {"exr_misnamed_channel_list_runs_into_2gb_string.exr",
+         "attribute 'channel\\x92s' (chlist) says 73 bytes but its value takes 91"},
+        {"radiance_header_without_magic_width_int_max_103_gb.exr", "more than its 161 bytes can hold"},
+    };
+    for (const auto& f : findings) {
+        const std::string what = loadError(std::string(NIMBUS_TEST_DIR) + "/../fuzz/regressions/envmap/" + f.file);
+        EXPECT_NE(what.find("lights[0].map: cannot read"), std::string::npos) << f.file << ": " << what;
+        EXPECT_NE(what.find(f.why), std::string::npos) << f.file << ": " << what;
+    }
 }
 
 // A map that the file holds but render.memory_limit does not: refused before its pixels are
@@ -305,20 +310,6 @@ TEST(EnvironmentMap, MapLargerThanTheMemoryLimitIsRefusedBeforeItsPixelsAreRead)
     EXPECT_NE(what.find("render.memory_limit (4.0 KiB)"), std::string::npos) << what;
     scene.render.memoryLimit = 0.0f;  // the default: 80% of physical memory
     EXPECT_NE(EnvironmentMap::load(scene, 0), nullptr);
-}
-
-// OpenEXR reads an attribute's value by its type, whatever its name: a channel list named
-// "channel\x92s" is read up to its empty channel name, past its size field (fuzz_envmap,
-// 2026-12-06: a 223-byte file whose misnamed list ran 18 bytes past its 73 into a string
-// attribute that then claimed 2 GB). Refused unread, the name's byte escaped in the message.
-TEST(EnvironmentMap, ChannelListIsReadByItsTypeWhateverItsName)
-{
-    const std::string finding = std::string(NIMBUS_TEST_DIR) +
-                                "/../fuzz/regressions/envmap/exr_misnamed_channel_list_runs_into_2gb_string.exr";
-    const std::string what = loadError(finding);
-    EXPECT_NE(what.find("lights[0].map"), std::string::npos) << what;
-    EXPECT_NE(what.find("attribute 'channel\\x92s' (chlist) says 73 bytes but its value takes 91"), std::string::npos)
-        << what;
 }
 
 // A map is read by the reader its extension names, and no other (src/core/OpenImageFile.h): a
