@@ -1,7 +1,6 @@
 #include "HoldoutDepth.h"
 
 #include "../core/Error.h"
-#include "../core/ImageFileCheck.h"
 #include "../core/Log.h"
 #include "../core/MemoryLimit.h"
 #include "../core/OpenImageFile.h"
@@ -45,14 +44,13 @@ std::unique_ptr<HoldoutDepth> HoldoutDepth::load(const Scene& scene)
     std::error_code ec;
     if (!std::filesystem::exists(spec.file, ec))
         throw InputError(fileKey + ": cannot open " + quoted + ": no such file");
-    // What the header claims must fit in the file before OpenImageIO allocates it.
-    const std::string claims = imageHeaderProblem(spec.file);
-    if (!claims.empty())
-        throw InputError(fileKey + ": cannot read " + quoted + ": " + claims);
-    std::string openError;
-    auto in = openImageFile(spec.file, openError);
+    // Every check before a pixel is allocated: the depth channel read (a float a pixel) and the
+    // map kept (another).
+    std::string problem;
+    auto in = openCheckedImage(spec.file, [](int) { return 8.0; },
+                               memoryLimitBytes(double(scene.render.memoryLimit)), problem);
     if (!in)
-        throw InputError(fileKey + ": cannot read " + quoted + ": " + openError);
+        throw InputError(fileKey + ": cannot read " + quoted + ": " + problem);
     const OIIO::ImageSpec& is = in->spec();
     int channel = -1;
     std::string names;
@@ -66,11 +64,6 @@ std::unique_ptr<HoldoutDepth> HoldoutDepth::load(const Scene& scene)
         throw InputError(where + "camera.holdout_depth.channel: no channel '" + spec.channel + "' in " + quoted +
                          " (channels: " + names + ")");
     const int w = is.width, h = is.height, cw = scene.camera.width, ch = scene.camera.height;
-    // Before a pixel is allocated: the depth channel read (a float a pixel) and the map kept.
-    const std::string size =
-        imagePixelsProblem(spec.file, w, h, is.nchannels, 8.0, memoryLimitBytes(double(scene.render.memoryLimit)));
-    if (!size.empty())
-        throw InputError(fileKey + ": cannot read " + quoted + ": " + size);
     if (w != cw || h != ch) {
         // Same aspect within half a pixel of the larger image: a proxy or a higher-resolution
         // render of the same frame.

@@ -1,7 +1,6 @@
 #include "EnvironmentMap.h"
 
 #include "../core/Error.h"
-#include "../core/ImageFileCheck.h"
 #include "../core/MemoryLimit.h"
 #include "../core/OpenImageFile.h"
 
@@ -78,24 +77,15 @@ std::shared_ptr<const EnvironmentMap> EnvironmentMap::load(const Scene& scene, s
     std::error_code ec;
     if (!std::filesystem::is_regular_file(l.map, ec))
         throw InputError(where + ": cannot open " + quoted + ": no such file");
-    // What the header claims must fit in the file before OpenImageIO allocates it.
-    const std::string claims = imageHeaderProblem(l.map);
-    if (!claims.empty())
-        throw InputError(where + ": cannot read " + quoted + ": " + claims);
-    std::string openError;
-    auto in = openImageFile(l.map, openError);
+    // Every check before a pixel is allocated: the reading buffer (nc floats a pixel), the RGB
+    // copy (3) and the map with its sampling CDFs (4) are held at once.
+    std::string problem;
+    auto in = openCheckedImage(l.map, [](int nc) { return 4.0 * (nc + 3 + 4); },
+                               memoryLimitBytes(double(scene.render.memoryLimit)), problem);
     if (!in)
-        throw InputError(where + ": cannot read " + quoted + ": " + openError);
+        throw InputError(where + ": cannot read " + quoted + ": " + problem);
     const OIIO::ImageSpec& is = in->spec();
     const int w = is.width, h = is.height, nc = is.nchannels;
-    if (w < 1 || h < 1 || is.depth > 1)
-        throw InputError(where + ": " + quoted + " is not a 2-D image");
-    // Before a pixel is allocated: the reading buffer (nc floats a pixel), the RGB copy (3) and
-    // the map with its sampling CDFs (4) are held at once.
-    const std::string size =
-        imagePixelsProblem(l.map, w, h, nc, 4.0 * (nc + 3 + 4), memoryLimitBytes(double(scene.render.memoryLimit)));
-    if (!size.empty())
-        throw InputError(where + ": cannot read " + quoted + ": " + size);
     std::vector<float> pixels(size_t(w) * size_t(h) * size_t(nc));
     if (!in->read_image(0, 0, 0, nc, OIIO::TypeDesc::FLOAT, pixels.data()))
         throw InputError(where + ": cannot read " + quoted + ": " + in->geterror());
