@@ -544,6 +544,18 @@ class Cli(unittest.TestCase):
         s["camera"]["holdout_depth"] = {"file": "z.exr", "channel": "depth"}
         self.expect_bad_input(["render", self.scene_file(s)], "camera.holdout_depth.channel", "depth", "Z")
 
+    # OpenImageIO reads a .vdb as a volume image (its OpenVDB reader): a map must be 2-D, a depth
+    # map as an environment map (src/core/OpenImageFile.h, openCheckedImage).
+    def test_volume_image_as_a_map_is_refused(self):
+        write_vdb(os.path.join(self.d, "fog.vdb"), [((i, j, k), 1.0) for i in range(4) for j in range(4)
+                                                     for k in range(3)])
+        s = small_scene()
+        s["camera"]["holdout_depth"] = {"file": "fog.vdb"}
+        self.expect_bad_input(["render", self.scene_file(s)], "camera.holdout_depth.file", "fog.vdb",
+                              "not a 2-D image")
+        s = small_scene(lights=[{"name": "sky", "type": "environment", "map": "fog.vdb"}])
+        self.expect_bad_input(["render", self.scene_file(s)], "lights[0].map", "fog.vdb", "not a 2-D image")
+
     def test_info_lists_geometry(self):
         with open(os.path.join(self.d, "t.obj"), "w") as f:
             f.write("v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nf 1 2 3 4\n")
