@@ -317,15 +317,11 @@ TEST(EnvironmentMap, MapLargerThanTheMemoryLimitIsRefusedBeforeItsPixelsAreRead)
 // OpenImageIO has; the same PNG named .png, or without an extension, loads.
 TEST(EnvironmentMap, MapIsReadAsTheFormatItsExtensionNames)
 {
-    const std::string exr = test::writeEnvMap("envmap_as_png.exr", 8, 4, std::vector<float>(8 * 4 * 3, 0.5f));
     const std::string dir = std::string(::testing::TempDir());
     const std::string png = dir + "envmap_real.png", misnamed = dir + "envmap_png_named.exr",
                       bare = dir + "envmap_png_no_extension";
     {
-        auto in = OIIO::ImageInput::open(exr);
-        ASSERT_TRUE(in);
-        std::vector<float> pixels(8 * 4 * 3);
-        ASSERT_TRUE(in->read_image(0, 0, 0, 3, OIIO::TypeDesc::FLOAT, pixels.data()));
+        const std::vector<float> pixels(8 * 4 * 3, 0.5f);
         auto out = OIIO::ImageOutput::create(png);
         ASSERT_TRUE(out);
         ASSERT_TRUE(out->open(png, OIIO::ImageSpec(8, 4, 3, OIIO::TypeDesc::UINT8)));
