@@ -3,6 +3,7 @@
 #include "../core/Error.h"
 #include "../core/OneLine.h"
 
+#include <assimp/DefaultIOSystem.h>
 #include <assimp/Importer.hpp>
 #include <assimp/postprocess.h>
 #include <assimp/scene.h>
@@ -318,9 +319,9 @@ int objAtoi(const char* p)
 // walk on there, in the leftovers, or past the buffer's end where the line fills it (a file of one
 // line: an over-read that ASan reports in Assimp's strtol): such a face is no OBJ (a corner has
 // at most v/vt/vn), and the walk returns false for objIndexProblem to refuse the file. Calls
-// position(value) for each value in the position's field until it returns false; stops at a 0
-// (atoi's answer to a word that is no number: Assimp throws "OBJ: Invalid face index." while
-// parsing, before there is any mesh to leak).
+// position(value) for each value in the position's field until it returns false; stops at a 0,
+// given to position too (atoi's answer to a word that is no number: Assimp throws "OBJ: Invalid
+// face index." while parsing, before there is any mesh to leak).
 template <class Position>
 bool objFacePositions(const char* line, size_t size, bool texcoords, bool normals, Position&& position)
 {
@@ -346,8 +347,10 @@ bool objFacePositions(const char* line, size_t size, bool texcoords, bool normal
                 ++step;
             if (field == 1 && !texcoords && normals)
                 field = 2;
-            if (value == 0)
+            if (value == 0) {
+                position(0);
                 return true;
+            }
             if (field > 2)
                 return false;  // a fourth field: refused (objIndexProblem)
             if (field == 0 && !position(value))
@@ -410,7 +413,11 @@ std::string objIndexProblem(const std::string& path)
         } else if (k == 'c') {
             curves = objWord(line, "cstype");
         } else if (k == 'f' || k == 'l' || k == 'p') {
+            int corners = 0;
+            bool zero = false;  // Assimp's own error
             const bool threeFields = objFacePositions(line, lines.size(), texcoords, normals, [&](int i) {
+                zero |= i == 0;
+                ++corners;
                 if (i < 0 && i < -seen) {
                     relative = i;
                     return false;
@@ -422,6 +429,13 @@ std::string objIndexProblem(const std::string& path)
             if (!threeFields)
                 return "line " + std::to_string(objLineNumber(text, lines.start())) + " ('" + std::string(1, k) +
                        "') has a corner of more than three fields (position/texture/normal) (damaged)";
+            // A line of one corner: Assimp 5.2 counts a line's segments (corners - 1, none here) but
+            // copies its corners, and throws "OBJ: no vertices" or "OBJ: bad vertex index" after the
+            // meshes of the groups before it are made, which it leaks (fuzz_mesh: "p 1", "g 4",
+            // "l 2", 1,552 bytes). Assimp reads no file with such a line.
+            if (k == 'l' && corners == 1 && !zero)
+                return "line " + std::to_string(objLineNumber(text, lines.start())) +
+                       " ('l') has one corner; a line needs two or more (damaged)";
             if (relative != 0)
                 return "line " + std::to_string(objLineNumber(text, lines.start())) + " ('" + std::string(1, k) +
                        "') names position " + std::to_string(relative) + " (relative) after " + std::to_string(seen) +
@@ -434,6 +448,34 @@ std::string objIndexProblem(const std::string& path)
                " positions (damaged)";
     return "";
 }
+
+// The files Assimp may open: the mesh file, and nothing else. An OBJ's "mtllib" names a material
+// library, which nimbus drops (aiComponent_MATERIALS below), and Assimp 5.2 opens whatever the
+// name resolves to: one that ends in '/' or is "." or ".." resolves to a folder, whose read fails
+// with "File read error" after the stream is open, and the stream leaks (fuzz_mesh: "mtllib miss/"
+// after a face, 56 bytes per load; the CI's smoke run found it); a FIFO or a device named there
+// would be read too. Here the library is not found, which Assimp skips with a log line.
+class MeshFileOnly : public Assimp::DefaultIOSystem {
+public:
+    explicit MeshFileOnly(std::string path) : mPath(std::move(path)) {}
+    bool Exists(const char* file) const override { return isMeshFile(file) && DefaultIOSystem::Exists(file); }
+    Assimp::IOStream* Open(const char* file, const char* mode = "rb") override
+    {
+        return isMeshFile(file) ? DefaultIOSystem::Open(file, mode) : nullptr;
+    }
+
+private:
+    bool isMeshFile(const char* file) const
+    {
+        if (!file)
+            return false;
+        if (mPath == file)
+            return true;
+        std::error_code ec;
+        return std::filesystem::equivalent(mPath, file, ec) && !ec;
+    }
+    std::string mPath;
+};
 
 }  // namespace
 
@@ -456,6 +498,7 @@ TriangleMesh readMeshFile(const std::string& path, const std::string& key)
     }
 
     Assimp::Importer importer;
+    importer.SetIOHandler(new MeshFileOnly(path));  // the importer owns it
     // Only positions and faces: drop normals, UVs, colours, materials before the post-steps.
     importer.SetPropertyInteger(AI_CONFIG_PP_RVC_FLAGS, aiComponent_NORMALS | aiComponent_TANGENTS_AND_BITANGENTS |
                                                             aiComponent_COLORS | aiComponent_TEXCOORDS |
