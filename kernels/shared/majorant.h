@@ -75,7 +75,7 @@ NB_FN float nbSlotMajorant(NB_GLOBAL const NbVolumeDesc* vd, NB_GLOBAL const flo
     float m = vd->sigma_t[3] * nbGridMajorant(vd->density, majorants, cx, cy, cz);
 #if NB_HAS_EMISSION
     if (vd->emission.dims[3] > 0 && nbGridMajorant(vd->emission, majorants, cx, cy, cz) > 0.0f)
-        m = fmax(m, vd->boundsLo[3]);
+        m = nbFmax(m, vd->boundsLo[3]);
 #endif
     return m;
 }
@@ -89,7 +89,7 @@ NB_FN float nbVolumeMajorant(NB_GLOBAL const NbVolumeDesc* vd)
     float m = vd->sigma_t[3] * vd->density.maxValue;
 #if NB_HAS_EMISSION
     if (vd->emission.dims[3] > 0 && vd->emission.maxValue > 0.0f)
-        m = fmax(m, vd->boundsLo[3]);
+        m = nbFmax(m, vd->boundsLo[3]);
 #endif
     return m;
 }
@@ -144,8 +144,8 @@ NB_FN void nbMajorantInit(NB_PRIVATE NbMajorantIter* it, NB_GLOBAL const NbVolum
                 continue;
             }
             float ta = (lo - oa) / da, tb = (hi - oa) / da;
-            t0 = fmax(t0, fmin(ta, tb));
-            t1 = fmin(t1, fmax(ta, tb));
+            t0 = nbFmax(t0, nbFmin(ta, tb));
+            t1 = nbFmin(t1, nbFmax(ta, tb));
         }
         if (hit && t0 < t1) {
             it->state[v] = 0;
@@ -177,7 +177,7 @@ NB_FN void nbMajorantStep(NB_PRIVATE NbMajorantIter* it, int v, NB_GLOBAL const 
             nbBrickDdaAxis(dda, a, c, nbComponent(it->o[v], a), nbComponent(it->d[v], a));
         }
         it->maj[v] = nbSlotMajorant(vd, majorants, dda->cell[0], dda->cell[1], dda->cell[2]);
-        it->tEvent[v] = fmin(fmin(dda->tNext[0], fmin(dda->tNext[1], dda->tNext[2])), it->tEnd[v]);
+        it->tEvent[v] = nbFmin(nbFmin(dda->tNext[0], nbFmin(dda->tNext[1], dda->tNext[2])), it->tEnd[v]);
 #endif
         return;
     }
@@ -186,7 +186,7 @@ NB_FN void nbMajorantStep(NB_PRIVATE NbMajorantIter* it, int v, NB_GLOBAL const 
     if (dda->tNext[axis] < it->tEnd[v]) {
         nbBrickDdaAdvance(dda, axis);
         it->maj[v] = nbSlotMajorant(vd, majorants, dda->cell[0], dda->cell[1], dda->cell[2]);
-        it->tEvent[v] = fmin(fmin(dda->tNext[0], fmin(dda->tNext[1], dda->tNext[2])), it->tEnd[v]);
+        it->tEvent[v] = nbFmin(nbFmin(dda->tNext[0], nbFmin(dda->tNext[1], dda->tNext[2])), it->tEnd[v]);
         return;
     }
 #endif
@@ -206,7 +206,7 @@ NB_FN int nbMajorantNext(NB_PRIVATE NbMajorantIter* it, NB_GLOBAL const NbVolume
         for (int v = 0; v < NB_NUM_VOLUMES; ++v) {
             while (it->state[v] != 2 && it->tEvent[v] <= it->t)
                 nbMajorantStep(it, v, vols, majorants);
-            tE = fmin(tE, it->tEvent[v]);
+            tE = nbFmin(tE, it->tEvent[v]);
             m += it->maj[v];
         }
         if (!(tE < NB_INF))
@@ -243,9 +243,9 @@ NB_FN void nbMajorantDensities(NB_PRIVATE const NbMajorantIter* it, NB_GLOBAL co
         rho[v] = 0.0f;
         if (it->state[v] == 1)
 #if NB_GRID_PNANOVDB
-            rho[v] = fmax(0.0f, nbNanoSample(vols[v].density, pools, nbMajorantLookup(it, vols, v, tables, pools)));
+            rho[v] = nbFmax(0.0f, nbNanoSample(vols[v].density, pools, nbMajorantLookup(it, vols, v, tables, pools)));
 #else
-            rho[v] = fmax(0.0f, nbGridSample(vols[v].density, tables, pools, nbMajorantLookup(it, vols, v, tables, pools)));
+            rho[v] = nbFmax(0.0f, nbGridSample(vols[v].density, tables, pools, nbMajorantLookup(it, vols, v, tables, pools)));
 #endif
     }
 }

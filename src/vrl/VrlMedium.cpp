@@ -132,7 +132,7 @@ float3 VrlMedium::scattering(float3 p, float cosTheta) const
         // Velocity blur: the density read back along the velocity, as nbMajorantLookup.
         if (vd.velocity.dims[3] > 0)
             q = q - nbGridSample3(vd.velocity, mPs->tables.data(), mPs->pools.data(), q) * mSeconds;
-        const float rho = std::fmax(0.0f, nbGridSample(vd.density, mPs->tables.data(), mPs->pools.data(), q));
+        const float rho = nbFmax(0.0f, nbGridSample(vd.density, mPs->tables.data(), mPs->pools.data(), q));
         if (rho > 0.0f)
             out += nbLoad3(vd.sigma_s) * (rho * nbPhaseEval(vd.phase, cosTheta));
     }
@@ -147,8 +147,8 @@ bool VrlMedium::span(float3 o, float3 d, float tMin, float tMax, float& t0, floa
     t1 = -INFINITY;
     for (int v = 0; v < mCount; ++v)
         if (it.state[v] == 0) {
-            t0 = std::fmin(t0, it.tEvent[v]);
-            t1 = std::fmax(t1, it.tEnd[v]);
+            t0 = nbFmin(t0, it.tEvent[v]);
+            t1 = nbFmax(t1, it.tEnd[v]);
         }
     return t1 > t0;
 }
