@@ -391,7 +391,7 @@ std::shared_ptr<const wkb::RadianceGrid> traceOrders3(const RenderContext& ctx, 
     if (ctx.volumes.empty() || (options.paths <= 0 && options.maxPaths <= 0))
         return nullptr;
     PathtraceScene ps = buildPathtraceScene(ctx);
-    VrlMedium medium(ps);
+    const VrlMedium medium(ps, false);  // free flights only: no slot minorants
     LightPass pass(ctx, ps, medium, 0);  // unbounded: wkb has no depth cap
     if (pass.empty())
         return nullptr;

@@ -1,5 +1,6 @@
 #include "VrlMedium.h"
 
+#include <algorithm>
 #include <cmath>
 
 namespace nimbus::vrl {
@@ -18,6 +19,47 @@ float weighted(float3 w, float3 v)
 }
 
 }  // namespace
+
+VrlMedium::VrlMedium(const PathtraceScene& ps, bool residual)
+    : mPs(&ps), mCount(int(ps.volumes.size())), mSlotMin(ps.volumes.size())
+{
+    if (!residual || ps.pnanovdb)
+        return;
+    for (size_t v = 0; v < ps.volumes.size(); ++v) {
+        const NbVolumeDesc& vd = ps.volumes[v];
+        const NbGridDesc& g = vd.density;
+        if (g.dims[3] <= 0 || vd.velocity.dims[3] > 0)
+            continue;
+        const size_t slots = size_t(g.dims[0]) * size_t(g.dims[1]) * size_t(g.dims[2]);
+        const size_t channels = size_t(g.dims[3]);
+        std::vector<float>& out = mSlotMin[v];
+        out.assign(slots, 0.0f);
+        for (size_t slot = 0; slot < slots; ++slot) {
+            const int brick = ps.tables[g.tableOffset + slot];
+            if (brick < 0)
+                continue;  // an empty slot reads 0
+            const float* q = ps.pools.data() + g.poolOffset + size_t(brick) * NB_BRICK_VALUES * channels;
+            float least = q[0];
+            for (size_t i = 1; i < NB_BRICK_VALUES; ++i)
+                least = std::min(least, q[i * channels]);
+            out[slot] = std::max(0.0f, least);  // densities are read as max(0, value)
+        }
+    }
+}
+
+float3 VrlMedium::control(const NbMajorantIter& it) const
+{
+    float3 c = make_float3(0, 0, 0);
+    for (int v = 0; v < mCount; ++v) {
+        if (it.state[v] != 1 || mSlotMin[size_t(v)].empty())
+            continue;
+        const NbVolumeDesc& vd = mPs->volumes[size_t(v)];
+        const int slot = nbGridSlot(vd.density, it.dda[v].cell[0], it.dda[v].cell[1], it.dda[v].cell[2]);
+        if (slot >= 0)
+            c += nbLoad3(vd.sigma_t) * mSlotMin[size_t(v)][size_t(slot)];
+    }
+    return c;
+}
 
 FlightResult VrlMedium::freeFlight(float3 o, float3 d, float tEnd, float3& w, NbRng& rng, float3* emission) const
 {
@@ -85,34 +127,58 @@ float3 VrlMedium::transmittance(float3 o, float3 d, float tMax, NbRng& rng) cons
 {
     const PathtraceScene& ps = *mPs;
     const NbVolumeDesc* vols = ps.volumes.data();
-    float3 T = make_float3(1, 1, 1);
+    // T: the product of the residual factors (and the roulette's weights); tauC: the control's
+    // optical depth so far. The estimate is T e^-tauC.
+    float3 T = make_float3(1, 1, 1), tauC = make_float3(0, 0, 0);
     NbMajorantIter it;
     nbMajorantInit(&it, vols, mCount, o, d, 0.0f, tMax, mSeconds, ps.majorants.data());
     float tau = -std::log(rngOpen(rng));
     float segEnd, mu;
     float rho[NB_NUM_VOLUMES];
+    // Russian roulette where the estimate's largest channel falls below 0.1: survive with
+    // probability 10 m, then divide by it. A bound without the RGB exponential (the least
+    // channel's control depth) skips the exact value where the estimate is clearly above 0.1.
+    auto survives = [&]() {
+        const float least = std::min(tauC.x, std::min(tauC.y, tauC.z));
+        if (nbMaxComponent(T) * std::exp(-least) < 0.1f) {
+            const float m = nbMaxComponent(T * exp(-tauC));
+            if (m < 0.1f) {
+                if (nbRngNext(&rng) >= m * 10.0f)
+                    return false;
+                T = T / (m * 10.0f);
+            }
+        }
+        return true;
+    };
     while (nbMajorantNext(&it, vols, ps.majorants.data(), &segEnd, &mu)) {
-        const float span = mu * (segEnd - it.t);
-        if (tau >= span) {
-            tau -= span;
-            it.t = segEnd;
-            continue;
-        }
-        it.t = advance(it.t, tau / mu);
-        nbMajorantDensities(&it, vols, ps.tables.data(), ps.pools.data(), rho);
-        float3 sigma_t = make_float3(0, 0, 0);
-        for (int v = 0; v < mCount; ++v)
-            sigma_t += nbLoad3(vols[v].sigma_t) * rho[v];
-        T = T * fmax(make_float3(0, 0, 0), make_float3(1, 1, 1) - sigma_t / mu);
-        const float m = nbMaxComponent(T);
-        if (m < 0.1f) {  // Russian roulette: survive with probability 10 m
-            if (nbRngNext(&rng) >= m * 10.0f)
+        // Residual ratio tracking over this stretch (see the header): the control's depth in
+        // closed form, tentative collisions at the residual rate muR.
+        const float3 sigmaC = control(it);
+        const float muR = std::max(0.0f, mu - std::min(sigmaC.x, std::min(sigmaC.y, sigmaC.z)));
+        for (;;) {
+            const float span = muR * (segEnd - it.t);
+            if (!(tau < span)) {
+                tauC += sigmaC * (segEnd - it.t);
+                tau -= span;
+                it.t = segEnd;
+                break;
+            }
+            const float dt = tau / muR;
+            tauC += sigmaC * dt;
+            it.t = advance(it.t, dt);
+            nbMajorantDensities(&it, vols, ps.tables.data(), ps.pools.data(), rho);
+            float3 sigma_t = make_float3(0, 0, 0);
+            for (int v = 0; v < mCount; ++v)
+                sigma_t += nbLoad3(vols[v].sigma_t) * rho[v];
+            T = T * fmax(make_float3(0, 0, 0), make_float3(1, 1, 1) - (sigma_t - sigmaC) / muR);
+            if (!survives())
                 return make_float3(0, 0, 0);
-            T = T / (m * 10.0f);
+            tau = -std::log(rngOpen(rng));
         }
-        tau = -std::log(rngOpen(rng));
+        if (!survives())
+            return make_float3(0, 0, 0);
     }
-    return T;
+    return T * exp(-tauC);
 }
 
 float3 VrlMedium::scattering(float3 p, float cosTheta) const
