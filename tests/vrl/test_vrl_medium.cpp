@@ -36,6 +36,20 @@ float lengthInside(float3 o, float3 d, float3 lo, float3 hi)
     return std::max(0.0f, t1 - t0);
 }
 
+// Rays from a cube of half-size `reach` about the origin towards a point within `aim` of it.
+struct RandomRays {
+    std::mt19937 gen;
+    std::uniform_real_distribution<float> u{-1, 1};
+    float reach, aim;
+
+    RandomRays(unsigned seed, float reach_, float aim_) : gen(seed), reach(reach_), aim(aim_) {}
+    void next(float3& o, float3& d)
+    {
+        o = make_float3(reach * u(gen), reach * u(gen), reach * u(gen));
+        d = normalize(make_float3(aim * u(gen), aim * u(gen), aim * u(gen)) - o);
+    }
+};
+
 }  // namespace
 
 TEST(VrlMedium, TransmittanceIsExactInAHomogeneousMedium)
@@ -47,13 +61,12 @@ TEST(VrlMedium, TransmittanceIsExactInAHomogeneousMedium)
     w.volumes = {boxVolume(lo, hi, {3, 3, 3}, medium(make_float3(0.25f, 0.4f, 0.3f), make_float3(0.05f, 0.1f, 0.3f)))};
     PathtraceScene ps = buildPathtraceScene(w.context());
     const vrl::VrlMedium m(ps);
-    std::mt19937 gen(3);
-    std::uniform_real_distribution<float> u(-1, 1);
+    RandomRays rays(3, 3.0f, 0.5f);
     NbRng rng = nbRngStart(5, 1, 2);
     int crossing = 0;
     for (int r = 0; r < 50; ++r) {
-        const float3 o = make_float3(3 * u(gen), 3 * u(gen), 3 * u(gen));
-        const float3 d = normalize(make_float3(0.5f * u(gen), 0.5f * u(gen), 0.5f * u(gen)) - o);
+        float3 o, d;
+        rays.next(o, d);
         const float L = lengthInside(o, d, lo, hi);
         const float3 sigmaT = make_float3(0.3f, 0.5f, 0.6f);
         crossing += L > 1.0f;
@@ -84,13 +97,12 @@ TEST(VrlMedium, TransmittanceIsUnbiasedInHeterogeneousChromaticMedia)
     const RenderContext& ctx = w.context();
     PathtraceScene ps = buildPathtraceScene(ctx);
     const vrl::VrlMedium m(ps);
-    std::mt19937 gen(11);
-    std::uniform_real_distribution<float> u(-1, 1);
+    RandomRays rays(11, 2.5f, 0.4f);
     NbRng rng = nbRngStart(9, 4, 1);
     int checked = 0;
     for (int r = 0; r < 12; ++r) {
-        const float3 o = make_float3(2.5f * u(gen), 2.5f * u(gen), 2.5f * u(gen));
-        const float3 d = normalize(make_float3(0.4f * u(gen), 0.4f * u(gen), 0.4f * u(gen)) - o);
+        float3 o, d;
+        rays.next(o, d);
         const float tMax = 6.0f;
         // e^{-int sigma_t}: midpoint rule on 20000 steps.
         double tau[3] = {0, 0, 0};
