@@ -5,8 +5,8 @@
 //  - freeFlight: delta tracking with the spectral-tracking choice of events (Kutz et al. 2017),
 //    the throughput w updated as in nbTracePath;
 //  - transmittance: residual ratio tracking (Novak, Selle and Jarosz 2014, "Residual ratio
-//    tracking for estimating attenuation in participating media"), with Russian roulette below 0.1 as
-//    nbRatioTransmittance. Over each stretch of constant majorant mu, the control extinction
+//    tracking for estimating attenuation in participating media"), with Russian roulette below
+//    0.1 as nbRatioTransmittance. Over each stretch of constant majorant mu, the control extinction
 //    sigma_c is the stretch's minorant, sum_v sigma_t,v min_v, min_v the least density value
 //    of volume v's brick slot there (the smallest of the 9^3 values a trilinear lookup in the
 //    slot reads, an exact lower bound, as the slot majorant is an exact upper one). Then

@@ -86,11 +86,12 @@ TEST(VrlMedium, TransmittanceIsUnbiasedInHeterogeneousChromaticMedia)
 {
     World w(4, 4);
     // A cloud with holes (empty bricks) and a second, overlapping volume of another colour.
-    auto a = boxVolume(make_float3(-1, -1, -1), make_float3(1, 1, 1), {3, 3, 3},
-                       medium(make_float3(1, 2, 3), splat(0.5f)), [](float3 p) {
-                           const float r = length(p - splat(0.5f));
-                           return r < 0.45f ? (0.6f + 0.4f * std::sin(9 * p.x) * std::cos(7 * p.y)) * (r > 0.15f) : 0.0f;
-                       });
+    auto a =
+        boxVolume(make_float3(-1, -1, -1), make_float3(1, 1, 1), {3, 3, 3}, medium(make_float3(1, 2, 3), splat(0.5f)),
+                  [](float3 p) {
+                      const float r = length(p - splat(0.5f));
+                      return r < 0.45f ? (0.6f + 0.4f * std::sin(9 * p.x) * std::cos(7 * p.y)) * (r > 0.15f) : 0.0f;
+                  });
     auto b = boxVolume(make_float3(-0.3f, -0.8f, -0.2f), make_float3(0.9f, 0.5f, 0.4f), {2, 2, 1},
                        medium(make_float3(3, 1, 0.5f), splat(0.2f)), [](float3 p) { return 0.5f + 0.5f * p.x; });
     w.volumes = {a, b};
