@@ -81,16 +81,7 @@ void nextEvent(const CameraSetup& s, float3 p, float3 d, NbPhase phase, float3 w
 float3 gatherVrl(const CameraSetup& s, const Vrl& vrl, float3 o, float3 d, float u0, float u1, NbRng& rng)
 {
     const float xi0 = nbRngNext(&rng), xi1 = nbRngNext(&rng);
-    LinePair lines;
-    lines.oU = o;
-    lines.dU = d;
-    lines.u0 = u0;
-    lines.u1 = u1;
-    lines.oV = vrl.origin;
-    lines.dV = vrl.dir;
-    lines.v0 = vrl.t0;
-    lines.v1 = vrl.t1;
-    const JointSampler sampler(lines, s.kind, PhasePair{s.cameraPhase, vrl.phase});
+    const JointSampler sampler(gatherLines(o, d, u0, u1, vrl), s.kind, PhasePair{s.cameraPhase, vrl.phase});
     const PairSample ps = sampler.sample(xi0, xi1);
     if (!(ps.pdf > 0.0) || !std::isfinite(ps.pdf))
         return make_float3(0, 0, 0);
@@ -102,15 +93,18 @@ float3 gatherVrl(const CameraSetup& s, const Vrl& vrl, float3 o, float3 d, float
     const float dist = std::sqrt(dist2);
     const float3 w = between / dist;  // light travels v -> u
     const VrlMedium& m = *s.medium;
-    const float3 atV = m.scattering(pv, dot(vrl.dir, w));
-    if (!(nbMaxComponent(atV) > 0.0f))
+    const MediumPoint atV = m.at(pv, dot(vrl.dir, w));
+    if (!(nbMaxComponent(atV.scatter) > 0.0f))
         return make_float3(0, 0, 0);
-    const float3 atU = m.scattering(pu, -dot(w, d));
-    if (!(nbMaxComponent(atU) > 0.0f))
+    const MediumPoint atU = m.at(pu, -dot(w, d));
+    if (!(nbMaxComponent(atU.scatter) > 0.0f))
         return make_float3(0, 0, 0);
     if (blocked(*s.ps, pv, w, dist))
         return make_float3(0, 0, 0);
-    float3 c = vrl.flux * atV * atU * float(1.0 / (double(dist2) * ps.pdf));
+    float3 c = vrl.flux * atV.scatter * atU.scatter * float(1.0 / (double(dist2) * ps.pdf));
+    if (s.mis.active() && (vrl.order >= 1 || s.mis.coversLight(vrl.light)))  // BeamPathMis.h
+        c = c * balanceWeight(s.mis.beamDensity(vrl, float(ps.v), ps.pdf),
+                              s.mis.pathDensity(atU, atV, dist, vrl.order == 0));
     // The transmittances last, each only while the product can still be non-zero.
     c = c * m.transmittance(pv, w, dist, rng);
     if (!(nbMaxComponent(c) > 0.0f))
@@ -121,6 +115,73 @@ float3 gatherVrl(const CameraSetup& s, const Vrl& vrl, float3 o, float3 d, float
     return c * m.transmittance(vrl.origin, vrl.dir, float(ps.v), rng);
 }
 
+namespace {
+
+// The path technique of BeamPathMis.h from the camera path's first scattering vertex p = o + u d
+// (throughput w, phase function `phase` there): a phase-sampled direction, a free flight to v,
+// next-event estimation at v for each point and spot light, and a connection to one light vertex
+// (the origin of a VRL of order >= 1, chosen uniformly), each weighted against the beam
+// technique. [u0, u1]: the camera segment the gathers sample.
+void pathTechnique(const CameraSetup& s, float3 o, float3 d, float u0, float u1, float u, NbPhase phase, float3 w,
+                   NbRng& rng, CameraSample& out)
+{
+    const PathtraceScene& ps = *s.ps;
+    const VrlMedium& m = *s.medium;
+    const float3 p = o + d * u;
+    const float x0 = nbRngNext(&rng), x1 = nbRngNext(&rng), x2 = nbRngNext(&rng);
+    const float3 wo = nbPhaseSample(phase, d, x0, x1, x2);
+    const float tEnd = ps.shadowCasters ? nbGeomTrace(ps.geometry.nodes.data(), ps.geometry.prims.data(),
+                                                      ps.geometry.scene, p, wo, 0.0f, NB_INF, NB_GEOM_SHADOWS, 0)
+                                        : NB_INF;
+    const FlightResult f = m.freeFlight(p, wo, tEnd, w, rng, nullptr);
+    if (!f.scattered)
+        return;
+    const float3 v = p + wo * f.t;
+    const NbPhase phaseV = m.phase(f.volume);
+    const MediumPoint atU = m.at(p, dot(d, wo)), atV = m.at(v, 1.0f);
+    // Next-event estimation to the point and spot lights.
+    for (size_t i = 0; i < ps.lights.size(); ++i) {
+        if (!s.mis.coversLight(int(i)))
+            continue;
+        const NbLightSample ls = nbLightSample(ps.lights[i], v, 0.5f, 0.5f);  // point and spot: no choice
+        const float fv = nbPhaseEval(phaseV, dot(ls.wi, wo));
+        if (!(nbMaxComponent(ls.weight) > 0.0f) || !(fv > 0.0f) || blocked(ps, v, ls.wi, ls.distance))
+            continue;
+        const float weight = balanceWeight(s.mis.pathDensity(atU, atV, f.t, true),
+                                           s.mis.beamDensityTo(int(i), nullptr, o, d, u0, u1, u, v));
+        if (!(weight > 0.0f))
+            continue;
+        const float3 c = w * ls.weight * m.transmittance(v, ls.wi, ls.distance, rng) * (fv * weight);
+        out.L[2] += c;
+        out.perLight[i] += c;
+    }
+    // A connection to one light vertex x, as a virtual point light: the light path's flux there
+    // times its phase function towards v, over t^2, times K for the choice.
+    const int vertices = s.mis.lightVertexCount();
+    if (vertices == 0)
+        return;
+    const Vrl& x = s.mis.lightVertex(std::min(vertices - 1, int(nbRngNext(&rng) * float(vertices))));
+    const float3 toX = x.origin - v;
+    const float t2 = dot(toX, toX);
+    if (!(t2 > 0.0f))
+        return;
+    const float t = std::sqrt(t2);
+    const float3 wi = toX / t;
+    const float fv = nbPhaseEval(phaseV, dot(wi, wo));
+    const float fx = nbPhaseEval(x.phase, dot(x.inDir, -wi));
+    if (!(fv > 0.0f) || !(fx > 0.0f) || blocked(ps, v, wi, t))
+        return;
+    const float weight =
+        balanceWeight(s.mis.pathDensity(atU, atV, f.t, false), s.mis.beamDensityTo(-1, &x, o, d, u0, u1, u, v));
+    if (!(weight > 0.0f))
+        return;
+    const float3 c = w * x.flux * m.transmittance(v, wi, t, rng) * (fv * fx / t2 * float(vertices) * weight);
+    out.L[2] += c;
+    out.perLight[size_t(x.light)] += c;
+}
+
+}  // namespace
+
 void traceCameraPath(const CameraSetup& s, float3 o, float3 d, float tCamera, NbRng& rng, CameraSample& out)
 {
     const PathtraceScene& ps = *s.ps;
@@ -128,6 +189,7 @@ void traceCameraPath(const CameraSetup& s, float3 o, float3 d, float tCamera, Nb
     for (float3& L : out.L)
         L = make_float3(0, 0, 0);
     out.transmittance = out.depth = out.hasDepth = 0;
+    out.scatterVolume = -1;
     out.perLight.assign(ps.lights.size(), make_float3(0, 0, 0));
     const int maxDepth = s.maxDepth > 0 ? s.maxDepth : kSafetyMaxDepth;
 
@@ -165,8 +227,11 @@ void traceCameraPath(const CameraSetup& s, float3 o, float3 d, float tCamera, Nb
                 out.hasDepth = 1.0f;
             }
             const NbPhase phase = m.phase(f.volume);
-            if (order == 1)
+            if (order == 1) {
                 nextEvent(s, p, pd, phase, w, rng, out);
+                out.scatterWeight = w;
+                out.scatterVolume = f.volume;
+            }
             if (!ps.emission)
                 break;  // nothing more to gather: a further flight could only meet emission
             if (order >= kRussianRouletteDepth) {
@@ -197,6 +262,16 @@ void gatherVrls(const CameraSetup& s, float3 o, float3 d, float tCamera, const s
         out.L[2] += c;
         out.perLight[size_t(vrl.light)] += c;
     }
+}
+
+void gatherPaths(const CameraSetup& s, float3 o, float3 d, float tCamera, const CameraSample& path, NbRng& rng,
+                 CameraSample& out)
+{
+    if (!s.mis.active() || path.scatterVolume < 0 || (s.maxDepth > 0 && s.maxDepth < 2))
+        return;
+    float u0, u1;
+    if (s.medium->span(o, d, 0.0f, tCamera, u0, u1))
+        pathTechnique(s, o, d, u0, u1, path.depth, s.medium->phase(path.scatterVolume), path.scatterWeight, rng, out);
 }
 
 }  // namespace nimbus::vrl

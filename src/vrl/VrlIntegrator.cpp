@@ -145,6 +145,7 @@ void renderVrl(const RenderContext& ctx, Film& film, const RenderControl& option
     setup.maxDepth = scene.render.maxDepth;
     setup.kind = jointKind(scene);
     setup.cameraPhase = medium.dominantPhase();
+    setup.mis = vrl::BeamPathMis(ps, medium, lightPass, setup.kind, setup.cameraPhase, scene.render.vrlPaths);
     const NbCamera cam = makeNbCamera(scene.camera);
     const int filterType = nbFilterType(scene.render.pixelFilter);
     const float filterWidth = scene.render.filterWidth;
@@ -187,6 +188,7 @@ void renderVrl(const RenderContext& ctx, Film& film, const RenderControl& option
         }
         const std::vector<vrl::Vrl> vrls = lightPass.trace(scene.render.seed, sampleIndex, paths);
         vrlCount += (long long)vrls.size();
+        setup.mis.setIteration(vrls);
         const float inv = 1.0f / float(sampleIndex - nb_uint(first) + 1u);
         tbb::parallel_for(
             tbb::blocked_range<long long>(0, pixelCount, 16), [&](const tbb::blocked_range<long long>& r) {
@@ -232,8 +234,10 @@ void renderVrl(const RenderContext& ctx, Film& film, const RenderControl& option
                         cs.hasDepth += one.hasDepth * share;
                         for (size_t i = 0; i < cs.perLight.size(); ++i)
                             cs.perLight[i] += one.perLight[i] * share;
-                        if (k == 0)
+                        if (k == 0) {
                             vrl::gatherVrls(setup, o, d, tCamera, vrls, rng, cs);
+                            vrl::gatherPaths(setup, o, d, tCamera, one, rng, cs);
+                        }
                     }
                     float3 beauty = cs.L[0] + cs.L[1] + cs.L[2];
                     float y = nbAverage(beauty);

@@ -111,6 +111,58 @@ LightPass::LightPass(const RenderContext& ctx, const PathtraceScene& ps, const V
     mCdf.back() = 1.0;
 }
 
+float3 LightPass::ownDirection(const NbLight& l, float a, float b)
+{
+    return l.type == NB_LIGHT_SPOT ? nbSampleCone(nbLoad3(l.direction), l.p0, a, b) : nbSampleSphereUniform(a, b);
+}
+
+LightPass::AimCone LightPass::aimCone(int i) const
+{
+    const NbLight& l = mPs->lights[size_t(i)];
+    AimCone c;
+    if (!(mFocus.active || mAimAtVolumes))
+        return c;
+    // The view's focus, else (where asked) the volumes' bounding sphere: every direction that
+    // can meet a volume is in the cone that subtends it.
+    const EmissionFocus bounds{true, mCentre, mRadius};
+    const EmissionFocus& aim = mFocus.active ? mFocus : bounds;
+    const float3 toFocus = aim.centre - nbLoad3(l.position);
+    const float dist = length(toFocus);
+    // The cone subtending the aim: sin^2 = (R / dist)^2, 1 - cos = sin^2 / (1 + cos); aimed only
+    // where the light is outside it, the cone is narrower than the light's own, and wide enough
+    // for float directions to tell its rim (1 - cos over 1e-5: half a degree; a lamp farther
+    // than about 200 radii of the aim is left as it is).
+    const float s2 = dist > 0.0f ? (aim.radius / dist) * (aim.radius / dist) : 1.0f;
+    const float cosMax = std::sqrt(std::fmax(0.0f, 1.0f - s2));
+    const float oneMinusCos = s2 / (1.0f + cosMax);
+    const float ownOneMinusCos = l.type == NB_LIGHT_SPOT ? 1.0f - l.p0 : 2.0f;
+    if (s2 < 0.9998f && oneMinusCos < ownOneMinusCos && oneMinusCos > 1e-5f) {
+        c.active = true;
+        c.axis = toFocus * (1.0f / dist);
+        c.cosMax = cosMax;
+        c.oneMinusCos = oneMinusCos;
+    }
+    return c;
+}
+
+float LightPass::directionPdf(int i, float3 dir) const
+{
+    const NbLight& l = mPs->lights[size_t(i)];
+    if (l.type != NB_LIGHT_POINT && l.type != NB_LIGHT_SPOT)
+        return 0.0f;
+    // The light's own distribution: uniform over the sphere, or over the spot's outer cone.
+    const float own = l.type == NB_LIGHT_SPOT ? conePdf(dir, nbLoad3(l.direction), 1.0f - l.p0) : 1.0f / (4.0f * NB_PI);
+    const AimCone aim = aimCone(i);
+    if (!aim.active)
+        return own;
+    return kFocusDefensive * own + (1.0f - kFocusDefensive) * conePdf(dir, aim.axis, aim.oneMinusCos);
+}
+
+double LightPass::selectionProbability(int i) const
+{
+    return i >= 0 && size_t(i) < mProb.size() ? mProb[size_t(i)] : 0.0;
+}
+
 bool LightPass::emit(int i, NbRng& rng, float3& x, float3& dir, float3& W, float& tEnd) const
 {
     const NbLight& l = mPs->lights[size_t(i)];
@@ -122,39 +174,17 @@ bool LightPass::emit(int i, NbRng& rng, float3& x, float3& dir, float3& W, float
     case NB_LIGHT_SPOT: {
         x = nbLoad3(l.position);
         const bool spot = l.type == NB_LIGHT_SPOT;
-        const float3 spotAxis = spot ? nbLoad3(l.direction) : make_float3(0, 0, 1);
-        // The light's own distribution: uniform over the sphere, or over the spot's outer cone.
-        auto ownPdf = [&](float3 w) { return spot ? conePdf(w, spotAxis, 1.0f - l.p0) : 1.0f / (4.0f * NB_PI); };
-        auto ownSample = [&](float a, float b) {
-            return spot ? nbSampleCone(spotAxis, l.p0, a, b) : nbSampleSphereUniform(a, b);
-        };
-        // The view's focus, else (where asked) the volumes' bounding sphere: every direction that
-        // can meet a volume is in the cone that subtends it.
-        const EmissionFocus bounds{true, mCentre, mRadius};
-        const EmissionFocus& aim = mFocus.active ? mFocus : bounds;
-        const float3 toFocus = aim.centre - x;
-        const float dist = length(toFocus);
-        // The cone subtending the aim: sin^2 = (R / dist)^2, 1 - cos = sin^2 / (1 + cos); aimed only
-        // where the light is outside it, the cone is narrower than the light's own, and wide enough
-        // for float directions to tell its rim (1 - cos over 1e-5: half a degree; a lamp farther
-        // than about 200 radii of the aim is left as it is).
-        const float s2 = dist > 0.0f ? (aim.radius / dist) * (aim.radius / dist) : 1.0f;
-        const float cosMax = std::sqrt(std::fmax(0.0f, 1.0f - s2));
-        const float oneMinusCos = s2 / (1.0f + cosMax);
-        const float ownOneMinusCos = spot ? 1.0f - l.p0 : 2.0f;
-        if ((mFocus.active || mAimAtVolumes) && s2 < 0.9998f && oneMinusCos < ownOneMinusCos && oneMinusCos > 1e-5f) {
-            const float3 axis = toFocus * (1.0f / dist);
-            dir = nbRngNext(&rng) < kFocusDefensive ? ownSample(u0, u1) : nbSampleCone(axis, cosMax, u0, u1);
-            const float pdf = kFocusDefensive * ownPdf(dir) + (1.0f - kFocusDefensive) * conePdf(dir, axis, oneMinusCos);
+        const AimCone aim = aimCone(i);
+        if (aim.active) {
+            dir = nbRngNext(&rng) < kFocusDefensive ? ownDirection(l, u0, u1)
+                                                    : nbSampleCone(aim.axis, aim.cosMax, u0, u1);
+            const float pdf = directionPdf(i, dir);
             if (!(pdf > 0.0f))
                 return false;
             W = colour * ((spot ? nbSpotFalloff(l, -dir) : 1.0f) / pdf);  // 0 outside a spot's cone
-        } else if (spot) {
-            dir = nbSampleCone(spotAxis, l.p0, u0, u1);
-            W = colour * (2.0f * NB_PI * (1.0f - l.p0) * nbSpotFalloff(l, -dir));
         } else {
-            dir = nbSampleSphereUniform(u0, u1);
-            W = colour * (4.0f * NB_PI);
+            dir = ownDirection(l, u0, u1);
+            W = colour * (spot ? 2.0f * NB_PI * (1.0f - l.p0) * nbSpotFalloff(l, -dir) : 4.0f * NB_PI);
         }
         return nbMaxComponent(W) > 0.0f;
     }
@@ -177,8 +207,8 @@ bool LightPass::emit(int i, NbRng& rng, float3& x, float3& dir, float3& W, float
         dir = -toLight;
         if (mFocus.active) {
             const bool own = nbRngNext(&rng) < kFocusDefensive;
-            const float3 p = own ? discPoint(mCentre, dir, mRadius, u2, u3)
-                                 : discPoint(mFocus.centre, dir, mFocus.radius, u2, u3);
+            const float3 p =
+                own ? discPoint(mCentre, dir, mRadius, u2, u3) : discPoint(mFocus.centre, dir, mFocus.radius, u2, u3);
             const float pdf = kFocusDefensive * discPdf(p, dir, mCentre, mRadius) +
                               (1.0f - kFocusDefensive) * discPdf(p, dir, mFocus.centre, mFocus.radius);
             if (!(pdf > 0.0f))
@@ -233,6 +263,7 @@ void LightPass::tracePath(uint32_t seed, uint32_t iteration, int path, int paths
     const PathtraceScene& ps = *mPs;
     float3 w = make_float3(1, 1, 1);
     NbPhase phase = mDefaultPhase;
+    float3 inDir = make_float3(0, 0, 0);
     for (int order = 0; order <= maxOrder; ++order) {
         if (order % kStopPollInterval == kStopPollInterval - 1 && mStop->raised())
             return;
@@ -249,6 +280,7 @@ void LightPass::tracePath(uint32_t seed, uint32_t iteration, int path, int paths
         v.t1 = t1;
         v.flux = flux * w;
         v.phase = phase;
+        v.inDir = inDir;
         v.order = order;
         v.light = light;
         out.push_back(v);
@@ -266,6 +298,7 @@ void LightPass::tracePath(uint32_t seed, uint32_t iteration, int path, int paths
         x = x + dir * f.t;
         phase = mMedium->phase(f.volume);
         const float v0 = nbRngNext(&rng), v1 = nbRngNext(&rng), v2 = nbRngNext(&rng);
+        inDir = dir;
         dir = nbPhaseSample(phase, dir, v0, v1, v2);
         tEnd = INFINITY;
     }

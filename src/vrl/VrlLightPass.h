@@ -32,6 +32,7 @@
 
 #include "../pathtracer/PathtraceScene.h"
 #include "../render/RenderContext.h"
+#include "JointSampling.h"
 #include "ViewFocus.h"
 #include "VrlMedium.h"
 
@@ -44,10 +45,26 @@ struct Vrl {
     float3 dir;            // unit, the direction light travels
     float t0 = 0, t1 = 0;  // the part inside the volumes' boxes, before any shadow caster
     float3 flux;           // Phi w, W (already divided by P_light N)
-    NbPhase phase;         // the advanced distribution's fit of the phase function at v
+    NbPhase phase;         // the phase function that scattered the light into it (the fit's at v)
+    float3 inDir;          // order >= 1: the direction the light path arrived at origin along
     int order = 0;         // scattering events before it: 0 leaves the light
     int light = 0;         // index in PathtraceScene::lights (per-light AOVs)
 };
+
+// The two lines a gather samples: the camera segment o + u d, u in [u0, u1], and the VRL.
+inline LinePair gatherLines(float3 o, float3 d, float u0, float u1, const Vrl& vrl)
+{
+    LinePair lines;
+    lines.oU = o;
+    lines.dU = d;
+    lines.u0 = u0;
+    lines.u1 = u1;
+    lines.oV = vrl.origin;
+    lines.dV = vrl.dir;
+    lines.v0 = vrl.t0;
+    lines.v1 = vrl.t1;
+    return lines;
+}
 
 class LightPass {
 public:
@@ -78,7 +95,24 @@ public:
     void setAimAtVolumes(bool aim) { mAimAtVolumes = aim; }
     float boundsRadius() const { return mRadius; }
 
+    // The pdf (1/sr) of the direction `dir` of a path leaving point or spot light i (its own
+    // distribution, or the mixture with the aim's cone where the light is aimed); 0 for other
+    // lights. TwoEventMis.h weighs the VRLs leaving these lights with it.
+    float directionPdf(int i, float3 dir) const;
+    // P_light: the probability that a path starts at light i (by power).
+    double selectionProbability(int i) const;
+    // The phase function the advanced joint distribution fits at v on a VRL leaving a light.
+    NbPhase lightPhase() const { return mDefaultPhase; }
+
 private:
+    // The cone a point or spot light aims a share of its paths into (setFocus, setAimAtVolumes).
+    struct AimCone {
+        bool active = false;
+        float3 axis;
+        float cosMax = 1, oneMinusCos = 0;
+    };
+    AimCone aimCone(int i) const;
+    static float3 ownDirection(const NbLight& l, float a, float b);
     void tracePath(uint32_t seed, uint32_t iteration, int path, int paths, std::vector<Vrl>& out) const;
     // A point, direction and W on light i; false for a void sample. tEnd: where the first
     // segment ends (INFINITY, or the far side of a sphere light seen from inside).

@@ -181,16 +181,16 @@ float3 VrlMedium::transmittance(float3 o, float3 d, float tMax, NbRng& rng) cons
     return T * exp(-tauC);
 }
 
-float3 VrlMedium::scattering(float3 p, float cosTheta) const
+MediumPoint VrlMedium::at(float3 p, float cosTheta) const
 {
-    float3 out = make_float3(0, 0, 0);
+    MediumPoint out;
+    out.sigmaT = out.sigmaS = out.scatter = make_float3(0, 0, 0);
     for (int v = 0; v < mCount; ++v) {
         const NbVolumeDesc& vd = mPs->volumes[size_t(v)];
         float m[12];  // at the iteration's shutter time where the transform moves (motion.h)
         nbVolumeIndexFromWorld(&vd, mPs->majorants.data(), mSeconds, m);
-        float3 q =
-            make_float3(m[0] * p.x + m[1] * p.y + m[2] * p.z + m[3], m[4] * p.x + m[5] * p.y + m[6] * p.z + m[7],
-                        m[8] * p.x + m[9] * p.y + m[10] * p.z + m[11]);
+        float3 q = make_float3(m[0] * p.x + m[1] * p.y + m[2] * p.z + m[3], m[4] * p.x + m[5] * p.y + m[6] * p.z + m[7],
+                               m[8] * p.x + m[9] * p.y + m[10] * p.z + m[11]);
         // The majorant walk reads densities only inside the active box (state 1): the same here.
         if (!(q.x >= vd.boundsLo[0] && q.x <= vd.boundsHi[0] && q.y >= vd.boundsLo[1] && q.y <= vd.boundsHi[1] &&
               q.z >= vd.boundsLo[2] && q.z <= vd.boundsHi[2]))
@@ -199,8 +199,12 @@ float3 VrlMedium::scattering(float3 p, float cosTheta) const
         if (vd.velocity.dims[3] > 0)
             q = q - nbGridSample3(vd.velocity, mPs->tables.data(), mPs->pools.data(), q) * mSeconds;
         const float rho = nbFmax(0.0f, nbGridSample(vd.density, mPs->tables.data(), mPs->pools.data(), q));
-        if (rho > 0.0f)
-            out += nbLoad3(vd.sigma_s) * (rho * nbPhaseEval(vd.phase, cosTheta));
+        if (rho > 0.0f) {
+            const float3 sigmaS = nbLoad3(vd.sigma_s) * rho;
+            out.sigmaT += nbLoad3(vd.sigma_t) * rho;
+            out.sigmaS += sigmaS;
+            out.scatter += sigmaS * nbPhaseEval(vd.phase, cosTheta);
+        }
     }
     return out;
 }

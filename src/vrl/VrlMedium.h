@@ -17,8 +17,8 @@
 //    1 + 1e-5) and returns 0 or 1, a track-length estimate whose relative variance is
 //    e^tau - 1: three of them in each VRL gather made a medium-density sphere's error mostly
 //    this noise. The path tracer's kernel keeps plain ratio tracking.
-//  - scattering: sum over volumes of sigma_s(p) phase(cos), at a point (the VRL gather's two
-//    vertices);
+//  - at / scattering: the coefficients at a point and sum over volumes of sigma_s(p) phase(cos)
+//    (the VRL gather's two vertices);
 //  - span: where a ray is inside some volume's active box (the extent of a VRL or of the
 //    camera segment the gather samples).
 // Velocity blur (ptscene.h): every read is at one shutter time, `seconds`, set by the integrator
@@ -42,6 +42,11 @@ struct FlightResult {
     int volume = -1;  // which volume scattered
 };
 
+struct MediumPoint {
+    float3 sigmaT, sigmaS;
+    float3 scatter;  // sum_v sigma_s,v phase_v(cos theta)
+};
+
 class VrlMedium {
 public:
     // residual: build the slot minorants that transmittance's residual ratio tracking reads (one
@@ -57,8 +62,10 @@ public:
     // Ratio-tracking estimate of the RGB transmittance along o + t d, t in [0, tMax].
     float3 transmittance(float3 o, float3 d, float tMax, NbRng& rng) const;
 
-    // sum_v sigma_s,v(p) phase_v(cosTheta), 1/(m sr), RGB.
-    float3 scattering(float3 p, float cosTheta) const;
+    // The coefficients at p, summed over the volumes (RGB, 1/m), and sum_v sigma_s,v(p)
+    // phase_v(cosTheta) (1/(m sr)).
+    MediumPoint at(float3 p, float cosTheta) const;
+    float3 scattering(float3 p, float cosTheta) const { return at(p, cosTheta).scatter; }
 
     // [t0, t1]: the part of [tMin, tMax] where o + t d is inside some volume's active box;
     // false when there is none.

@@ -1,0 +1,79 @@
+#include "BeamPathMis.h"
+
+#include "../../kernels/shared/geometry.h"
+#include "../../kernels/shared/light.h"
+
+namespace nimbus::vrl {
+
+BeamPathMis::BeamPathMis(const PathtraceScene& ps, const VrlMedium& medium, const LightPass& lights, JointKind kind,
+                         NbPhase cameraPhase, int lightPaths)
+    : mPs(&ps), mMedium(&medium), mLights(&lights), mKind(kind), mCameraPhase(cameraPhase), mLightPaths(lightPaths)
+{
+}
+
+void BeamPathMis::setIteration(const std::vector<Vrl>& vrls)
+{
+    mVrls = &vrls;
+    mVertices.clear();
+    for (size_t i = 0; i < vrls.size(); ++i)
+        if (vrls[i].order >= 1)
+            mVertices.push_back(int(i));
+}
+
+bool BeamPathMis::coversLight(int light) const
+{
+    if (!mLights)
+        return false;
+    const int type = mPs->lights[size_t(light)].type;
+    return type == NB_LIGHT_POINT || type == NB_LIGHT_SPOT;
+}
+
+double BeamPathMis::beamDensity(const Vrl& vrl, float t, double jointPdf) const
+{
+    if (!(t > 0.0f) || !(jointPdf > 0.0))
+        return 0.0;
+    const double pOmega = vrl.order == 0 ? double(mLightPaths) * mLights->selectionProbability(vrl.light) *
+                                               mLights->directionPdf(vrl.light, vrl.dir)
+                                         : nbPhaseEval(vrl.phase, dot(vrl.inDir, vrl.dir));
+    return pOmega * jointPdf / (double(t) * double(t));
+}
+
+double BeamPathMis::beamDensityTo(int light, const Vrl* vertex, float3 o, float3 d, float u0, float u1, float u,
+                                  float3 v) const
+{
+    Vrl line;  // the VRL that would carry v
+    if (vertex) {
+        line = *vertex;
+    } else {
+        line.origin = nbLoad3(mPs->lights[size_t(light)].position);
+        line.phase = mLights->lightPhase();
+        line.order = 0;
+        line.light = light;
+    }
+    const float3 toV = v - line.origin;
+    const float t = length(toV);
+    if (!(t > 0.0f))
+        return 0.0;
+    line.dir = toV / t;
+    // Its extent as the light pass gives it (VrlLightPass.cpp, tracePath).
+    float tEnd = NB_INF;
+    if (mPs->shadowCasters)
+        tEnd = nbGeomTrace(mPs->geometry.nodes.data(), mPs->geometry.prims.data(), mPs->geometry.scene, line.origin,
+                           line.dir, 0.0f, NB_INF, NB_GEOM_SHADOWS, 0);
+    if (!mMedium->span(line.origin, line.dir, 0.0f, tEnd, line.t0, line.t1) || t < line.t0 || t > line.t1)
+        return 0.0;
+    const JointSampler sampler(gatherLines(o, d, u0, u1, line), mKind, PhasePair{mCameraPhase, line.phase});
+    return beamDensity(line, t, sampler.pdf(u, t));
+}
+
+double BeamPathMis::pathDensity(const MediumPoint& atU, const MediumPoint& atV, float dist, bool toLight) const
+{
+    const double sigmaS = nbAverage(atU.sigmaS);
+    if (!(sigmaS > 0.0) || !(dist > 0.0f))
+        return 0.0;
+    const double count = toLight ? 1.0 : 1.0 / double(std::max<size_t>(1, mVertices.size()));
+    const double phase = nbAverage(atU.scatter) / sigmaS;  // the mixture the flight's volume is drawn from
+    return count * nbAverage(atU.sigmaT) * phase * nbAverage(atV.sigmaT) / (double(dist) * double(dist));
+}
+
+}  // namespace nimbus::vrl
