@@ -139,8 +139,7 @@ float3 VrlMedium::transmittance(float3 o, float3 d, float tMax, NbRng& rng) cons
     // probability 10 m, then divide by it. A bound without the RGB exponential (the least
     // channel's control depth) skips the exact value where the estimate is clearly above 0.1.
     auto survives = [&]() {
-        const float least = std::min(tauC.x, std::min(tauC.y, tauC.z));
-        if (nbMaxComponent(T) * std::exp(-least) < 0.1f) {
+        if (nbMaxComponent(T) * std::exp(-nbMinComponent(tauC)) < 0.1f) {
             const float m = nbMaxComponent(T * exp(-tauC));
             if (m < 0.1f) {
                 if (nbRngNext(&rng) >= m * 10.0f)
@@ -154,7 +153,7 @@ float3 VrlMedium::transmittance(float3 o, float3 d, float tMax, NbRng& rng) cons
         // Residual ratio tracking over this stretch (see the header): the control's depth in
         // closed form, tentative collisions at the residual rate muR.
         const float3 sigmaC = control(it);
-        const float muR = std::max(0.0f, mu - std::min(sigmaC.x, std::min(sigmaC.y, sigmaC.z)));
+        const float muR = std::max(0.0f, mu - nbMinComponent(sigmaC));
         for (;;) {
             const float span = muR * (segEnd - it.t);
             if (!(tau < span)) {
