@@ -25,36 +25,46 @@ bool BeamPathMis::coversLight(int light) const
     if (!mLights)
         return false;
     const int type = mPs->lights[size_t(light)].type;
-    return type == NB_LIGHT_POINT || type == NB_LIGHT_SPOT;
+    return type == NB_LIGHT_POINT || type == NB_LIGHT_SPOT || (type == NB_LIGHT_DISTANT && light != mPs->envLight);
 }
 
 double BeamPathMis::beamDensity(const Vrl& vrl, float t, double jointPdf) const
 {
     if (!(t > 0.0f) || !(jointPdf > 0.0))
         return 0.0;
-    const double pOmega = vrl.order == 0 ? double(mLightPaths) * mLights->selectionProbability(vrl.light) *
-                                               mLights->directionPdf(vrl.light, vrl.dir)
-                                         : nbPhaseEval(vrl.phase, dot(vrl.inDir, vrl.dir));
-    return pOmega * jointPdf / (double(t) * double(t));
+    if (vrl.order >= 1)
+        return nbPhaseEval(vrl.phase, dot(vrl.inDir, vrl.dir)) * jointPdf / (double(t) * double(t));
+    const double lines = double(mLightPaths) * mLights->selectionProbability(vrl.light);
+    if (mPs->lights[size_t(vrl.light)].type == NB_LIGHT_DISTANT)  // dV = dA dt; the direction's pdf is the path's
+        return lines * mLights->linePdf(vrl.light, vrl.origin, vrl.dir) * jointPdf;
+    return lines * mLights->directionPdf(vrl.light, vrl.dir) * jointPdf / (double(t) * double(t));
 }
 
-double BeamPathMis::beamDensityTo(int light, const Vrl* vertex, float3 o, float3 d, float u0, float u1, float u,
-                                  float3 v) const
+double BeamPathMis::beamDensityTo(int light, const Vrl* vertex, float3 travel, float3 o, float3 d, float u0, float u1,
+                                  float u, float3 v) const
 {
     Vrl line;  // the VRL that would carry v
     if (vertex) {
         line = *vertex;
     } else {
-        line.origin = nbLoad3(mPs->lights[size_t(light)].position);
         line.phase = mLights->lightPhase();
         line.order = 0;
         line.light = light;
     }
-    const float3 toV = v - line.origin;
-    const float t = length(toV);
-    if (!(t > 0.0f))
-        return 0.0;
-    line.dir = toV / t;
+    float t;
+    if (!vertex && mPs->lights[size_t(light)].type == NB_LIGHT_DISTANT) {
+        line.dir = travel;
+        line.origin = mLights->lineOrigin(v, travel);
+        t = dot(v - line.origin, travel);
+    } else {
+        if (!vertex)
+            line.origin = nbLoad3(mPs->lights[size_t(light)].position);
+        const float3 toV = v - line.origin;
+        t = length(toV);
+        if (!(t > 0.0f))
+            return 0.0;
+        line.dir = toV / t;
+    }
     // Its extent as the light pass gives it (VrlLightPass.cpp, tracePath).
     float tEnd = NB_INF;
     if (mPs->shadowCasters)

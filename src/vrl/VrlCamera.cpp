@@ -119,7 +119,7 @@ namespace {
 
 // The path technique of BeamPathMis.h from the camera path's first scattering vertex p = o + u d
 // (throughput w, phase function `phase` there): a phase-sampled direction, a free flight to v,
-// next-event estimation at v for each point and spot light, and a connection to one light vertex
+// next-event estimation at v for each point, spot and distant light, and a connection to one light vertex
 // (the origin of a VRL of order >= 1, chosen uniformly), each weighted against the beam
 // technique. [u0, u1]: the camera segment the gathers sample.
 void pathTechnique(const CameraSetup& s, float3 o, float3 d, float u0, float u1, float u, NbPhase phase, float3 w,
@@ -139,16 +139,19 @@ void pathTechnique(const CameraSetup& s, float3 o, float3 d, float u0, float u1,
     const float3 v = p + wo * f.t;
     const NbPhase phaseV = m.phase(f.volume);
     const MediumPoint atU = m.at(p, dot(d, wo)), atV = m.at(v, 1.0f);
-    // Next-event estimation to the point and spot lights.
+    // Next-event estimation to the point, spot and distant lights.
     for (size_t i = 0; i < ps.lights.size(); ++i) {
         if (!s.mis.coversLight(int(i)))
             continue;
-        const NbLightSample ls = nbLightSample(ps.lights[i], v, 0.5f, 0.5f);  // point and spot: no choice
+        const NbLight& l = ps.lights[i];
+        const bool distant = l.type == NB_LIGHT_DISTANT;  // a direction in its cone; point and spot: none
+        const float a = distant ? nbRngNext(&rng) : 0.5f, b = distant ? nbRngNext(&rng) : 0.5f;
+        const NbLightSample ls = nbLightSample(l, v, a, b);
         const float fv = nbPhaseEval(phaseV, dot(ls.wi, wo));
         if (!(nbMaxComponent(ls.weight) > 0.0f) || !(fv > 0.0f) || blocked(ps, v, ls.wi, ls.distance))
             continue;
         const float weight = balanceWeight(s.mis.pathDensity(atU, atV, f.t, true),
-                                           s.mis.beamDensityTo(int(i), nullptr, o, d, u0, u1, u, v));
+                                           s.mis.beamDensityTo(int(i), nullptr, -ls.wi, o, d, u0, u1, u, v));
         if (!(weight > 0.0f))
             continue;
         const float3 c = w * ls.weight * m.transmittance(v, ls.wi, ls.distance, rng) * (fv * weight);
@@ -171,8 +174,8 @@ void pathTechnique(const CameraSetup& s, float3 o, float3 d, float u0, float u1,
     const float fx = nbPhaseEval(x.phase, dot(x.inDir, -wi));
     if (!(fv > 0.0f) || !(fx > 0.0f) || blocked(ps, v, wi, t))
         return;
-    const float weight =
-        balanceWeight(s.mis.pathDensity(atU, atV, f.t, false), s.mis.beamDensityTo(-1, &x, o, d, u0, u1, u, v));
+    const float weight = balanceWeight(s.mis.pathDensity(atU, atV, f.t, false),
+                                       s.mis.beamDensityTo(-1, &x, make_float3(0, 0, 0), o, d, u0, u1, u, v));
     if (!(weight > 0.0f))
         return;
     const float3 c = w * x.flux * m.transmittance(v, wi, t, rng) * (fv * fx / t2 * float(vertices) * weight);

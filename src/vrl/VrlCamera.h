@@ -57,7 +57,7 @@ void gatherVrls(const CameraSetup& s, float3 o, float3 d, float tCamera, const s
 
 // Adds BeamPathMis.h's path technique to out.L[2] and out.perLight, from the first scattering
 // vertex of `path` (traceCameraPath's sample of the same camera ray): orders 2 and up through the
-// point and spot lights and the iteration's light vertices, weighted against the VRL gathers.
+// point, spot and distant lights and the iteration's light vertices, weighted against the VRL gathers.
 void gatherPaths(const CameraSetup& s, float3 o, float3 d, float tCamera, const CameraSample& path, NbRng& rng,
                  CameraSample& out);
 

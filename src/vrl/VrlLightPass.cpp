@@ -158,6 +158,17 @@ float LightPass::directionPdf(int i, float3 dir) const
     return kFocusDefensive * own + (1.0f - kFocusDefensive) * conePdf(dir, aim.axis, aim.oneMinusCos);
 }
 
+float LightPass::linePdf(int i, float3 q, float3 dir) const
+{
+    const NbLight& l = mPs->lights[size_t(i)];
+    if (l.type != NB_LIGHT_DISTANT || i == mPs->envLight)
+        return 0.0f;
+    if (!mFocus.active)
+        return discPdf(q, dir, mCentre, mRadius);
+    return kFocusDefensive * discPdf(q, dir, mCentre, mRadius) +
+           (1.0f - kFocusDefensive) * discPdf(q, dir, mFocus.centre, mFocus.radius);
+}
+
 double LightPass::selectionProbability(int i) const
 {
     return i >= 0 && size_t(i) < mProb.size() ? mProb[size_t(i)] : 0.0;

@@ -99,6 +99,12 @@ public:
     // distribution, or the mixture with the aim's cone where the light is aimed); 0 for other
     // lights. TwoEventMis.h weighs the VRLs leaving these lights with it.
     float directionPdf(int i, float3 dir) const;
+    // The pdf (1/m^2, per unit area across dir) of the line through q along dir drawn from the disc
+    // of distant light i (not the environment); 0 for other lights.
+    float linePdf(int i, float3 q, float3 dir) const;
+    // Where the light pass starts a line along dir through q from a distant or environment light:
+    // on the plane a radius before the volumes' bounding sphere.
+    float3 lineOrigin(float3 q, float3 dir) const { return q + dir * (dot(mCentre - q, dir) - mRadius); }
     // P_light: the probability that a path starts at light i (by power).
     double selectionProbability(int i) const;
     // The phase function the advanced joint distribution fits at v on a VRL leaving a light.

@@ -1,14 +1,15 @@
 // BeamPathMis (src/vrl/BeamPathMis.h): vrl's beam technique (VRL gathers) and path technique
 // (a camera path's phase sample, flight and connection) weighted against each other.
 //  - The weights sum to one only if both sides compute the same beam density: the gather from its
-//    own pair's pdf, the path technique by rebuilding the VRL through v. For VRLs leaving a point
-//    and a spot light (order 0) and leaving scattering vertices (order >= 1), through a medium
-//    with a shadow caster, the two must agree to float rounding for every sampled pair.
-//  - Unbiased: along fixed camera rays through a lamp-lit haze, the mean of the weighted gathers
-//    plus the path technique equals the mean of the unweighted gathers (the estimator without
-//    the path technique) within 4 standard errors, once for the orders that leave the light
-//    (max_depth 2: only order-0 VRLs) and once for all orders. A path technique off by a
-//    factor (its connection's count 1 / K, its next-event weight) fails this.
+//    own pair's pdf, the path technique by rebuilding the VRL through v. For VRLs leaving a point,
+//    a spot and a distant light (order 0) and leaving scattering vertices (order >= 1), the two
+//    must agree to float rounding for every sampled pair.
+//  - Unbiased: along fixed camera rays through a haze box, what the weights take from the gathers
+//    (the same gathers, same random numbers, without and with weights) equals the path
+//    technique's estimate within 4 standard errors: for a point light with max_depth 2 (only the
+//    VRLs leaving the light) and 0 (all orders), for a distant light, and for a rect light
+//    (not next-event estimated by the path technique: the connections alone). A path
+//    technique off by a factor (its next-event weight, its connections' count 1 / K) fails this.
 #include "../pathtracer/PtWorld.h"
 
 #include "../../kernels/shared/rng.h"
@@ -77,6 +78,9 @@ TEST(BeamPathMis, GatherAndPathSidesComputeTheSameBeamDensity)
     hazeBox(w, 0.6f);
     w.addLight(pointLight(make_float3(0.2f, 0.3f, -0.4f), 2.0f));
     w.addLight(spotLight(make_float3(-1.6f, 0.2f, 0.1f), make_float3(1, -0.1f, 0.05f), 5.0f));
+    Light sun = distantLight(make_float3(0.2f, -1, 0.3f), splat(2.0f));
+    sun.angle = 3.0f;  // a cone of directions, drawn by both techniques alike
+    w.addLight(sun);
     const RenderContext& ctx = w.context();
     PathtraceScene ps = buildPathtraceScene(ctx);
     const vrl::VrlMedium m(ps);
@@ -89,26 +93,31 @@ TEST(BeamPathMis, GatherAndPathSidesComputeTheSameBeamDensity)
     float u0, u1;
     ASSERT_TRUE(m.span(o, d, 0.0f, INFINITY, u0, u1));
     NbRng rng = nbRngStart(3, 4, 5);
-    int orders[2] = {0, 0};
+    int orders[2] = {0, 0}, distant = 0;
     for (size_t i = 0; i < vrls.size(); ++i) {
         const vrl::Vrl& vrl = vrls[i];
         const vrl::JointSampler sampler(vrl::gatherLines(o, d, u0, u1, vrl), vrl::JointKind::Advanced,
                                         vrl::PhasePair{m.dominantPhase(), vrl.phase});
         for (int k = 0; k < 8; ++k) {
             const vrl::PairSample pair = sampler.sample(nbRngNext(&rng), nbRngNext(&rng));
-            if (!(pair.pdf > 0.0))
+            // (Within a millimetre of the VRL's origin the direction rebuilt from the float point
+            // v is off by 1e-7 / t, and the pdf of nearly touching lines follows it: skipped.)
+            if (!(pair.pdf > 0.0) || pair.v < 1e-3)
                 continue;
             const float3 v = vrl.origin + vrl.dir * float(pair.v);
             const double gather = mis.beamDensity(vrl, float(pair.v), pair.pdf);
-            const double path = vrl.order == 0 ? mis.beamDensityTo(vrl.light, nullptr, o, d, u0, u1, float(pair.u), v)
-                                               : mis.beamDensityTo(-1, &vrl, o, d, u0, u1, float(pair.u), v);
+            const double path = vrl.order == 0
+                                    ? mis.beamDensityTo(vrl.light, nullptr, vrl.dir, o, d, u0, u1, float(pair.u), v)
+                                    : mis.beamDensityTo(-1, &vrl, vrl.dir, o, d, u0, u1, float(pair.u), v);
             ASSERT_GT(gather, 0.0) << "VRL " << i << " (order " << vrl.order << ")";
             EXPECT_NEAR(path / gather, 1.0, 2e-3) << "VRL " << i << " (order " << vrl.order << "), pair " << k;
             ++orders[vrl.order == 0 ? 0 : 1];
+            distant += vrl.order == 0 && vrl.light == 2;
         }
     }
     EXPECT_GT(orders[0], 50);
     EXPECT_GT(orders[1], 50);
+    EXPECT_GT(distant, 20);
 }
 
 namespace {
@@ -183,8 +192,9 @@ void expectPathReplacesGathers(World& w, const std::vector<int>& maxDepths, int 
 }  // namespace
 
 // A point light: with max_depth 2 only the VRLs leaving it (their share goes to next-event
-// estimation), then all orders (connections to light vertices as well). A distant light is not
-// shared with next-event estimation, so there the path technique is the connections alone.
+// estimation), then all orders (connections to light vertices as well); a distant light the
+// same with all orders; a rect light is not next-event estimated by the path technique, so there
+// it is the connections alone.
 TEST(BeamPathMis, PathTechniqueReplacesWhatTheWeightsTakeFromTheGathers)
 {
     World lamp(4, 4);
@@ -194,5 +204,15 @@ TEST(BeamPathMis, PathTechniqueReplacesWhatTheWeightsTakeFromTheGathers)
     World sun(4, 4);
     hazeBox(sun, 0.7f);
     sun.addLight(distantLight(make_float3(0.3f, -1, -0.4f), splat(3.0f)));
-    expectPathReplacesGathers(sun, {0}, 200000, "distant light");
+    expectPathReplacesGathers(sun, {0}, 40000, "distant light");
+    World panel(4, 4);
+    hazeBox(panel, 0.7f);
+    Light rect;
+    rect.type = LightType::Rect;
+    rect.center = make_float3(0.2f, 1.5f, -0.2f);
+    rect.normal = make_float3(0, -1, 0);
+    rect.size[0] = rect.size[1] = 1.0f;
+    rect.radiance = splat(3.0f);
+    panel.addLight(rect);
+    expectPathReplacesGathers(panel, {0}, 200000, "rect light");
 }
