@@ -1,5 +1,7 @@
 #include "BeamPathMis.h"
 
+#include "ShadowCasters.h"
+
 #include "../../kernels/shared/geometry.h"
 #include "../../kernels/shared/light.h"
 
@@ -66,11 +68,8 @@ double BeamPathMis::beamDensityTo(int light, const Vrl* vertex, float3 travel, f
         line.dir = toV / t;
     }
     // Its extent as the light pass gives it (VrlLightPass.cpp, tracePath).
-    float tEnd = NB_INF;
-    if (mPs->shadowCasters)
-        tEnd = nbGeomTrace(mPs->geometry.nodes.data(), mPs->geometry.prims.data(), mPs->geometry.scene, line.origin,
-                           line.dir, 0.0f, NB_INF, NB_GEOM_SHADOWS, 0);
-    if (!mMedium->span(line.origin, line.dir, 0.0f, tEnd, line.t0, line.t1) || t < line.t0 || t > line.t1)
+    if (!mMedium->span(line.origin, line.dir, 0.0f, casterDistance(*mPs, line.origin, line.dir), line.t0, line.t1) ||
+        t < line.t0 || t > line.t1)
         return 0.0;
     const JointSampler sampler(gatherLines(o, d, u0, u1, line), mKind, PhasePair{mCameraPhase, line.phase});
     return beamDensity(line, t, sampler.pdf(u, t));

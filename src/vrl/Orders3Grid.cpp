@@ -6,6 +6,7 @@
 #include "../single/ScatterPoints.h"
 #include "../single/SingleScatter.h"
 #include "CameraLattice.h"
+#include "ShadowCasters.h"
 #include "SkinCells.h"
 #include "ViewFocus.h"
 #include "VrlLightPass.h"
@@ -217,11 +218,7 @@ bool aimDeposit(const PathtraceScene& ps, const VrlMedium& medium, float3 viewer
     const float u = nbRngNext(&rng), u0 = nbRngNext(&rng), u1 = nbRngNext(&rng), u2 = nbRngNext(&rng);
     const float3 w = nbPhaseSample(v.phase, u < 0.5f ? wi : wo, u0, u1, u2);
     const float p = nbPhaseEval(v.phase, dot(wi, w)), q = 0.5f * (p + nbPhaseEval(v.phase, dot(w, wo)));
-    float tEnd = INFINITY;
-    if (ps.shadowCasters)
-        tEnd = nbGeomTrace(ps.geometry.nodes.data(), ps.geometry.prims.data(), ps.geometry.scene, v.origin, w, 0.0f,
-                           NB_INF, NB_GEOM_SHADOWS, 0);
-    if (!(q > 0.0f) || !medium.span(v.origin, w, 0.0f, tEnd, v.t0, v.t1))
+    if (!(q > 0.0f) || !medium.span(v.origin, w, 0.0f, casterDistance(ps, v.origin, w), v.t0, v.t1))
         return false;
     v.dir = w;
     v.flux = v.flux * (p / q);

@@ -1,5 +1,7 @@
 #include "VrlCamera.h"
 
+#include "ShadowCasters.h"
+
 #include "../../kernels/shared/envmap.h"
 #include "../../kernels/shared/geometry.h"
 #include "../../kernels/shared/light.h"
@@ -12,12 +14,6 @@ namespace {
 
 constexpr int kRussianRouletteDepth = 3;  // the path tracer's
 constexpr int kSafetyMaxDepth = 1000000;
-
-bool blocked(const PathtraceScene& ps, float3 p, float3 d, float dist)
-{
-    return ps.shadowCasters && nbGeomTrace(ps.geometry.nodes.data(), ps.geometry.prims.data(), ps.geometry.scene, p, d,
-                                           0.0f, dist, NB_GEOM_SHADOWS, 1) < NB_INF;
-}
 
 // Next-event estimation at p for every light, light arriving along -wi and leaving along -d
 // (pathtrace.cl's loop, one sample each).
@@ -36,7 +32,7 @@ void nextEvent(const CameraSetup& s, float3 p, float3 d, NbPhase phase, float3 w
             float fp = nbPhaseEval(phase, dot(wi, d));
             if (pdfMap > 0.0f && fp > 0.0f) {
                 const float3 L = colour * nbEnvLookup(ps.envMap, ps.envData.data(), wi);
-                if (nbMaxComponent(L) > 0.0f && !blocked(ps, p, wi, NB_INF)) {
+                if (nbMaxComponent(L) > 0.0f && !casterBetween(ps, p, wi, NB_INF)) {
                     const float mis = pdfMap * pdfMap / (pdfMap * pdfMap + fp * fp);
                     c += L * m.transmittance(p, wi, NB_INF, rng) * (fp * mis / pdfMap);
                 }
@@ -45,7 +41,7 @@ void nextEvent(const CameraSetup& s, float3 p, float3 d, NbPhase phase, float3 w
             wi = nbPhaseSample(phase, d, v0, v1, v2);
             fp = nbPhaseEval(phase, dot(wi, d));
             const float3 L = colour * nbEnvLookup(ps.envMap, ps.envData.data(), wi);
-            if (fp > 0.0f && nbMaxComponent(L) > 0.0f && !blocked(ps, p, wi, NB_INF)) {
+            if (fp > 0.0f && nbMaxComponent(L) > 0.0f && !casterBetween(ps, p, wi, NB_INF)) {
                 pdfMap = nbEnvPdf(ps.envMap, ps.envData.data(), wi);
                 const float mis = fp * fp / (pdfMap * pdfMap + fp * fp);
                 c += L * m.transmittance(p, wi, NB_INF, rng) * mis;
@@ -68,7 +64,7 @@ void nextEvent(const CameraSetup& s, float3 p, float3 d, NbPhase phase, float3 w
         }
         if (!(nbMaxComponent(ls.weight) > 0.0f) || !(f > 0.0f))
             continue;
-        if (blocked(ps, p, ls.wi, ls.distance))
+        if (casterBetween(ps, p, ls.wi, ls.distance))
             continue;
         const float3 c = w * ls.weight * m.transmittance(p, ls.wi, ls.distance, rng) * f;
         out.L[1] += c;
@@ -99,7 +95,7 @@ float3 gatherVrl(const CameraSetup& s, const Vrl& vrl, float3 o, float3 d, float
     const MediumPoint atU = m.at(pu, -dot(w, d));
     if (!(nbMaxComponent(atU.scatter) > 0.0f))
         return make_float3(0, 0, 0);
-    if (blocked(*s.ps, pv, w, dist))
+    if (casterBetween(*s.ps, pv, w, dist))
         return make_float3(0, 0, 0);
     float3 c = vrl.flux * atV.scatter * atU.scatter * float(1.0 / (double(dist2) * ps.pdf));
     if (s.mis.active() && (vrl.order >= 1 || s.mis.coversLight(vrl.light)))  // BeamPathMis.h
@@ -130,10 +126,7 @@ void pathTechnique(const CameraSetup& s, float3 o, float3 d, float u0, float u1,
     const float3 p = o + d * u;
     const float x0 = nbRngNext(&rng), x1 = nbRngNext(&rng), x2 = nbRngNext(&rng);
     const float3 wo = nbPhaseSample(phase, d, x0, x1, x2);
-    const float tEnd = ps.shadowCasters ? nbGeomTrace(ps.geometry.nodes.data(), ps.geometry.prims.data(),
-                                                      ps.geometry.scene, p, wo, 0.0f, NB_INF, NB_GEOM_SHADOWS, 0)
-                                        : NB_INF;
-    const FlightResult f = m.freeFlight(p, wo, tEnd, w, rng, nullptr);
+    const FlightResult f = m.freeFlight(p, wo, casterDistance(ps, p, wo), w, rng, nullptr);
     if (!f.scattered)
         return;
     const float3 v = p + wo * f.t;
@@ -148,7 +141,7 @@ void pathTechnique(const CameraSetup& s, float3 o, float3 d, float u0, float u1,
         const float a = distant ? nbRngNext(&rng) : 0.5f, b = distant ? nbRngNext(&rng) : 0.5f;
         const NbLightSample ls = nbLightSample(l, v, a, b);
         const float fv = nbPhaseEval(phaseV, dot(ls.wi, wo));
-        if (!(nbMaxComponent(ls.weight) > 0.0f) || !(fv > 0.0f) || blocked(ps, v, ls.wi, ls.distance))
+        if (!(nbMaxComponent(ls.weight) > 0.0f) || !(fv > 0.0f) || casterBetween(ps, v, ls.wi, ls.distance))
             continue;
         const float weight = balanceWeight(s.mis.pathDensity(atU, atV, f.t, true),
                                            s.mis.beamDensityTo(int(i), nullptr, -ls.wi, o, d, u0, u1, u, v));
@@ -172,7 +165,7 @@ void pathTechnique(const CameraSetup& s, float3 o, float3 d, float u0, float u1,
     const float3 wi = toX / t;
     const float fv = nbPhaseEval(phaseV, dot(wi, wo));
     const float fx = nbPhaseEval(x.phase, dot(x.inDir, -wi));
-    if (!(fv > 0.0f) || !(fx > 0.0f) || blocked(ps, v, wi, t))
+    if (!(fv > 0.0f) || !(fx > 0.0f) || casterBetween(ps, v, wi, t))
         return;
     const float weight = balanceWeight(s.mis.pathDensity(atU, atV, f.t, false),
                                        s.mis.beamDensityTo(-1, &x, make_float3(0, 0, 0), o, d, u0, u1, u, v));
@@ -200,12 +193,7 @@ void traceCameraPath(const CameraSetup& s, float3 o, float3 d, float tCamera, Nb
     {
         float3 po = o, pd = d, w = make_float3(1, 1, 1);
         for (int order = 0;;) {
-            const float tEnd =
-                order == 0
-                    ? tCamera
-                    : (ps.shadowCasters ? nbGeomTrace(ps.geometry.nodes.data(), ps.geometry.prims.data(),
-                                                      ps.geometry.scene, po, pd, 0.0f, NB_INF, NB_GEOM_SHADOWS, 0)
-                                        : NB_INF);
+            const float tEnd = order == 0 ? tCamera : casterDistance(ps, po, pd);
             float3 emitted = make_float3(0, 0, 0);
             const FlightResult f = m.freeFlight(po, pd, tEnd, w, rng, ps.emission ? &emitted : nullptr);
             out.L[order < 2 ? order : 2] += emitted;

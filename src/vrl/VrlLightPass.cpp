@@ -1,5 +1,7 @@
 #include "VrlLightPass.h"
 
+#include "ShadowCasters.h"
+
 #include "../../kernels/shared/envmap.h"
 #include "../../kernels/shared/geometry.h"
 #include "../../kernels/shared/light.h"
@@ -278,9 +280,7 @@ void LightPass::tracePath(uint32_t seed, uint32_t iteration, int path, int paths
     for (int order = 0; order <= maxOrder; ++order) {
         if (order % kStopPollInterval == kStopPollInterval - 1 && mStop->raised())
             return;
-        if (ps.shadowCasters)
-            tEnd = std::fmin(tEnd, nbGeomTrace(ps.geometry.nodes.data(), ps.geometry.prims.data(), ps.geometry.scene, x,
-                                               dir, 0.0f, NB_INF, NB_GEOM_SHADOWS, 0));
+        tEnd = std::fmin(tEnd, casterDistance(ps, x, dir));
         float t0, t1;
         if (!mMedium->span(x, dir, 0.0f, tEnd, t0, t1))
             return;  // the ray misses every volume
