@@ -9,6 +9,7 @@
 #include "../pathtracer/PathtraceState.h"
 #include "../render/FilmLayout.h"
 #include "../scene/KernelScene.h"
+#include "SampleAllocation.h"
 #include "VrlCamera.h"
 #include "VrlLightPass.h"
 #include "VrlMedium.h"
@@ -20,6 +21,9 @@
 #include <atomic>
 #include <chrono>
 #include <cmath>
+#include <functional>
+#include <utility>
+#include <vector>
 
 namespace nimbus {
 
@@ -57,16 +61,24 @@ nb_uint cameraStreamSeed(nb_uint seed, int k)
     return k == 0 ? seed : nbPcgHash(seed ^ nbPcgHash(kCameraStreamKey + nb_uint(k)));
 }
 
-// Camera paths per pixel and iteration for L0 and L1. An iteration's cost is dominated by its
-// gathers (one per VRL, three ratio trackings each, about a camera path's cost each), so a single
-// camera path would leave L0 and L1, which vary from path to path as the path tracer's do, far
-// noisier than L2plus. With as many camera paths as light paths the cheap terms cost a small share
-// of the iteration (a path makes a VRL per segment) and their variance falls with the VRL term's
-// as vrl_paths grows. The iteration stays one unbiased sample per pixel.
-int cameraPathsPerIteration(const Scene& scene)
+// The pilot of SampleAllocation.h: kPilotIterations iterations on at most about kPilotPixels
+// pixels (a lattice over the crop), each pixel with kPilotCameraPaths camera paths, on streams
+// keyed apart from the render's.
+constexpr int kPilotIterations = 4;
+constexpr int kPilotPixels = 1024;
+constexpr int kPilotCameraPaths = 4;
+constexpr nb_uint kPilotStreamKey = 0x70696c6fu;
+// A gather's joint sample in VrlMedium's work units (density reads): the advanced distribution's
+// 17 phase evaluations and its arc's table cost about as much as 6 reads, the simple one's closed
+// forms about 1 (rough, from render times of gathers and camera paths on haze_lamp and
+// medium_sphere; an error here moves K by its square root).
+double jointSampleWork(vrl::JointKind kind)
 {
-    return std::max(1, scene.render.vrlPaths);
+    return kind == vrl::JointKind::Simple ? 1.0 : 6.0;
 }
+// The light pass per VRL, shared by every pixel (its free flights run on TBB's threads, which the
+// work counter does not see): a few majorant segments and density reads.
+constexpr double kLightPassWorkPerVrl = 4.0;
 
 // The joint distribution a scene asks for: "auto" is the advanced one where some phase function
 // is anisotropic (Oppitz 7.3.2 gains nothing over 7.3.1 for g = 0 and costs 17 phase evaluations).
@@ -83,6 +95,145 @@ vrl::JointKind jointKind(const Scene& scene)
             return vrl::JointKind::Advanced;
     }
     return vrl::JointKind::Simple;
+}
+
+// The camera rays of a render: a pixel's ray on the stream `rng` was started on, the filter's
+// jitter and the camera's time drawn from it as the path tracer draws them.
+struct CameraRays {
+    NbCamera cam;
+    int filterType = 0;
+    float filterWidth = 0;
+    int width = 0, height = 0;
+    const PathtraceScene* ps = nullptr;
+    bool moves = false;  // the iteration's time rather than the sample's (VrlMedium.h)
+
+    // o, d and tCamera: where a holdout (geometry or the depth map) ends the ray (INFINITY: none).
+    void ray(int px, int py, float iterationTime, NbRng& rng, float3& o, float3& d, float& tCamera) const
+    {
+        const float jx = nbFilterSample(filterType, filterWidth, nbRngNext(&rng));
+        const float jy = nbFilterSample(filterType, filterWidth, nbRngNext(&rng));
+        const float cameraTime = nbRngNext(&rng);
+        const float time = moves ? iterationTime : cameraTime;
+        const float sx = float(px) + 0.5f + jx, sy = float(py) + 0.5f + jy;
+        nbCameraRay(cam, sx, sy, width, height, time, &o, &d);
+        tCamera = NB_INF;
+        if (ps->holdouts)
+            tCamera = nbGeomTrace(ps->geometry.nodes.data(), ps->geometry.prims.data(), ps->geometry.scene, o, d, 0.0f,
+                                  NB_INF, NB_GEOM_HOLDOUT, 0);
+        if (!ps->holdoutDepth.empty()) {
+            const float z = nbHoldoutDepthAt(ps->holdoutDepth.data(), ps->holdoutDepthWidth, ps->holdoutDepthHeight,
+                                             ps->holdoutDepthScale[0], ps->holdoutDepthScale[1], sx, sy);
+            const float cosAxis = dot(d, nbCameraViewAxis(cam, time));
+            if (z < NB_INF && cosAxis > 0.0f)
+                tCamera = std::fmin(tCamera, z / cosAxis);
+        }
+    }
+};
+
+void clearSample(vrl::CameraSample& s, size_t lights)
+{
+    for (float3& L : s.L)
+        L = make_float3(0, 0, 0);
+    s.perLight.assign(lights, make_float3(0, 0, 0));
+}
+
+// The pilot of SampleAllocation.h on the crop of `film`. placeAt(time) puts moving lights and
+// media at an iteration's shutter time (serially, between iterations).
+vrl::PilotMeasure measurePilot(const Scene& scene, const Film& film, const CameraRays& rays,
+                               const vrl::LightPass& lightPass, vrl::CameraSetup setup,
+                               const std::function<void(float)>& placeAt)
+{
+    const int cropWidth = film.x1 - film.x0, cropHeight = film.y1 - film.y0;
+    const double pixelCount = double(cropWidth) * double(cropHeight);
+    const int stride = std::max(1, int(std::ceil(std::sqrt(pixelCount / kPilotPixels))));
+    std::vector<std::pair<int, int>> pixels;
+    for (int y = stride / 2; y < cropHeight; y += stride)
+        for (int x = stride / 2; x < cropWidth; x += stride)
+            pixels.emplace_back(film.x0 + x, film.y0 + y);
+    const size_t n = pixels.size();
+    struct Sample {
+        double camera[kPilotCameraPaths];  // each camera path's L0 + L1 (channel average)
+        double rest;                       // L2plus: the gathers and the path technique
+        long long cameraWork, restWork;
+    };
+    std::vector<Sample> samples(n * kPilotIterations);
+    const nb_uint seed = nbPcgHash(scene.render.seed ^ kPilotStreamKey);
+    const size_t lights = setup.ps->lights.size();
+    double vrlCount = 0;  // per iteration
+    for (int j = 0; j < kPilotIterations; ++j) {
+        const float iterationTime = shutterTime(seed, nb_uint(j));
+        placeAt(iterationTime);
+        const std::vector<vrl::Vrl> vrls = lightPass.trace(seed, nb_uint(j), scene.render.vrlPaths);
+        vrlCount += double(vrls.size()) / kPilotIterations;
+        setup.mis.setIteration(vrls);
+        tbb::parallel_for(tbb::blocked_range<size_t>(0, n, 4), [&](const tbb::blocked_range<size_t>& r) {
+            vrl::CameraSample path, sum;
+            for (size_t i = r.begin(); i != r.end(); ++i) {
+                const auto [px, py] = pixels[i];
+                const nb_uint pixelIndex = nb_uint(py) * nb_uint(film.width) + nb_uint(px);
+                Sample& out = samples[size_t(j) * n + i];
+                out = Sample{};
+                for (int k = 0; k < kPilotCameraPaths; ++k) {
+                    NbRng rng = nbRngStart(cameraStreamSeed(seed, k), pixelIndex, nb_uint(j));
+                    float3 o, d;
+                    float tCamera;
+                    rays.ray(px, py, iterationTime, rng, o, d, tCamera);
+                    vrl::setWorkCounter(&out.cameraWork);
+                    vrl::traceCameraPath(setup, o, d, tCamera, rng, path);
+                    out.camera[k] = nbAverage(path.L[0] + path.L[1] + path.L[2]);
+                    if (k == 0) {
+                        vrl::setWorkCounter(&out.restWork);
+                        clearSample(sum, lights);
+                        vrl::gatherVrls(setup, o, d, tCamera, vrls, rng, sum);
+                        vrl::gatherPaths(setup, o, d, tCamera, path, rng, sum);
+                        out.rest = nbAverage(sum.L[2]);
+                    }
+                    vrl::setWorkCounter(nullptr);
+                }
+            }
+        });
+    }
+
+    // Each pixel's value (its pilot mean) and nimbus compare's eps from the image's mean.
+    std::vector<double> value(n, 0.0);
+    double imageMean = 0;
+    for (size_t i = 0; i < n; ++i) {
+        for (int j = 0; j < kPilotIterations; ++j) {
+            const Sample& s = samples[size_t(j) * n + i];
+            double camera = 0;
+            for (double c : s.camera)
+                camera += c / kPilotCameraPaths;
+            value[i] += (camera + s.rest) / kPilotIterations;
+        }
+        imageMean += value[i] / double(n);
+    }
+    const double eps = (0.1 * imageMean) * (0.1 * imageMean);
+    vrl::PilotMeasure m;
+    if (!(n > 0) || !(eps > 0.0) || !std::isfinite(eps))
+        return m;  // nothing to weigh: chooseCameraPaths's fallback
+    for (size_t i = 0; i < n; ++i) {
+        const double norm = value[i] * value[i] + eps;
+        double restSum = 0, restSquares = 0;
+        for (int j = 0; j < kPilotIterations; ++j) {
+            const Sample& s = samples[size_t(j) * n + i];
+            double sum = 0, squares = 0;
+            for (double c : s.camera)
+                sum += c, squares += c * c;
+            m.cameraVariance += (squares - sum * sum / kPilotCameraPaths) / (kPilotCameraPaths - 1) / norm;
+            restSum += s.rest;
+            restSquares += s.rest * s.rest;
+            m.cameraWork += double(s.cameraWork);
+            m.restWork += double(s.restWork);
+        }
+        m.restVariance += (restSquares - restSum * restSum / kPilotIterations) / (kPilotIterations - 1) / norm;
+    }
+    const double taken = double(n) * kPilotIterations;
+    m.cameraVariance /= taken;
+    m.restVariance /= double(n);
+    m.cameraWork /= taken * kPilotCameraPaths;
+    m.restWork =
+        m.restWork / taken + jointSampleWork(setup.kind) * vrlCount + kLightPassWorkPerVrl * vrlCount / pixelCount;
+    return m;
 }
 
 }  // namespace
@@ -146,10 +297,33 @@ void renderVrl(const RenderContext& ctx, Film& film, const RenderControl& option
     setup.kind = jointKind(scene);
     setup.cameraPhase = medium.dominantPhase();
     setup.mis = vrl::BeamPathMis(ps, medium, lightPass, setup.kind, setup.cameraPhase, scene.render.vrlPaths);
-    const NbCamera cam = makeNbCamera(scene.camera);
-    const int filterType = nbFilterType(scene.render.pixelFilter);
-    const float filterWidth = scene.render.filterWidth;
-    const bool depthMap = !ps.holdoutDepth.empty();
+    CameraRays rays;
+    rays.cam = makeNbCamera(scene.camera);
+    rays.filterType = nbFilterType(scene.render.pixelFilter);
+    rays.filterWidth = scene.render.filterWidth;
+    rays.width = film.width;
+    rays.height = film.height;
+    rays.ps = &ps;
+    rays.moves = moves;
+    // Motion blur (velocity, volume transforms, lights): one shutter time per iteration, for its
+    // light paths and all its camera paths (VrlMedium.h); iterations average over the shutter.
+    // Moving lights are placed at that time between iterations, so that the light pass and the
+    // camera paths' next-event estimation both see them there.
+    const auto placeAt = [&](float iterationTime) {
+        if (!moves)
+            return;
+        const float seconds = ctx.volumes.shutterSeconds(iterationTime);
+        medium.setShutterSeconds(seconds);
+        for (size_t i = 0; i < ps.lights.size(); ++i)
+            if (lightsAtFrame[i].motion[1] > 0)
+                ps.lights[i] = nbLightAt(lightsAtFrame[i], ps.majorants.data() + lightsAtFrame[i].motion[0],
+                                         lightsAtFrame[i].motion[1], seconds);
+    };
+    // Camera paths per pixel and iteration (SampleAllocation.h), from a pilot that every render of
+    // this scene and seed repeats the same way. Where it finds nothing to weigh, as many camera
+    // paths as light paths (the rule before the pilot).
+    const int cameraPaths = vrl::chooseCameraPaths(measurePilot(scene, film, rays, lightPass, setup, placeAt),
+                                                   std::max(1, scene.render.vrlPaths));
 
     const double timeLimit = scene.render.timeLimit;
     const double noiseTarget = split || scene.render.spp > 0 ? 0.0 : scene.render.noiseTarget;
@@ -157,7 +331,6 @@ void renderVrl(const RenderContext& ctx, Film& film, const RenderControl& option
                                 : scene.render.spp > 0 ? scene.render.spp
                                                        : (timeLimit > 0 || noiseTarget > 0 ? 0 : 1);
     const int paths = scene.render.vrlPaths;
-    const int cameraPaths = cameraPathsPerIteration(scene);
     std::atomic<long long> bad{0};
     long long vrlCount = 0;
     double noise = INFINITY;
@@ -173,19 +346,8 @@ void renderVrl(const RenderContext& ctx, Film& film, const RenderControl& option
         if (first + done >= 0xffffffffLL)
             break;  // the RNG's sample index is 32 bits
         const nb_uint sampleIndex = nb_uint(first + done);
-        // Motion blur (velocity, volume transforms, lights): one shutter time per iteration, for
-        // its light paths and all its camera paths (VrlMedium.h); iterations average over the
-        // shutter. Moving lights are placed at that time here, between iterations, so the light
-        // pass and the camera paths' next-event estimation both see them there.
         const float iterationTime = shutterTime(scene.render.seed, sampleIndex);
-        if (moves) {
-            const float seconds = ctx.volumes.shutterSeconds(iterationTime);
-            medium.setShutterSeconds(seconds);
-            for (size_t i = 0; i < ps.lights.size(); ++i)
-                if (lightsAtFrame[i].motion[1] > 0)
-                    ps.lights[i] = nbLightAt(lightsAtFrame[i], ps.majorants.data() + lightsAtFrame[i].motion[0],
-                                             lightsAtFrame[i].motion[1], seconds);
-        }
+        placeAt(iterationTime);
         const std::vector<vrl::Vrl> vrls = lightPass.trace(scene.render.seed, sampleIndex, paths);
         vrlCount += (long long)vrls.size();
         setup.mis.setIteration(vrls);
@@ -199,7 +361,7 @@ void renderVrl(const RenderContext& ctx, Film& film, const RenderControl& option
                     const int px = film.x0 + int(gid % cropWidth), py = film.y0 + int(gid / cropWidth);
                     const nb_uint pixelIndex = nb_uint(py) * nb_uint(film.width) + nb_uint(px);
                     // K camera paths for L0 and L1 (the first is the path tracer's own sample), the
-                    // first one's ray also gathering from every VRL (see cameraPathsPerIteration).
+                    // first one's ray also gathering from every VRL (SampleAllocation.h).
                     for (float3& L : cs.L)
                         L = make_float3(0, 0, 0);
                     cs.transmittance = cs.depth = cs.hasDepth = 0;
@@ -207,25 +369,9 @@ void renderVrl(const RenderContext& ctx, Film& film, const RenderControl& option
                     const float share = 1.0f / float(cameraPaths);
                     for (int k = 0; k < cameraPaths; ++k) {
                         NbRng rng = nbRngStart(cameraStreamSeed(scene.render.seed, k), pixelIndex, sampleIndex);
-                        const float jx = nbFilterSample(filterType, filterWidth, nbRngNext(&rng));
-                        const float jy = nbFilterSample(filterType, filterWidth, nbRngNext(&rng));
-                        const float cameraTime = nbRngNext(&rng);
-                        const float time = moves ? iterationTime : cameraTime;
-                        const float sx = float(px) + 0.5f + jx, sy = float(py) + 0.5f + jy;
                         float3 o, d;
-                        nbCameraRay(cam, sx, sy, film.width, film.height, time, &o, &d);
-                        float tCamera = NB_INF;
-                        if (ps.holdouts)
-                            tCamera = nbGeomTrace(ps.geometry.nodes.data(), ps.geometry.prims.data(), ps.geometry.scene,
-                                                  o, d, 0.0f, NB_INF, NB_GEOM_HOLDOUT, 0);
-                        if (depthMap) {
-                            const float z =
-                                nbHoldoutDepthAt(ps.holdoutDepth.data(), ps.holdoutDepthWidth, ps.holdoutDepthHeight,
-                                                 ps.holdoutDepthScale[0], ps.holdoutDepthScale[1], sx, sy);
-                            const float cosAxis = dot(d, nbCameraViewAxis(cam, time));
-                            if (z < NB_INF && cosAxis > 0.0f)
-                                tCamera = std::fmin(tCamera, z / cosAxis);
-                        }
+                        float tCamera;
+                        rays.ray(px, py, iterationTime, rng, o, d, tCamera);
                         vrl::traceCameraPath(setup, o, d, tCamera, rng, one);
                         for (int t = 0; t < 3; ++t)
                             cs.L[t] += one.L[t] * share;
@@ -309,6 +455,7 @@ void renderVrl(const RenderContext& ctx, Film& film, const RenderControl& option
     // compare) is the path tracer's: one iteration is one sample per pixel.
     film.set("pathtrace_spp", std::to_string(done));
     film.set("vrl_paths", paths);
+    film.set("vrl_camera_paths", cameraPaths);
     film.set("vrl_sampling", std::string(setup.kind == vrl::JointKind::Simple ? "simple" : "advanced"));
     if (split)
         film.set("sample_start", int(first));
@@ -320,7 +467,8 @@ void renderVrl(const RenderContext& ctx, Film& film, const RenderControl& option
         s.passes = passes;
         s.badSamples = bad;
         s.noiseRelMse = noiseTarget > 0 ? noise : 0;
-        s.device = "cpu (TBB), " + std::to_string(vrlCount) + " VRLs";
+        s.device = "cpu (TBB), " + std::to_string(vrlCount) + " VRLs, " + std::to_string(cameraPaths) +
+                   " camera paths per pixel and iteration";
     }
 }
 

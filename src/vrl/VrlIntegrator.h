@@ -5,7 +5,8 @@
 // the scene's lights (chosen by power) with the path tracer's delta tracking, majorants and
 // Russian roulette, each path segment a virtual ray light; then every pixel's camera sample
 // gathers L0 and L1 as the path tracer does (a free flight to the first scattering vertex and
-// next-event estimation there) and scattering orders 2 and up from every VRL of the iteration
+// next-event estimation there, on as many camera paths as a pilot before the render finds best:
+// SampleAllocation.h) and scattering orders 2 and up from every VRL of the iteration
 // by joint importance sampling of a point pair (JointSampling.h). Iterations are independent, so
 // their per-pixel running means and variance are the path tracer's (Skanberg sec. 6.9), in the
 // same accumulator layout (ptscene.h), and checkpoints, resume and sample splits reuse

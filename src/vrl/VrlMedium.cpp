@@ -7,6 +7,14 @@ namespace nimbus::vrl {
 
 namespace {
 
+thread_local long long* tWork = nullptr;
+
+inline void countWork()
+{
+    if (tWork)
+        ++*tWork;
+}
+
 float advance(float t, float dt)
 {
     const float tn = t + dt;
@@ -72,6 +80,7 @@ FlightResult VrlMedium::freeFlight(float3 o, float3 d, float tEnd, float3& w, Nb
     float segEnd, mu;
     float rho[NB_NUM_VOLUMES];
     while (nbMajorantNext(&it, vols, ps.majorants.data(), &segEnd, &mu)) {
+        countWork();
         const float span = mu * (segEnd - it.t);
         if (tau >= span) {
             tau -= span;
@@ -80,6 +89,7 @@ FlightResult VrlMedium::freeFlight(float3 o, float3 d, float tEnd, float3& w, Nb
         }
         it.t = advance(it.t, tau / mu);
         nbMajorantDensities(&it, vols, ps.tables.data(), ps.pools.data(), rho);
+        countWork();
         if (emission && ps.emission)
             *emission += w * nbMajorantEmission(&it, vols, ps.tables.data(), ps.pools.data()) / mu;
         float3 sigma_t = make_float3(0, 0, 0), sigma_s = sigma_t;
@@ -150,6 +160,7 @@ float3 VrlMedium::transmittance(float3 o, float3 d, float tMax, NbRng& rng) cons
         return true;
     };
     while (nbMajorantNext(&it, vols, ps.majorants.data(), &segEnd, &mu)) {
+        countWork();
         // Residual ratio tracking over this stretch (see the header): the control's depth in
         // closed form, tentative collisions at the residual rate muR.
         const float3 sigmaC = control(it);
@@ -166,6 +177,7 @@ float3 VrlMedium::transmittance(float3 o, float3 d, float tMax, NbRng& rng) cons
             tauC += sigmaC * dt;
             it.t = advance(it.t, dt);
             nbMajorantDensities(&it, vols, ps.tables.data(), ps.pools.data(), rho);
+            countWork();
             float3 sigma_t = make_float3(0, 0, 0);
             for (int v = 0; v < mCount; ++v)
                 sigma_t += nbLoad3(vols[v].sigma_t) * rho[v];
@@ -182,6 +194,7 @@ float3 VrlMedium::transmittance(float3 o, float3 d, float tMax, NbRng& rng) cons
 
 MediumPoint VrlMedium::at(float3 p, float cosTheta) const
 {
+    countWork();
     MediumPoint out;
     out.sigmaT = out.sigmaS = out.scatter = make_float3(0, 0, 0);
     for (int v = 0; v < mCount; ++v) {
@@ -235,6 +248,11 @@ NbPhase VrlMedium::dominantPhase() const
         }
     }
     return mCount > 0 ? mPs->volumes[size_t(best)].phase : NbPhase{0, 0, 0, 0};
+}
+
+void setWorkCounter(long long* counter)
+{
+    tWork = counter;
 }
 
 }  // namespace nimbus::vrl

@@ -96,6 +96,11 @@ private:
     float mSeconds = 0;
 };
 
+// Counts the medium's work on the calling thread while `counter` is set (nullptr: stop): one
+// unit per majorant segment walked and per density read. SampleAllocation.h's deterministic
+// stand-in for time, which would make the allocation, and so the image, depend on the machine.
+void setWorkCounter(long long* counter);
+
 // Uniform in (0, 1]: safe for -log (pathtrace.cl's nbRngOpen).
 inline float rngOpen(NbRng& rng)
 {
