@@ -68,10 +68,11 @@ constexpr int kPilotIterations = 4;
 constexpr int kPilotPixels = 1024;
 constexpr int kPilotCameraPaths = 4;
 constexpr nb_uint kPilotStreamKey = 0x70696c6fu;
-// A gather's joint sample in VrlMedium's work units (density reads): the advanced distribution's
-// 17 phase evaluations and its arc's table cost about as much as 6 reads, the simple one's closed
-// forms about 1 (rough, from render times of gathers and camera paths on haze_lamp and
-// medium_sphere; an error here moves K by its square root).
+// A gather's joint sample in VrlMedium's work units (density reads): 6 for the advanced
+// distribution (17 phase evaluations and its arc's table), 1 for the simple one's closed forms.
+// Set by hand, not fitted; checked: with it the work model predicts the ratio of render times at
+// two camera-path counts within about 10% on haze_lamp and medium_sphere (docs/vrl.md). An error
+// here moves K by its square root.
 double jointSampleWork(vrl::JointKind kind)
 {
     return kind == vrl::JointKind::Simple ? 1.0 : 6.0;
@@ -362,10 +363,8 @@ void renderVrl(const RenderContext& ctx, Film& film, const RenderControl& option
                     const nb_uint pixelIndex = nb_uint(py) * nb_uint(film.width) + nb_uint(px);
                     // K camera paths for L0 and L1 (the first is the path tracer's own sample), the
                     // first one's ray also gathering from every VRL (SampleAllocation.h).
-                    for (float3& L : cs.L)
-                        L = make_float3(0, 0, 0);
+                    clearSample(cs, ps.lights.size());
                     cs.transmittance = cs.depth = cs.hasDepth = 0;
-                    cs.perLight.assign(ps.lights.size(), make_float3(0, 0, 0));
                     const float share = 1.0f / float(cameraPaths);
                     for (int k = 0; k < cameraPaths; ++k) {
                         NbRng rng = nbRngStart(cameraStreamSeed(scene.render.seed, k), pixelIndex, sampleIndex);
@@ -389,10 +388,7 @@ void renderVrl(const RenderContext& ctx, Film& film, const RenderControl& option
                     float y = nbAverage(beauty);
                     if (!std::isfinite(y)) {  // dropped and counted, as the path tracer does
                         ++bad;
-                        for (float3& L : cs.L)
-                            L = make_float3(0, 0, 0);
-                        for (float3& L : cs.perLight)
-                            L = make_float3(0, 0, 0);
+                        clearSample(cs, ps.lights.size());
                         y = 0;
                     }
                     float* a = acc.data() + size_t(gid) * size_t(stride);
