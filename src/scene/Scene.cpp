@@ -72,6 +72,7 @@ const char* wkbOrder2Name(WkbOrder2 o)
     case WkbOrder2::Traced: return "traced";
     case WkbOrder2::Kernel: return "kernel";
     case WkbOrder2::Cache: return "cache";
+    case WkbOrder2::Auto: return "auto";
     }
     return "traced";
 }

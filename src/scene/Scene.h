@@ -174,8 +174,10 @@ enum class WkbKernel { Gaussian, Exact };
 enum class WkbSource { Straight, RandomWalk };
 // How L2+'s second scattering order is computed: traced (a Monte Carlo point on the camera ray,
 // a direction from the phase function, and single's march along it; the kernel then carries
-// orders 3 and up) or, as Tessendorf's reduction does, by the angular kernel with the rest.
-enum class WkbOrder2 { Traced, Kernel, Cache };
+// orders 3 and up), as Tessendorf's reduction does, by the angular kernel with the rest, in the
+// traced radiance cache with orders 3 and up (cache), or (auto) the cache unless a light's L1 has
+// structure the cache's cells cannot hold (src/wkb/WkbPlanner.cpp, chooseOrder2).
+enum class WkbOrder2 { Traced, Kernel, Cache, Auto };
 // How L2+'s orders 3 and up from the lights are computed: the angular kernel over the blurred light
 // pyramid (kernel), or a radiance cache traced from the lights (traced: docs/wkb.md "Orders 3 and
 // up, traced"). Emission's L2+ keeps the kernel either way.
@@ -188,7 +190,7 @@ const char* methodName(Method m);
 const char* pixelFilterName(PixelFilter f);  // "box", "gaussian", "blackman_harris"
 const char* wkbKernelName(WkbKernel k);      // "gaussian", "exact"
 const char* wkbSourceName(WkbSource s);      // "straight", "random_walk"
-const char* wkbOrder2Name(WkbOrder2 o);      // "traced", "kernel", "cache"
+const char* wkbOrder2Name(WkbOrder2 o);      // "traced", "kernel", "cache", "auto"
 const char* wkbOrders3Name(WkbOrders3 o);    // "kernel", "traced"
 const char* vrlSamplingName(VrlSampling s);  // "auto", "simple", "advanced"
 
@@ -234,7 +236,7 @@ struct RenderSettings {
     // wkb (docs/wkb.md has the derivation of each):
     WkbKernel wkbKernel = WkbKernel::Exact;
     WkbSource wkbSource = WkbSource::RandomWalk;
-    WkbOrder2 wkbOrder2 = WkbOrder2::Traced;  // order 2 of L2+ (docs/wkb.md "Order 2, traced")
+    WkbOrder2 wkbOrder2 = WkbOrder2::Auto;    // order 2 of L2+ (docs/wkb.md "Which order-2 model")
     int wkbOrder2Samples = 4;                 // traced order-2 samples per camera ray
     WkbOrders3 wkbOrders3 = WkbOrders3::Traced;  // orders 3+ of the lights' L2+ (docs/wkb.md)
     int wkbOrders3Paths = 0;                     // traced: light paths of the radiance cache; 0: from its measured noise (traceOrders3)

@@ -187,7 +187,8 @@ public:
     }
     void field(const std::string& key, WkbOrder2& out)
     {
-        named(key, out, {WkbOrder2::Traced, WkbOrder2::Kernel, WkbOrder2::Cache}, wkbOrder2Name, "order-2 model");
+        named(key, out, {WkbOrder2::Auto, WkbOrder2::Traced, WkbOrder2::Kernel, WkbOrder2::Cache}, wkbOrder2Name,
+              "order-2 model");
     }
     void field(const std::string& key, WkbOrders3& out)
     {

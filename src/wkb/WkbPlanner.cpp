@@ -48,6 +48,16 @@ float largestExtentVoxels(const BrickGrid& density)
 
 }  // namespace
 
+Order2Choice chooseOrder2(const RenderContext& ctx)
+{
+    if (ctx.shadowCasters())
+        return {false, "a shadow caster's sharp shadow edges"};
+    for (const LightEntry& e : ctx.lights)
+        if (e.used && e.light.type == NB_LIGHT_SPOT)
+            return {false, "a spot light's cone edge"};
+    return {true, "no spot light and no shadow caster"};
+}
+
 std::vector<Int3> lightGridBricks(const BrickGrid& density, int factor)
 {
     std::vector<Int3> out;
@@ -86,7 +96,7 @@ WkbSetup planWkb(const RenderContext& ctx, RenderPlan& plan)
     WkbSetup setup;
     setup.kernel = rs.wkbKernel == WkbKernel::Exact ? KernelType::Exact : KernelType::Gaussian;
     setup.randomWalk = rs.wkbSource == WkbSource::RandomWalk;
-    setup.tracedOrder2 = rs.wkbOrder2 == WkbOrder2::Traced;
+    setup.tracedOrder2 = rs.wkbOrder2 == WkbOrder2::Traced || rs.wkbOrder2 == WkbOrder2::Auto;
     setup.blurK = std::max(0.0f, rs.wkbBlurK);
     setup.lStep = std::max(1e-3f, rs.wkbLStep);
     setup.tolerance = std::max(1e-7f, rs.tolerance);
@@ -119,7 +129,14 @@ WkbSetup planWkb(const RenderContext& ctx, RenderPlan& plan)
                                  "traced cache's %.0f",
                                  depthPerVoxel, kTracedOrders3MaxDepth));
     const bool tracedOrders3 = setup.tracedOrders3;
-    if (rs.wkbOrder2 == WkbOrder2::Cache) {
+    if (rs.wkbOrder2 == WkbOrder2::Auto && tracedOrders3) {
+        const Order2Choice choice = chooseOrder2(ctx);
+        setup.cachedOrder2 = choice.cache;
+        setup.tracedOrder2 = !choice.cache;
+        plan.notes.push_back(std::string("wkb: order 2 ") +
+                             (choice.cache ? "from the radiance cache" : "traced per camera ray") +
+                             " (render.wkb_order2 auto: " + choice.reason + ")");
+    } else if (rs.wkbOrder2 == WkbOrder2::Cache) {
         // In the cache where there is one; else traced per camera ray.
         setup.cachedOrder2 = tracedOrders3;
         setup.tracedOrder2 = !tracedOrders3;

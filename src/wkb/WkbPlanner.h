@@ -52,6 +52,16 @@ struct VolumeSetup {
 };
 
 // The plan's wkb part in full (RenderPlan::integrator), read by WkbIntegrator.
+// render.wkb_order2 "auto": order 2 from the traced radiance cache (cache true) unless some light's
+// single scattering has an edge that the cache's cells would spread, where it is traced per camera
+// ray: a spot light's cone edge, or a shadow caster's shadow edges. reason: why, for the plan's
+// note (docs/wkb.md "Which order-2 model").
+struct Order2Choice {
+    bool cache = true;
+    const char* reason = "";
+};
+Order2Choice chooseOrder2(const RenderContext& ctx);
+
 struct WkbSetup : IntegratorPlan {
     bool active = false;  // false: L2+ is zero for this scene (no volume, no light, or below tolerance)
     KernelType kernel = KernelType::Gaussian;

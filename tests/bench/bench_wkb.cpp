@@ -156,7 +156,7 @@ int main(int argc, char** argv)
         std::fprintf(stderr, "%s", row);
     }
 
-    md << "\nVariants on the \"dense\" cloud (same settings; order 2 traced is the default, docs/wkb.md):\n\n";
+    md << "\nVariants on the \"dense\" cloud (same settings, order 2 traced in each; docs/wkb.md):\n\n";
     md << "| source | kernel | order 2 | wkb CPU s | march s | mean L2+ |\n|---|---|---|---|---|---|\n";
     struct Variant {
         WkbSource source;

@@ -3,7 +3,8 @@
     /usr/bin/python3 tests/validation/test_wkb_targets.py NIMBUS
 
 Renders validation scenes with `wkb` at their own settings (the defaults: random_walk + exact,
-order 2 traced, orders 3+ traced) and asserts issue 13's per-scene targets against the shipped
+order 2 auto, i.e. from the cache except under a spot light (2026-12-07; traced before), orders 3+
+traced) and asserts issue 13's per-scene targets against the shipped
 path-tracer references (tests/validation/references/): beauty relMSE <= 0.01 and L2plus energy
 within +-5% (the metrics of `nimbus compare`, suite_tools.py). The targets are the issue's, not a
 measured value plus a margin; the scenes are the validation scenes that meet them today

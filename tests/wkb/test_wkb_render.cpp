@@ -8,6 +8,7 @@
 #include "scene/KernelScene.h"
 #include "wkb/AngularKernel.h"
 #include "wkb/WkbIntegrator.h"
+#include "wkb/WkbPlanner.h"
 
 #include <boost/math/quadrature/gauss.hpp>
 #include <gtest/gtest.h>
@@ -755,4 +756,59 @@ TEST(WkbRender, TracedLightsBuildNoLightVolumes)
         EXPECT_GT(mean(aov(r.film, light)), 0.0) << light;
     EXPECT_NE(r.plan.describe().find("no light volumes: every source is traced"), std::string::npos)
         << r.plan.describe();
+}
+
+// render.wkb_order2 "auto" (the default; docs/wkb.md "Which order-2 model"): order 2 from the
+// radiance cache unless a light's single scattering has an edge the cache's cells would spread: a
+// spot's cone edge, or a shadow caster's shadows. A sun, a point light inside the medium and one
+// outside it, a sphere light and an environment light take the cache; a spot light far off does
+// not. Then auto renders exactly what the model it chose renders.
+TEST(WkbRender, AutoOrder2TakesTheCacheUnlessALightHasAnEdge)
+{
+    auto scene = [](const Light& light) {
+        Scene s = baseScene(24, 16, make_float3(0.4f, 0.3f, 5), make_float3(0, 0, 0), 30);
+        s.volumes.push_back(
+            proceduralVolume("sphere", {{"radius", 1.0}, {"voxel_size", 1.0 / 20}}, splat(3.0f), splat(0.03f), 0.5f));
+        s.lights.push_back(light);
+        s.render.spp = 2;
+        return s;
+    };
+    auto positioned = [](LightType type, float3 p) {
+        Light l;
+        l.name = "lamp";
+        l.type = type;
+        l.position = p;
+        l.direction = normalize(-p);
+        return l;
+    };
+    Light sky;
+    sky.name = "sky";
+    sky.type = LightType::Environment;
+    struct Case {
+        const char* what;
+        Light light;
+        bool cache;
+    } cases[] = {
+        {"sun", sun(make_float3(0.4f, -1, -0.3f), 2.0f), true},
+        {"point light 3 m out", positioned(LightType::Point, make_float3(0, 3, 0)), true},
+        {"point light inside", positioned(LightType::Point, make_float3(0.2f, 0.1f, 0)), true},
+        {"sphere light", positioned(LightType::Sphere, make_float3(0, 2.5f, 0)), true},
+        {"environment light", sky, true},
+        {"spot light 3 m out", positioned(LightType::Spot, make_float3(0, 3, 0)), false},
+    };
+    for (const Case& c : cases) {
+        const Scene s = scene(c.light);
+        std::unique_ptr<RenderContext> ctx = RenderContext::create(s, false);
+        const wkb::Order2Choice choice = wkb::chooseOrder2(*ctx);
+        EXPECT_EQ(choice.cache, c.cache) << c.what << ": " << choice.reason;
+    }
+    for (const Case& c : {cases[0], cases[5]}) {
+        Scene s = scene(c.light);
+        s.render.wkbOrder2 = WkbOrder2::Auto;
+        const RenderResult automatic = render(s);
+        s.render.wkbOrder2 = c.cache ? WkbOrder2::Cache : WkbOrder2::Traced;
+        const RenderResult chosen = render(s);
+        EXPECT_EQ(aov(automatic.film, "L2plus").pixels, aov(chosen.film, "L2plus").pixels) << c.what;
+        EXPECT_GT(mean(aov(chosen.film, "L2plus")), 0.0) << c.what;
+    }
 }
