@@ -761,8 +761,9 @@ TEST(WkbRender, TracedLightsBuildNoLightVolumes)
 // render.wkb_order2 "auto" (the default; docs/wkb.md "Which order-2 model"): order 2 from the
 // radiance cache unless a light's single scattering has an edge the cache's cells would spread: a
 // spot's cone edge, or a shadow caster's shadows. A sun, a point light inside the medium and one
-// outside it, a sphere light and an environment light take the cache; a spot light far off does
-// not. Then auto renders exactly what the model it chose renders.
+// outside it, a sphere light and an environment light take the cache; a spot light far off and a
+// sun with a shadow-casting ball above the medium do not (a ball that only holds out does). Then
+// auto renders exactly what the model it chose renders.
 TEST(WkbRender, AutoOrder2TakesTheCacheUnlessALightHasAnEdge)
 {
     auto scene = [](const Light& light) {
@@ -801,6 +802,19 @@ TEST(WkbRender, AutoOrder2TakesTheCacheUnlessALightHasAnEdge)
         std::unique_ptr<RenderContext> ctx = RenderContext::create(s, false);
         const wkb::Order2Choice choice = wkb::chooseOrder2(*ctx);
         EXPECT_EQ(choice.cache, c.cache) << c.what << ": " << choice.reason;
+    }
+    // The sun again, with a ball that casts shadows into the medium (and one that only holds out).
+    for (bool shadows : {true, false}) {
+        Scene s = scene(cases[0].light);
+        Geometry ball;
+        ball.name = "ball";
+        ball.type = GeometryType::Sphere;
+        ball.radius = 0.3f;
+        ball.transform = Transform::translate(0.0, 1.6, 0.0);
+        ball.holdout = !shadows, ball.shadows = shadows;
+        s.geometry.push_back(ball);
+        std::unique_ptr<RenderContext> ctx = RenderContext::create(s, false);
+        EXPECT_EQ(wkb::chooseOrder2(*ctx).cache, !shadows) << (shadows ? "shadow caster" : "holdout only");
     }
     for (const Case& c : {cases[0], cases[5]}) {
         Scene s = scene(c.light);
