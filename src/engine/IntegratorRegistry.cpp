@@ -65,7 +65,7 @@ IntegratorEntry wkbEntry()
             stats.orders3NoisePaths = report.noisePaths;
             stats.orders3Blurred = report.blurred;
             stats.orders3FirstOrder = o.firstOrder + 1;
-            stats.addStage("orders 3+ light paths",
+            stats.addStage(setup->cachedOrder2 ? "orders 2+ light paths" : "orders 3+ light paths",
                            std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
         }
         return std::make_unique<wkb::WkbIntegrator>(ctx, plan, stats, std::move(orders3));
