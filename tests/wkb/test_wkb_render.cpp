@@ -434,9 +434,10 @@ TEST(WkbRender, ThinSceneSkipsL2plusWithItsBound)
     EXPECT_FALSE(r.plan.wkb.l2plus);
     EXPECT_LT(r.plan.wkb.l2plusBound, s.render.tolerance);
     EXPECT_EQ(mean(aov(r.film, "L2plus")), 0.0);
-    // Nor is the traced orders-3+ cache built: nothing would read it.
+    // Nor is the traced cache built (its stage: "orders 2+" or "orders 3+ light paths"): nothing
+    // would read it.
     for (const auto& stage : r.stats.stageSeconds)
-        EXPECT_EQ(stage.first.find("orders 3+"), std::string::npos) << stage.first;
+        EXPECT_EQ(stage.first.find("light paths"), std::string::npos) << stage.first;
 }
 
 // The traced orders-3+ cache (the default) is planned only up to kTracedOrders3MaxDepth of optical
@@ -456,7 +457,7 @@ TEST(WkbRender, TracedOrders3IsPlannedUpToItsDepthPerVoxel)
     };
     auto traced = [](const RenderResult& r) {
         for (const auto& stage : r.stats.stageSeconds)
-            if (stage.first.find("orders 3+") != std::string::npos)
+            if (stage.first.find("light paths") != std::string::npos)
                 return true;
         return false;
     };
