@@ -51,7 +51,6 @@ struct VolumeSetup {
     double bound = 0;
 };
 
-// The plan's wkb part in full (RenderPlan::integrator), read by WkbIntegrator.
 // render.wkb_order2 "auto": order 2 from the traced radiance cache (cache true) unless some light's
 // single scattering has an edge that the cache's cells would spread, where it is traced per camera
 // ray: a spot light's cone edge, or a shadow caster's shadow edges. reason: why, for the plan's
@@ -62,6 +61,7 @@ struct Order2Choice {
 };
 Order2Choice chooseOrder2(const RenderContext& ctx);
 
+// The plan's wkb part in full (RenderPlan::integrator), read by WkbIntegrator.
 struct WkbSetup : IntegratorPlan {
     bool active = false;  // false: L2+ is zero for this scene (no volume, no light, or below tolerance)
     KernelType kernel = KernelType::Gaussian;
