@@ -16,7 +16,8 @@ namespace nimbus {
 
 bool marchGreyDistantEight(const RenderContext& ctx, const VolumeData& vol, const LightEntry* const* lights,
                            int lightCount, int n, const float3* o, const float3* d, const float* tFar,
-                           const float* jitter, CameraSample* out, float* perLight, size_t perLightStride)
+                           const float* jitter, CameraSample* out, float* perLight, size_t perLightStride,
+                           const InScatterGrid* grid, float3* gridL)
 {
     const BrickGrid& density = vol.density;
     // Gathers index the pools with 32-bit integers; each light's baked optical depth shares the
@@ -152,6 +153,40 @@ bool marchGreyDistantEight(const RenderContext& ctx, const VolumeData& vol, cons
         sl.nx = _mm256_set1_epi32(g.nx);
         sl.nxy = _mm256_set1_epi32(g.nx * g.ny);
     }
+    // The in-scatter grid (InScatterGrid.h): each lane's cell-centred coordinates
+    // u = (o + d t - lo) / cell - 1/2, affine in the march's t (the index-space ray has the world
+    // ray's parameter), clamped into the grid; the eight corners' offsets from the low one, 0
+    // along an axis one cell thin.
+    struct GridLanes {
+        __m256 u0[3], du[3], hi[3], hiCell[3];
+        __m256i nx, nxy, corner[8];
+        __m256 L[3];
+    } gl{};
+    if (grid) {
+        const float inv = 1.0f / grid->cell;
+        alignas(32) float u0[3][8], du[3][8];
+        for (int i = 0; i < 8; ++i) {
+            const float3 a = i < n ? (o[i] - grid->lo) * inv - splat(0.5f) : splat(0.0f);
+            const float3 b = i < n ? d[i] * inv : splat(0.0f);
+            u0[0][i] = a.x, u0[1][i] = a.y, u0[2][i] = a.z;
+            du[0][i] = b.x, du[1][i] = b.y, du[2][i] = b.z;
+        }
+        int stride[3] = {3, 3 * grid->n[0], 3 * grid->n[0] * grid->n[1]};
+        for (int a = 0; a < 3; ++a) {
+            gl.u0[a] = _mm256_load_ps(u0[a]);
+            gl.du[a] = _mm256_load_ps(du[a]);
+            gl.hi[a] = _mm256_set1_ps(float(grid->n[a] - 1));
+            gl.hiCell[a] = _mm256_set1_ps(float(std::max(grid->n[a] - 2, 0)));
+            gl.L[a] = zero;
+            if (grid->n[a] < 2)
+                stride[a] = 0;
+        }
+        gl.nx = _mm256_set1_epi32(grid->n[0]);
+        gl.nxy = _mm256_set1_epi32(grid->n[0] * grid->n[1]);
+        for (int c = 0; c < 8; ++c)
+            gl.corner[c] =
+                _mm256_set1_epi32((c & 1 ? stride[0] : 0) + (c & 2 ? stride[1] : 0) + (c & 4 ? stride[2] : 0));
+    }
     // A stopped render (RenderControl.h) ends the lanes' march early; its film is discarded.
     for (unsigned polled = 1;; ++polled) {
         if (polled % kStopPollInterval == 0 && ctx.stop.raised())
@@ -237,6 +272,31 @@ bool marchGreyDistantEight(const RenderContext& ctx, const VolumeData& vol, cons
                     sl.L1[ch] = _mm256_fmadd_ps(Twrho, v, sl.L1[ch]);
                 }
             }
+            if (grid) {
+                // S trilinear at the sample (InScatterGrid.h); min before max sends a NaN
+                // coordinate (a dead lane) to the grid's edge, so every gather stays inside.
+                __m256 f[3], c[3];
+                for (int a = 0; a < 3; ++a) {
+                    const __m256 u =
+                        _mm256_max_ps(_mm256_min_ps(_mm256_fmadd_ps(gl.du[a], tk, gl.u0[a]), gl.hi[a]), zero);
+                    c[a] = _mm256_min_ps(_mm256_floor_ps(u), gl.hiCell[a]);
+                    f[a] = _mm256_sub_ps(u, c[a]);
+                }
+                const __m256i cell = _mm256_add_epi32(
+                    _mm256_cvttps_epi32(c[0]), _mm256_add_epi32(_mm256_mullo_epi32(_mm256_cvttps_epi32(c[1]), gl.nx),
+                                                                _mm256_mullo_epi32(_mm256_cvttps_epi32(c[2]), gl.nxy)));
+                const __m256i base = _mm256_mullo_epi32(cell, _mm256_set1_epi32(3));
+                auto lerp = [](__m256 a, __m256 b, __m256 t) { return _mm256_fmadd_ps(_mm256_sub_ps(b, a), t, a); };
+                for (int ch = 0; ch < 3; ++ch) {
+                    const float* pool = grid->rgb + ch;
+                    auto at = [&](int cc) {
+                        return _mm256_i32gather_ps(pool, _mm256_add_epi32(base, gl.corner[cc]), 4);
+                    };
+                    const __m256 x00 = lerp(at(0), at(1), f[0]), x10 = lerp(at(2), at(3), f[0]);
+                    const __m256 x01 = lerp(at(4), at(5), f[0]), x11 = lerp(at(6), at(7), f[0]);
+                    gl.L[ch] = _mm256_fmadd_ps(Twrho, lerp(lerp(x00, x10, f[1]), lerp(x01, x11, f[1]), f[2]), gl.L[ch]);
+                }
+            }
             const __m256 opacity = _mm256_mul_ps(Twrho, KT);  // stepOpacity (SingleScatter.cpp)
             opacitySum = _mm256_add_ps(opacitySum, opacity);
             depthSum = _mm256_fmadd_ps(opacity, tk, depthSum);
@@ -275,6 +335,13 @@ bool marchGreyDistantEight(const RenderContext& ctx, const VolumeData& vol, cons
     for (int s = 0; s < skyCount; ++s)
         for (int ch = 0; ch < 3; ++ch)
             _mm256_store_ps(skyL1[s][ch], skyLanes[s].L1[ch]);
+    if (grid) {
+        alignas(32) float gL[3][8];
+        for (int ch = 0; ch < 3; ++ch)
+            _mm256_store_ps(gL[ch], gl.L[ch]);
+        for (int i = 0; i < n; ++i)
+            gridL[i] = sigmaS * make_float3(gL[0][i], gL[1][i], gL[2][i]);
+    }
     for (int i = 0; i < n; ++i) {
         for (int s = 0; s < skyCount; ++s) {
             const Rgb l1 = sigmaS * make_float3(skyL1[s][0][i], skyL1[s][1][i], skyL1[s][2][i]);

@@ -12,6 +12,7 @@
 // scalar march to float rounding (tests/single/test_eight_rays.cpp).
 #pragma once
 
+#include "InScatterGrid.h"
 #include "SingleScatter.h"
 
 // Built where the compiler targets AVX2 and FMA (CMakeLists.txt: x86-64-v3 where the build
@@ -37,9 +38,12 @@ constexpr int kMaxEightRaySkies = 2;
 // the case (SingleScatter.cpp). False, with nothing written, where a lane's march is too long
 // for float sample indices, the pools too large for 32-bit gathers or the lights too many:
 // then the caller marches the rays one by one.
+// grid (or null): a field the same samples read too (InScatterGrid.h); each ray's
+// int T sigma_s S dt goes to gridL[i] (n entries, overwritten).
 bool marchGreyDistantEight(const RenderContext& ctx, const VolumeData& vol, const LightEntry* const* lights,
                            int lightCount, int n, const float3* o, const float3* d, const float* tFar,
-                           const float* jitter, CameraSample* out, float* perLight, size_t perLightStride);
+                           const float* jitter, CameraSample* out, float* perLight, size_t perLightStride,
+                           const InScatterGrid* grid = nullptr, float3* gridL = nullptr);
 #endif
 
 }  // namespace nimbus

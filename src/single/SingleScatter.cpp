@@ -911,9 +911,12 @@ void marchSingleGeneralReference(const RenderContext& ctx, float3 o, float3 d, N
 }
 
 void marchSingleRays(const RenderContext& ctx, int n, const float3* o, const float3* d, NbRng* rng, CameraSample* out,
-                     float* perLight, const float* tFar, const float* seconds)
+                     float* perLight, const float* tFar, const float* seconds, const InScatterGrid* grid, float3* gridL,
+                     unsigned char* gridRead)
 {
     const size_t stride = 3 * ctx.lights.size();
+    if (grid)
+        std::fill(gridRead, gridRead + n, (unsigned char)0);
     if (ctx.moving() && seconds) {
         for (int i = 0; i < n; ++i)
             marchSingle(ctx, o[i], d[i], rng[i], out[i], perLight + stride * size_t(i), tFar ? tFar[i] : INFINITY,
@@ -934,14 +937,18 @@ void marchSingleRays(const RenderContext& ctx, int n, const float3* o, const flo
                 start[i] = rng[first + i];
                 jitter[i] = nbRngNext(&rng[first + i]);  // as marchSingle draws it
             }
-            if (!marchGreyDistantEight(ctx, vol, lights, lightCount, m, o + first, d + first,
-                                       tFar ? tFar + first : nullptr, jitter, out + first,
-                                       perLight + stride * size_t(first), stride))
+            if (marchGreyDistantEight(
+                    ctx, vol, lights, lightCount, m, o + first, d + first, tFar ? tFar + first : nullptr, jitter,
+                    out + first, perLight + stride * size_t(first), stride, grid, grid ? gridL + first : nullptr)) {
+                if (grid)
+                    std::fill(gridRead + first, gridRead + first + m, (unsigned char)1);
+            } else {
                 for (int i = 0; i < m; ++i) {
                     rng[first + i] = start[i];
                     marchSingle(ctx, o[first + i], d[first + i], rng[first + i], out[first + i],
                                 perLight + stride * size_t(first + i), tFar ? tFar[first + i] : INFINITY);
                 }
+            }
         }
         return;
     }

@@ -70,6 +70,18 @@ bool RadianceGrid::fetch(float3 x, float* out) const
     return true;
 }
 
+bool RadianceGrid::view(InScatterGrid& view) const
+{
+    if (mData.empty() || mLayers != 1)
+        return false;
+    view.rgb = mData.data();
+    for (int k = 0; k < 3; ++k)
+        view.n[k] = mN[k];
+    view.lo = mBox.lo;
+    view.cell = mCell;
+    return true;
+}
+
 namespace {
 
 // The layers' sums ([layer][rgb]) as colours: their total, and each layer's into perLayer (or null).

@@ -41,6 +41,7 @@
 #pragma once
 
 #include "../render/VolumeSet.h"
+#include "../single/InScatterGrid.h"
 
 #include <algorithm>
 #include <cmath>
@@ -90,6 +91,9 @@ public:
     // (clamped at the box's edge cells), into out[floatsPerCell()] ([layer][rgb]); false (and
     // nothing written) outside the box. Multiply by sigma_s for L_s.
     bool fetch(float3 x, float* out) const;
+    // The grid as the camera march reads it with L1's samples (InScatterGrid.h: the same trilinear
+    // read, clamped at the edge cells): one layer only; false (view untouched) for several.
+    bool view(InScatterGrid& view) const;
 
 private:
     // The cell size and counts of init's grid; false for an empty box.

@@ -1,0 +1,27 @@
+// InScatterGrid.h: a field of in-scattered radiance that the camera march reads along its rays
+// with L1's own samples, for a term computed elsewhere and projected toward the camera (WKB's
+// radiance cache, wkb/RadianceGrid.h: orders 2+ or 3+ of the lights).
+//
+// A regular world-space grid of cubic cells over a box; each cell holds RGB S, the radiance
+// scattered toward the viewer per unit sigma_s (W / (m^2 sr)), read trilinearly between cell
+// centres and clamped at the edge cells. Along a camera ray the term is
+//
+//     L = int dt T(0, t) sigma_s(x(t)) S(x(t))
+//
+// which the march sums with L1's quadrature: the same samples t_k, the same transmittance T and
+// the same exact int_step e^{-sigma_t u} du, with S read at t_k (MarchEightRays.h). So the term
+// costs the march a trilinear read per sample instead of a march of its own.
+#pragma once
+
+#include "../core/Vec.h"
+
+namespace nimbus {
+
+struct InScatterGrid {
+    const float* rgb = nullptr;  // [cell][rgb], cell (z n[1] + y) n[0] + x
+    int n[3] = {0, 0, 0};        // cells along each axis
+    float3 lo = {0, 0, 0};       // the box's low corner (m)
+    float cell = 1.0f;           // the cells' side (m)
+};
+
+}  // namespace nimbus
