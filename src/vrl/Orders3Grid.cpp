@@ -110,6 +110,11 @@ void deposit(const RenderContext& ctx, const wkb::RadianceGrid& grid, const Skin
     float T[3] = {1.0f, 1.0f, 1.0f};
     float r = 1.0f;  // the roulette's weight
     const float flux[3] = {v.flux.x, v.flux.y, v.flux.z};
+    // VolumeSet::sample's per-volume outputs, sized once per segment rather than per step.
+    thread_local std::vector<float> weights;
+    thread_local std::vector<BrickGrid::Stencil> stencils;
+    weights.resize(ctx.volumes.volumes().size());
+    stencils.resize(ctx.volumes.volumes().size());
     grid.walk(v.origin, v.dir, v.t0, v.t1, [&](size_t cell, float ta, float tb) {
         // int T p dt over [ta, tb], the extinction and the phase value piecewise constant over
         // steps of at most h (sampled at each step's midpoint), each step's integral of T exact:
@@ -127,17 +132,22 @@ void deposit(const RenderContext& ctx, const wkb::RadianceGrid& grid, const Skin
         SkinPoint point;
         for (int k = 0; k < n && alive; ++k) {
             const float3 x = v.origin + v.dir * (ta + (float(k) + 0.5f) * dt);
-            const MediumSample m = ctx.volumes.sample(x);
+            const MediumSample m = ctx.volumes.sample(x, weights.data(), stencils.data());
             const float st[3] = {m.sigma_t.x, m.sigma_t.y, m.sigma_t.z};
             if (skinSlot >= 0) {
                 const float rT[3] = {r * T[0], r * T[1], r * T[2]};
                 point.offer(ta + float(k) * dt, dt, rT, m.sigma_s, m.sigma_t, nbRngNext(&rng));
             }
             const float p = skinSlot < 0 ? phase(ctx.volumes, mix, x, v.dir) : 0.0f;
+            const bool grey = st[0] == st[1] && st[1] == st[2];  // one exponential serves all three
+            float e = 0.0f, w = 0.0f;
             for (int c = 0; c < 3; ++c) {
-                const float y = st[c] * dt;
-                const float e = std::exp(-y);
-                I[c] += p * r * T[c] * (y > 1e-4f ? (1.0f - e) / st[c] : dt * (1.0f - 0.5f * y));
+                if (c == 0 || !grey) {
+                    const float y = st[c] * dt;
+                    e = std::exp(-y);
+                    w = y > 1e-4f ? (1.0f - e) / st[c] : dt * (1.0f - 0.5f * y);
+                }
+                I[c] += p * r * T[c] * w;
                 T[c] *= e;
             }
             const float tr = r * std::max(T[0], std::max(T[1], T[2]));
