@@ -50,8 +50,11 @@ constexpr int kMaxRounds = 3;
 constexpr double kCacheNoiseTarget = 0.002;
 // P = kBalance sqrt(A x camera samples): the count least in error x time (docs/wkb.md "How many
 // light paths"), kBalance = sqrt(t0 / (samples a e0)) measured on the calibration suite's
-// cumulus_lit (A 1364, e0 0.0059, t0 / samples 24 us, a 3.6 us per path).
-constexpr double kBalance = 34.0;
+// cumulus_lit with order 2 in the cache and the cache read by L1's march (2026-12-07: relMSE
+// 0.0154, 0.0068, 0.0049 at 65536, 262144 and 1048576 paths give A 739 and e0 0.0041; t0 / samples
+// 0.5 us at 64x64 and 256x256, a 3.1 us per path). Until then 34, from t0 / samples 24 us: the
+// camera's march with order 2 traced.
+constexpr double kBalance = 6.0;
 // The most paths the adaptive count may take, per square root of the camera's samples
 // (orders3PathCap): the smallest power of two under which every calibration scene's count reaches
 // kCacheNoiseTarget (the largest ask, cumulus_dense_against's, 7.2 M paths at 64x64 and 4 spp,
