@@ -161,6 +161,32 @@ bool marchGreyDistantEight(const RenderContext& ctx, const VolumeData& vol, cons
         __m256 u0[3], du[3], hi[3], hiCell[3];
         __m256i nx, nxy, corner[8];
         __m256 L[3];
+        // Pairs of samples share one read (see the march below): the odd iteration's sample,
+        // its weight and t, waits for the even one's.
+        __m256 pendingW, pendingT;
+        // L += weight S(o + d t), S trilinear (InScatterGrid.h); min before max sends a NaN
+        // coordinate (a dead lane) to the grid's edge, so every gather stays inside.
+        void read(const float* rgb, __m256 t, __m256 weight)
+        {
+            const __m256 zero = _mm256_setzero_ps();
+            __m256 f[3], c[3];
+            for (int a = 0; a < 3; ++a) {
+                const __m256 u = _mm256_max_ps(_mm256_min_ps(_mm256_fmadd_ps(du[a], t, u0[a]), hi[a]), zero);
+                c[a] = _mm256_min_ps(_mm256_floor_ps(u), hiCell[a]);
+                f[a] = _mm256_sub_ps(u, c[a]);
+            }
+            const __m256i cell = _mm256_add_epi32(_mm256_cvttps_epi32(c[0]),
+                                                  _mm256_add_epi32(_mm256_mullo_epi32(_mm256_cvttps_epi32(c[1]), nx),
+                                                                   _mm256_mullo_epi32(_mm256_cvttps_epi32(c[2]), nxy)));
+            const __m256i base = _mm256_mullo_epi32(cell, _mm256_set1_epi32(3));
+            auto lerp = [](__m256 a, __m256 b, __m256 s) { return _mm256_fmadd_ps(_mm256_sub_ps(b, a), s, a); };
+            for (int ch = 0; ch < 3; ++ch) {
+                auto at = [&](int cc) { return _mm256_i32gather_ps(rgb + ch, _mm256_add_epi32(base, corner[cc]), 4); };
+                const __m256 x00 = lerp(at(0), at(1), f[0]), x10 = lerp(at(2), at(3), f[0]);
+                const __m256 x01 = lerp(at(4), at(5), f[0]), x11 = lerp(at(6), at(7), f[0]);
+                L[ch] = _mm256_fmadd_ps(weight, lerp(lerp(x00, x10, f[1]), lerp(x01, x11, f[1]), f[2]), L[ch]);
+            }
+        }
     } gl{};
     if (grid) {
         const float inv = 1.0f / grid->cell;
@@ -201,6 +227,7 @@ bool marchGreyDistantEight(const RenderContext& ctx, const VolumeData& vol, cons
         const __m256i brick = table.brickAt(qx, qy, qz, alive, cellX, cellY, cellZ);
         const __m256 occ = _mm256_castsi256_ps(_mm256_cmpgt_epi32(brick, _mm256_set1_epi32(-1)));
 
+        __m256 stepWeight = zero;  // this iteration's T w rho per lane (0 outside occupied bricks)
         if (!lanes::none(occ)) {
             const lanes::Stencil8 st = lanes::stencilAt(brick, occ, qx, qy, qz, cellX, cellY, cellZ);
             // Lanes outside an occupied brick read index 0 (a valid value), masked out here.
@@ -272,31 +299,7 @@ bool marchGreyDistantEight(const RenderContext& ctx, const VolumeData& vol, cons
                     sl.L1[ch] = _mm256_fmadd_ps(Twrho, v, sl.L1[ch]);
                 }
             }
-            if (grid) {
-                // S trilinear at the sample (InScatterGrid.h); min before max sends a NaN
-                // coordinate (a dead lane) to the grid's edge, so every gather stays inside.
-                __m256 f[3], c[3];
-                for (int a = 0; a < 3; ++a) {
-                    const __m256 u =
-                        _mm256_max_ps(_mm256_min_ps(_mm256_fmadd_ps(gl.du[a], tk, gl.u0[a]), gl.hi[a]), zero);
-                    c[a] = _mm256_min_ps(_mm256_floor_ps(u), gl.hiCell[a]);
-                    f[a] = _mm256_sub_ps(u, c[a]);
-                }
-                const __m256i cell = _mm256_add_epi32(
-                    _mm256_cvttps_epi32(c[0]), _mm256_add_epi32(_mm256_mullo_epi32(_mm256_cvttps_epi32(c[1]), gl.nx),
-                                                                _mm256_mullo_epi32(_mm256_cvttps_epi32(c[2]), gl.nxy)));
-                const __m256i base = _mm256_mullo_epi32(cell, _mm256_set1_epi32(3));
-                auto lerp = [](__m256 a, __m256 b, __m256 t) { return _mm256_fmadd_ps(_mm256_sub_ps(b, a), t, a); };
-                for (int ch = 0; ch < 3; ++ch) {
-                    const float* pool = grid->rgb + ch;
-                    auto at = [&](int cc) {
-                        return _mm256_i32gather_ps(pool, _mm256_add_epi32(base, gl.corner[cc]), 4);
-                    };
-                    const __m256 x00 = lerp(at(0), at(1), f[0]), x10 = lerp(at(2), at(3), f[0]);
-                    const __m256 x01 = lerp(at(4), at(5), f[0]), x11 = lerp(at(6), at(7), f[0]);
-                    gl.L[ch] = _mm256_fmadd_ps(Twrho, lerp(lerp(x00, x10, f[1]), lerp(x01, x11, f[1]), f[2]), gl.L[ch]);
-                }
-            }
+            stepWeight = Twrho;
             const __m256 opacity = _mm256_mul_ps(Twrho, KT);  // stepOpacity (SingleScatter.cpp)
             opacitySum = _mm256_add_ps(opacitySum, opacity);
             depthSum = _mm256_fmadd_ps(opacity, tk, depthSum);
@@ -304,6 +307,26 @@ bool marchGreyDistantEight(const RenderContext& ctx, const VolumeData& vol, cons
             const __m256 opaque = _mm256_and_ps(occ, _mm256_cmp_ps(T, Cutoff, _CMP_LT_OQ));
             T = _mm256_andnot_ps(opaque, T);
             alive = _mm256_andnot_ps(opaque, alive);
+        }
+
+        if (grid) {
+            // The grid read at half L1's rate: an odd iteration's sample waits, and the even one
+            // reads S once for both, at their midpoint where both are in occupied bricks (each
+            // sample's S off by half a step, in opposite directions: the composite midpoint
+            // rule), else at the one sample's own point. A lane that skipped or stopped in
+            // between (its even sample outside an occupied brick) reads its odd sample where it
+            // was; so does the flush after the march.
+            if (polled & 1) {
+                gl.pendingW = stepWeight;
+                gl.pendingT = tk;
+            } else {
+                const __m256 paired = _mm256_and_ps(occ, _mm256_cmp_ps(gl.pendingW, zero, _CMP_GT_OQ));
+                const __m256 t =
+                    _mm256_blendv_ps(_mm256_blendv_ps(gl.pendingT, tk, occ),
+                                     _mm256_mul_ps(_mm256_set1_ps(0.5f), _mm256_add_ps(gl.pendingT, tk)), paired);
+                gl.read(grid->rgb, t, _mm256_add_ps(gl.pendingW, stepWeight));
+                gl.pendingW = zero;
+            }
         }
 
         // Lanes in an empty brick (or, by rounding, just outside the table) move to the first
@@ -336,6 +359,8 @@ bool marchGreyDistantEight(const RenderContext& ctx, const VolumeData& vol, cons
         for (int ch = 0; ch < 3; ++ch)
             _mm256_store_ps(skyL1[s][ch], skyLanes[s].L1[ch]);
     if (grid) {
+        if (!lanes::none(_mm256_cmp_ps(gl.pendingW, zero, _CMP_GT_OQ)))
+            gl.read(grid->rgb, gl.pendingT, gl.pendingW);
         alignas(32) float gL[3][8];
         for (int ch = 0; ch < 3; ++ch)
             _mm256_store_ps(gL[ch], gl.L[ch]);
