@@ -6,6 +6,7 @@
 #include "../single/ScatterPoints.h"
 #include "../single/SingleScatter.h"
 #include "CameraLattice.h"
+#include "CellReach.h"
 #include "ShadowCasters.h"
 #include "SkinCells.h"
 #include "ViewFocus.h"
@@ -103,7 +104,7 @@ struct ViewerPhase {
 // (W/(m^2 sr) once divided by the cell's volume), or in a skin cell (SkinCells.h) one point's
 // estimate of int sigma_s T T_cam p dt (W/sr, until resolveSkinCells).
 void deposit(const RenderContext& ctx, const wkb::RadianceGrid& grid, const SkinCells& skin, const ViewerPhase& phase,
-             const Vrl& v, int layer, float h, NbRng& rng, float* out)
+             const std::vector<uint8_t>& reach, const Vrl& v, int layer, float h, NbRng& rng, float* out)
 {
     const size_t F = size_t(grid.floatsPerCell());
     out += size_t(layer) * wkb::RadianceGrid::kFloats;
@@ -122,7 +123,13 @@ void deposit(const RenderContext& ctx, const wkb::RadianceGrid& grid, const Skin
         // int T p dt over [ta, tb], the extinction and the phase value piecewise constant over
         // steps of at most h (sampled at each step's midpoint), each step's integral of T exact:
         // T (1 - e^{-s dt}) / s.
+        // Cells no read reaches are crossed without a deposit; in a cell without medium T stays
+        // as it is and no step reads the medium (CellReach.h).
+        const uint8_t where = reach[cell];
+        if (where == kCellUnread)
+            return true;
         const int skinSlot = skin.slotOf(cell);
+        const bool clear = where == kCellClear && skinSlot < 0 && phase.phases.size() == 1;
         int n = std::max(1, int(std::ceil((tb - ta) / h)));
         if (skinSlot >= 0)
             // A skin cell's integrand varies with T_cam over a mean free path: its steps are at most
@@ -135,6 +142,12 @@ void deposit(const RenderContext& ctx, const wkb::RadianceGrid& grid, const Skin
         SkinPoint point;
         for (int k = 0; k < n && alive; ++k) {
             const float3 x = v.origin + v.dir * (ta + (float(k) + 0.5f) * dt);
+            if (clear) {
+                const float p = phase(ctx.volumes, mix, x, v.dir);
+                for (int c = 0; c < 3; ++c)
+                    I[c] += p * r * T[c] * dt;
+                continue;
+            }
             const MediumSample m = ctx.volumes.sample(x, weights.data(), stencils.data());
             const float st[3] = {m.sigma_t.x, m.sigma_t.y, m.sigma_t.z};
             if (skinSlot >= 0) {
@@ -438,6 +451,8 @@ std::shared_ptr<const wkb::RadianceGrid> traceOrders3(const RenderContext& ctx, 
         return nullptr;
     grid->setLayerLights(layerLight);
     const SkinCells skin = options.skinCells ? findSkinCells(ctx, *grid) : SkinCells{};
+    // A read reaches one cell past the medium, and each blur pass one more.
+    const std::vector<uint8_t> reach = cellReach(ctx.volumes, *grid, 1 + kBlurPasses);
     const ViewerPhase phase{viewerOf(ctx, options), PhaseMix::phasesOf(ctx)};
     const EmissionFocus focus = options.focus ? findViewFocus(ctx, grid->cellSize(), pass.boundsRadius()) : EmissionFocus{};
     pass.setFocus(focus);
@@ -481,8 +496,7 @@ std::shared_ptr<const wkb::RadianceGrid> traceOrders3(const RenderContext& ctx, 
                 const bool vertex = v.order >= 1 && j > 0 && all[j - 1].order == v.order - 1;
                 if (options.aimDeposits && vertex && !aimDeposit(ps, medium, phase.viewer, all[j - 1].dir, v, rng))
                     continue;
-                deposit(ctx, *grid, skin, phase, v, layerOf[size_t(v.light)], h, rng,
-                        partial[size_t(p)].data());
+                deposit(ctx, *grid, skin, phase, reach, v, layerOf[size_t(v.light)], h, rng, partial[size_t(p)].data());
             }
         });
     };
