@@ -159,8 +159,9 @@ bool marchGreyDistantEight(const RenderContext& ctx, const VolumeData& vol, cons
     // along an axis one cell thin.
     struct GridLanes {
         __m256 u0[3], du[3], hi[3], hiCell[3];
-        __m256i nx, nxy, corner[8];
-        __m256 L[3];
+        __m256i nx, nxy, floats, corner[8];
+        int layers;
+        __m256 L[kMaxInScatterLayers][3];
         // Pairs of samples share one read (see the march below): the odd iteration's sample,
         // its weight and t, waits for the even one's.
         __m256 pendingW, pendingT;
@@ -178,13 +179,14 @@ bool marchGreyDistantEight(const RenderContext& ctx, const VolumeData& vol, cons
             const __m256i cell = _mm256_add_epi32(_mm256_cvttps_epi32(c[0]),
                                                   _mm256_add_epi32(_mm256_mullo_epi32(_mm256_cvttps_epi32(c[1]), nx),
                                                                    _mm256_mullo_epi32(_mm256_cvttps_epi32(c[2]), nxy)));
-            const __m256i base = _mm256_mullo_epi32(cell, _mm256_set1_epi32(3));
+            const __m256i base = _mm256_mullo_epi32(cell, floats);
             auto lerp = [](__m256 a, __m256 b, __m256 s) { return _mm256_fmadd_ps(_mm256_sub_ps(b, a), s, a); };
-            for (int ch = 0; ch < 3; ++ch) {
-                auto at = [&](int cc) { return _mm256_i32gather_ps(rgb + ch, _mm256_add_epi32(base, corner[cc]), 4); };
+            for (int k = 0; k < 3 * layers; ++k) {
+                auto at = [&](int cc) { return _mm256_i32gather_ps(rgb + k, _mm256_add_epi32(base, corner[cc]), 4); };
                 const __m256 x00 = lerp(at(0), at(1), f[0]), x10 = lerp(at(2), at(3), f[0]);
                 const __m256 x01 = lerp(at(4), at(5), f[0]), x11 = lerp(at(6), at(7), f[0]);
-                L[ch] = _mm256_fmadd_ps(weight, lerp(lerp(x00, x10, f[1]), lerp(x01, x11, f[1]), f[2]), L[ch]);
+                __m256& acc = L[k / 3][k % 3];
+                acc = _mm256_fmadd_ps(weight, lerp(lerp(x00, x10, f[1]), lerp(x01, x11, f[1]), f[2]), acc);
             }
         }
     } gl{};
@@ -197,13 +199,15 @@ bool marchGreyDistantEight(const RenderContext& ctx, const VolumeData& vol, cons
             u0[0][i] = a.x, u0[1][i] = a.y, u0[2][i] = a.z;
             du[0][i] = b.x, du[1][i] = b.y, du[2][i] = b.z;
         }
-        int stride[3] = {3, 3 * grid->n[0], 3 * grid->n[0] * grid->n[1]};
+        gl.layers = grid->layers;
+        const int F = 3 * grid->layers;  // floats per cell
+        gl.floats = _mm256_set1_epi32(F);
+        int stride[3] = {F, F * grid->n[0], F * grid->n[0] * grid->n[1]};
         for (int a = 0; a < 3; ++a) {
             gl.u0[a] = _mm256_load_ps(u0[a]);
             gl.du[a] = _mm256_load_ps(du[a]);
             gl.hi[a] = _mm256_set1_ps(float(grid->n[a] - 1));
             gl.hiCell[a] = _mm256_set1_ps(float(std::max(grid->n[a] - 2, 0)));
-            gl.L[a] = zero;
             if (grid->n[a] < 2)
                 stride[a] = 0;
         }
@@ -361,11 +365,14 @@ bool marchGreyDistantEight(const RenderContext& ctx, const VolumeData& vol, cons
     if (grid) {
         if (!lanes::none(_mm256_cmp_ps(gl.pendingW, zero, _CMP_GT_OQ)))
             gl.read(grid->rgb, gl.pendingT, gl.pendingW);
-        alignas(32) float gL[3][8];
-        for (int ch = 0; ch < 3; ++ch)
-            _mm256_store_ps(gL[ch], gl.L[ch]);
-        for (int i = 0; i < n; ++i)
-            gridL[i] = sigmaS * make_float3(gL[0][i], gL[1][i], gL[2][i]);
+        for (int layer = 0; layer < gl.layers; ++layer) {
+            alignas(32) float gL[3][8];
+            for (int ch = 0; ch < 3; ++ch)
+                _mm256_store_ps(gL[ch], gl.L[layer][ch]);
+            for (int i = 0; i < n; ++i)
+                gridL[size_t(i) * size_t(gl.layers) + size_t(layer)] =
+                    sigmaS * make_float3(gL[0][i], gL[1][i], gL[2][i]);
+        }
     }
     for (int i = 0; i < n; ++i) {
         for (int s = 0; s < skyCount; ++s) {

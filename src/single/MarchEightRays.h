@@ -39,7 +39,7 @@ constexpr int kMaxEightRaySkies = 2;
 // for float sample indices, the pools too large for 32-bit gathers or the lights too many:
 // then the caller marches the rays one by one.
 // grid (or null): a field the same samples read too (InScatterGrid.h); each ray's
-// int T sigma_s S dt goes to gridL[i] (n entries, overwritten).
+// int T sigma_s S dt per layer goes to gridL[i * layers + layer] (overwritten).
 bool marchGreyDistantEight(const RenderContext& ctx, const VolumeData& vol, const LightEntry* const* lights,
                            int lightCount, int n, const float3* o, const float3* d, const float* tFar,
                            const float* jitter, CameraSample* out, float* perLight, size_t perLightStride,

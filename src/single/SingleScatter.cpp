@@ -937,9 +937,10 @@ void marchSingleRays(const RenderContext& ctx, int n, const float3* o, const flo
                 start[i] = rng[first + i];
                 jitter[i] = nbRngNext(&rng[first + i]);  // as marchSingle draws it
             }
-            if (marchGreyDistantEight(
-                    ctx, vol, lights, lightCount, m, o + first, d + first, tFar ? tFar + first : nullptr, jitter,
-                    out + first, perLight + stride * size_t(first), stride, grid, grid ? gridL + first : nullptr)) {
+            if (marchGreyDistantEight(ctx, vol, lights, lightCount, m, o + first, d + first,
+                                      tFar ? tFar + first : nullptr, jitter, out + first,
+                                      perLight + stride * size_t(first), stride, grid,
+                                      grid ? gridL + size_t(first) * size_t(grid->layers) : nullptr)) {
                 if (grid)
                     std::fill(gridRead + first, gridRead + first + m, (unsigned char)1);
             } else {

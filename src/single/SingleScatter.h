@@ -22,9 +22,9 @@ void marchSingle(const RenderContext& ctx, float3 o, float3 d, NbRng& rng, Camer
 // floats, zeroed by the caller. tFar: n holdout distances as for marchSingle, or null for none.
 // seconds: n shutter times as for marchSingle, or null (the frame's time).
 // grid (or null): a field of in-scattered radiance (InScatterGrid.h) that the eight-ray march
-// reads with its own samples: ray i's int T sigma_s S dt goes to gridL[i] with gridRead[i] = 1
-// where the lanes marched it; where they did not, gridRead[i] = 0 and the caller reads the field
-// itself.
+// reads with its own samples: ray i's int T sigma_s S dt per layer goes to
+// gridL[i * grid->layers + layer] with gridRead[i] = 1 where the lanes marched it; where they did
+// not, gridRead[i] = 0 and the caller reads the field itself.
 void marchSingleRays(const RenderContext& ctx, int n, const float3* o, const float3* d, NbRng* rng, CameraSample* out,
                      float* perLight, const float* tFar = nullptr, const float* seconds = nullptr,
                      const InScatterGrid* grid = nullptr, float3* gridL = nullptr, unsigned char* gridRead = nullptr);

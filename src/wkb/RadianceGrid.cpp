@@ -72,9 +72,10 @@ bool RadianceGrid::fetch(float3 x, float* out) const
 
 bool RadianceGrid::view(InScatterGrid& view) const
 {
-    if (mData.empty() || mLayers != 1)
+    if (mData.empty() || mLayers > kMaxInScatterLayers)
         return false;
     view.rgb = mData.data();
+    view.layers = mLayers;
     for (int k = 0; k < 3; ++k)
         view.n[k] = mN[k];
     view.lo = mBox.lo;

@@ -92,7 +92,8 @@ public:
     // nothing written) outside the box. Multiply by sigma_s for L_s.
     bool fetch(float3 x, float* out) const;
     // The grid as the camera march reads it with L1's samples (InScatterGrid.h: the same trilinear
-    // read, clamped at the edge cells): one layer only; false (view untouched) for several.
+    // read, clamped at the edge cells); false (view untouched) for more than kMaxInScatterLayers
+    // layers.
     bool view(InScatterGrid& view) const;
 
 private:

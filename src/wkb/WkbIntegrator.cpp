@@ -136,13 +136,13 @@ void WkbIntegrator::marchRays(int n, const float3* o, const float3* d, const flo
     // L1 as `single` marches it, the rays together (eight at once where the medium and lights
     // allow, MarchEightRays.h); each ray draws from its own generator, so the order of the rays
     // leaves every draw as it was.
-    // Where the radiance cache alone gives the lights' orders 2+ (or 3+ over the kernel's order 2)
-    // and has one layer, L1's samples read it too (InScatterGrid.h): no second march of the ray.
+    // Where the radiance cache alone gives the lights' orders 2+ (or 3+ over the kernel's order 2),
+    // L1's samples read it too (InScatterGrid.h): no second march of the ray.
     InScatterGrid grid;
     const bool fused = mOrders3 && !mOrder2 && !moving && mOrders3->view(grid);
-    thread_local std::vector<float3> gridL;
+    thread_local std::vector<float3> gridL;  // [ray][layer]
     thread_local std::vector<unsigned char> gridRead;
-    gridL.resize(size_t(n));
+    gridL.resize(size_t(n) * size_t(fused ? grid.layers : 1));
     gridRead.resize(size_t(n));
     marchSingleRays(*mCtx, n, o, d, rng, out, perLight, tFar, moving ? seconds.data() : nullptr,
                     fused ? &grid : nullptr, gridL.data(), gridRead.data());
@@ -151,7 +151,7 @@ void WkbIntegrator::marchRays(int n, const float3* o, const float3* d, const flo
         const float t = tFar ? tFar[i] : INFINITY;
         mEmission->add(o[i], d[i], rng[i], out[i], t, seconds[size_t(i)]);  // single's L1 of emission, the same draws
         march(o[i], d[i], rng[i], out[i], pl, t, seconds[size_t(i)],
-              fused && gridRead[size_t(i)] ? &gridL[size_t(i)] : nullptr);
+              fused && gridRead[size_t(i)] ? &gridL[size_t(i) * size_t(grid.layers)] : nullptr);
     }
 }
 
@@ -443,9 +443,13 @@ void WkbIntegrator::march(float3 o, float3 d, NbRng& rng, CameraSample& out, flo
         if (marched || !mOrder2 || mCtx->moving()) {
             thread_local std::vector<float3> layers;
             layers.resize(size_t(mOrders3->layers()));
+            float3 read = make_float3(0, 0, 0);
             if (orders3Read)
-                layers[0] = *orders3Read;  // one layer (RadianceGrid::view)
-            const float3 L3 = orders3Read ? *orders3Read
+                for (size_t k = 0; k < layers.size(); ++k) {
+                    layers[k] = orders3Read[k];
+                    read += orders3Read[k];
+                }
+            const float3 L3 = orders3Read ? read
                               : marched && !mCtx->moving()
                                   ? readOrders3(*mOrders3, *marched, o, d, layers.data())
                                   : marchOrders3(mCtx->volumes, *mOrders3, o, d, tFar, seconds, nbRngNext(&rng),

@@ -56,8 +56,8 @@ public:
     // setup().tracedOrder2 the lights' order 2 by TracedOrder2. Draws its numbers from rng.
     // tFar: where a holdout stops the ray (the l-march ends there), INFINITY for none.
     // seconds: the ray's shutter time, at which moving volumes are read (VolumeSet::sampleAt).
-    // orders3Read: the radiance cache's term along this ray where single's march has read it
-    // already (marchSingleRays' grid), else null.
+    // orders3Read: the radiance cache's term along this ray, one per layer, where single's march
+    // has read it already (marchSingleRays' grid), else null.
     void march(float3 o, float3 d, NbRng& rng, CameraSample& out, float* perLight, float tFar = INFINITY,
                float seconds = 0.0f, const float3* orders3Read = nullptr) const;
 
