@@ -9,6 +9,8 @@
 // axes across the ray is constant along it, and trilinear interpolation reproduces it exactly
 // between the outer cell centres: so each axis's index arithmetic is checked by the rays along
 // the other two. With one layer and with three (a cache with per-light layers), each its own field.
+// The tolerance, 1e-4 relative, is float rounding only: the identity is exact, and the sums run
+// over at most ~160 samples in single precision (about 160 x 6e-8 = 1e-5 each way).
 #include "../render/SceneBuilders.h"
 
 #include "render/RenderContext.h"
