@@ -24,7 +24,7 @@ namespace {
 
 // Partial grids summed in parallel (a fixed number, not the thread count: determinism).
 constexpr int kPartials = 8;
-// Light paths per light-pass call (bounds the memory of the segment list).
+// Light paths per batch: the step of the adaptive count's rounds and of a fixed count's split.
 constexpr long long kBatch = 8192;
 // Where a segment's transmittance (times its roulette weight) falls below this, Russian roulette
 // decides whether its deposit goes on, with survival T r / kRoulette and r divided by it: unbiased,
@@ -469,36 +469,47 @@ std::shared_ptr<const wkb::RadianceGrid> traceOrders3(const RenderContext& ctx, 
     // Fewer partial grids with more layers: the partials' memory stays that of kPartials one-layer
     // grids (a fixed count for a scene: deterministic).
     const int partials = std::max(2, kPartials / grid->layers());
-    std::vector<std::vector<float>> partial(size_t(partials), std::vector<float>(floats, 0.0f));
-    std::vector<size_t> kept;  // the batch's segments that deposit, as indices into it
-    // Batch b's paths, deposited at their own flux: the grid is divided by the batch count at the end.
-    auto traceBatch = [&](long long b, int paths) {
-        // A stopped render (RenderControl.h): the paths end early, the deposits stop within a few
-        // hundred segments, and the grid is dropped with the render.
-        throwIfStopped(&ctx.stop);
-        std::vector<Vrl> all = pass.trace(options.seed, uint32_t(b), paths);
-        throwIfStopped(&ctx.stop);
-        kept.clear();
-        for (size_t i = 0; i < all.size(); ++i)
-            if (all[i].order >= options.firstOrder)
-                kept.push_back(i);
-        const size_t n = kept.size();
+    // Each allocated (and its pages first touched) by the task that fills it.
+    std::vector<std::vector<float>> partial{size_t(partials)};
+    // Batches [b0, b1) of `paths` light paths each (the grid is divided by the batch count at the
+    // end), traced and deposited as they go: partial p takes the paths [p, p + 1) paths / partials
+    // of every batch, in one task, so what each partial holds is fixed whatever the thread count,
+    // no segment list is kept, and the halves of the partials hold independent halves of the
+    // paths (the adaptive count's noise). At most `partials` threads work.
+    auto traceBatches = [&](long long b0, long long b1, int paths) {
         tbb::parallel_for(0, partials, [&](int p) {
-            const size_t lo = n * size_t(p) / size_t(partials), hi = n * size_t(p + 1) / size_t(partials);
-            for (size_t i = lo; i < hi; ++i) {
-                if ((i - lo) % kStopPollInterval == kStopPollInterval - 1)
-                    throwIfStopped(&ctx.stop);
-                NbRng rng = nbRngStart(options.seed ^ kDepositKey, uint32_t(i), uint32_t(b));
-                const size_t j = kept[i];
-                Vrl v = all[j];
-                // A path's segments are consecutive, in order (LightPass::trace): the one before
-                // a segment that leaves a scattering vertex is the one that arrived there.
-                const bool vertex = v.order >= 1 && j > 0 && all[j - 1].order == v.order - 1;
-                if (options.aimDeposits && vertex && !aimDeposit(ps, medium, phase.viewer, all[j - 1].dir, v, rng))
-                    continue;
-                deposit(ctx, *grid, skin, phase, reach, v, layerOf[size_t(v.light)], h, rng, partial[size_t(p)].data());
-            }
+            if (partial[size_t(p)].empty())
+                partial[size_t(p)].assign(floats, 0.0f);
+            std::vector<Vrl> path;
+            const int lo = int((long long)paths * p / partials), hi = int((long long)paths * (p + 1) / partials);
+            for (long long b = b0; b < b1; ++b)
+                for (int i = lo; i < hi; ++i) {
+                    // A stopped render (RenderControl.h): the paths end early, the deposits stop
+                    // within a few hundred paths, and the grid is dropped with the render.
+                    if ((i - lo) % kStopPollInterval == kStopPollInterval - 1)
+                        throwIfStopped(&ctx.stop);
+                    path.clear();
+                    pass.tracePath(options.seed, uint32_t(b), i, paths, path);
+                    // The deposits' stream, keyed by the path's number over all batches (the
+                    // path's own is keyed by (path, batch) under another seed).
+                    NbRng rng = nbRngStart(nbPcgHash(options.seed ^ kDepositKey), uint32_t(b * (long long)paths + i),
+                                           kDepositKey);
+                    for (size_t j = 0; j < path.size(); ++j) {
+                        Vrl v = path[j];
+                        if (v.order < options.firstOrder)
+                            continue;
+                        // A path's segments are consecutive, in order (LightPass::tracePath): the
+                        // one before a segment that leaves a scattering vertex arrived there.
+                        const bool vertex = v.order >= 1 && j > 0 && path[j - 1].order == v.order - 1;
+                        if (options.aimDeposits && vertex &&
+                            !aimDeposit(ps, medium, phase.viewer, path[j - 1].dir, v, rng))
+                            continue;
+                        deposit(ctx, *grid, skin, phase, reach, v, layerOf[size_t(v.light)], h, rng,
+                                partial[size_t(p)].data());
+                    }
+                }
         });
+        throwIfStopped(&ctx.stop);
     };
     // The cache from partials [p0, p1) over `batches` batches, scaled by `gain`, into `out`
     // (the grid's shape): their sum, the skin cells resolved (scratch: a buffer, which may be a
@@ -525,8 +536,8 @@ std::shared_ptr<const wkb::RadianceGrid> traceOrders3(const RenderContext& ctx, 
     if (options.paths > 0) {
         const long long n = (options.paths + kBatch - 1) / kBatch;
         const int perBatch = int((options.paths + n - 1) / n);
-        for (; batches < n; ++batches)
-            traceBatch(batches, perBatch);
+        traceBatches(0, n, perBatch);
+        batches = n;
         if (report)
             report->paths = n * perBatch;
     } else {
@@ -543,8 +554,11 @@ std::shared_ptr<const wkb::RadianceGrid> traceOrders3(const RenderContext& ctx, 
         NoiseEstimate noise{-1.0, 0.0};
         long long noisePaths = 0;  // the paths at which `noise` was measured
         for (int round = 0;; ++round) {
-            for (; batches * kBatch < target; ++batches)
-                traceBatch(batches, int(kBatch));
+            const long long need = (target + kBatch - 1) / kBatch;
+            if (need > batches) {
+                traceBatches(batches, need, int(kBatch));
+                batches = need;
+            }
             const long long traced = batches * kBatch;
             if (traced >= cap || round + 1 == kMaxRounds)
                 break;
@@ -564,7 +578,11 @@ std::shared_ptr<const wkb::RadianceGrid> traceOrders3(const RenderContext& ctx, 
             NoiseEstimate sharp{-1.0, 0.0};
             if (round == 0 || !blurred)
                 sharp = cacheNoise(ctx, pilots, *grid, half);
-            if (round == 0 || blurred) {
+            // Where the sharp cache asks for no more paths, within the cap, the blur cannot be
+            // chosen below (pathsFor is at least `traced`): its estimate is not needed.
+            const bool sharpSuffices = round == 0 && !(sharp.mean * double(traced) / kCacheNoiseTarget > double(cap)) &&
+                                       pathsFor(sharp.mean) == traced;
+            if (!sharpSuffices && (round == 0 || blurred)) {
                 smooth(*grid, scratch);
                 smooth(half, scratch);
                 noise = cacheNoise(ctx, pilots, *grid, half);
@@ -576,8 +594,8 @@ std::shared_ptr<const wkb::RadianceGrid> traceOrders3(const RenderContext& ctx, 
                 // cache's noise is heavy-tailed (a few bright paths), and a count extrapolated from
                 // it falls short (at 256x256 a sunlit cumulus's, 0.048 at 65536 paths, was 0.048
                 // again at 1.6 M).
-                blurred = sharp.mean * double(traced) / kCacheNoiseTarget > double(cap) ||
-                          pathsFor(sharp.mean) > pathsFor(noise.mean);
+                blurred = !sharpSuffices && (sharp.mean * double(traced) / kCacheNoiseTarget > double(cap) ||
+                                             pathsFor(sharp.mean) > pathsFor(noise.mean));
             if (!blurred)
                 noise = sharp;
             noisePaths = traced;

@@ -6,6 +6,8 @@
 #include "../single/ScatterPoints.h"
 #include "../scene/KernelScene.h"
 
+#include <tbb/parallel_for.h>
+
 #include <algorithm>
 #include <cmath>
 #include <vector>
@@ -19,12 +21,18 @@ EmissionFocus findViewFocus(const RenderContext& ctx, float cellSize, float boun
         return focus;
     const CameraLattice lattice(ctx.scene->camera, kFocusRays);
     const std::vector<NbPhase> phases = PhaseMix::phasesOf(ctx);
-    std::vector<float> pw(phases.size(), 0.0f);
-    std::vector<Span> spans;
-    float3 lo = make_float3(INFINITY, INFINITY, INFINITY), hi = -lo;
-    double sigmaTMax = 0.0, wSum = 0.0, omegaSum = 0.0, gSum = 0.0;
-    for (int py = 0; py < lattice.ny; ++py) {
+    // Each row of the lattice marched on its own, the rows' sums combined in row order: the same
+    // focus whatever the thread count.
+    struct Row {
+        float3 lo = make_float3(INFINITY, INFINITY, INFINITY), hi = make_float3(-INFINITY, -INFINITY, -INFINITY);
+        double sigmaTMax = 0.0, wSum = 0.0, omegaSum = 0.0, gSum = 0.0;
+    };
+    std::vector<Row> rows(size_t(lattice.ny));
+    tbb::parallel_for(0, lattice.ny, [&](int py) {
         throwIfStopped(&ctx.stop);
+        Row& r = rows[size_t(py)];
+        std::vector<float> pw(phases.size(), 0.0f);
+        std::vector<Span> spans;
         for (int px = 0; px < lattice.nx; ++px) {
             float3 o, d;
             lattice.ray(px, py, o, d);
@@ -42,9 +50,9 @@ EmissionFocus findViewFocus(const RenderContext& ctx, float cellSize, float boun
                     const double st = (double(s.sigma_t.x) + double(s.sigma_t.y) + double(s.sigma_t.z)) / 3.0;
                     const double ss = (double(s.sigma_s.x) + double(s.sigma_s.y) + double(s.sigma_s.z)) / 3.0;
                     if (ss > 0.0) {
-                        lo = fmin(lo, x);
-                        hi = fmax(hi, x);
-                        sigmaTMax = std::max(sigmaTMax, st);
+                        r.lo = fmin(r.lo, x);
+                        r.hi = fmax(r.hi, x);
+                        r.sigmaTMax = std::max(r.sigmaTMax, st);
                         // The largest albedo of any channel: the widest spread.
                         double omega = 0.0;
                         for (int c = 0; c < 3; ++c) {
@@ -53,14 +61,24 @@ EmissionFocus findViewFocus(const RenderContext& ctx, float cellSize, float boun
                         }
                         const double g = mixedMeanCosine(phases, pw.data());
                         const double w = ss * T * double(dt);
-                        wSum += w;
-                        omegaSum += w * omega;
-                        gSum += w * g;
+                        r.wSum += w;
+                        r.omegaSum += w * omega;
+                        r.gSum += w * g;
                     }
                     T *= std::exp(-st * double(dt));
                 }
             }
         }
+    });
+    float3 lo = make_float3(INFINITY, INFINITY, INFINITY), hi = -lo;
+    double sigmaTMax = 0.0, wSum = 0.0, omegaSum = 0.0, gSum = 0.0;
+    for (const Row& r : rows) {
+        lo = fmin(lo, r.lo);
+        hi = fmax(hi, r.hi);
+        sigmaTMax = std::max(sigmaTMax, r.sigmaTMax);
+        wSum += r.wSum;
+        omegaSum += r.omegaSum;
+        gSum += r.gSum;
     }
     if (!(wSum > 0.0) || !(sigmaTMax > 0.0))
         return focus;  // the camera sees no medium

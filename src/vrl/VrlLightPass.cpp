@@ -264,6 +264,8 @@ bool LightPass::emit(int i, NbRng& rng, float3& x, float3& dir, float3& W, float
 
 void LightPass::tracePath(uint32_t seed, uint32_t iteration, int path, int paths, std::vector<Vrl>& out) const
 {
+    if (mCdf.empty())
+        return;
     NbRng rng = nbRngStart(nbPcgHash(seed ^ kLightStreamKey), nb_uint(path), iteration);
     const double u = nbRngNext(&rng);
     const int light = std::min(int(std::upper_bound(mCdf.begin(), mCdf.end(), u) - mCdf.begin()), int(mCdf.size()) - 1);

@@ -77,6 +77,9 @@ public:
     // StopFlag, RenderControl.h) the paths end early: a thick medium's paths can take millions
     // of events; the caller sees the flag and discards the list.
     std::vector<Vrl> trace(uint32_t seed, uint32_t iteration, int paths) const;
+    // Path `path` of trace's `paths` alone, its segments in order appended to `out`: for a caller
+    // that consumes each path as it is traced (WKB's radiance cache, Orders3Grid.cpp).
+    void tracePath(uint32_t seed, uint32_t iteration, int path, int paths, std::vector<Vrl>& out) const;
 
     bool empty() const { return mCdf.empty(); }
 
@@ -119,7 +122,6 @@ private:
     };
     AimCone aimCone(int i) const;
     static float3 ownDirection(const NbLight& l, float a, float b);
-    void tracePath(uint32_t seed, uint32_t iteration, int path, int paths, std::vector<Vrl>& out) const;
     // A point, direction and W on light i; false for a void sample. tEnd: where the first
     // segment ends (INFINITY, or the far side of a sphere light seen from inside).
     bool emit(int i, NbRng& rng, float3& x, float3& dir, float3& W, float& tEnd) const;
