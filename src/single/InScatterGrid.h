@@ -9,9 +9,10 @@
 //     L = int dt T(0, t) sigma_s(x(t)) S(x(t))
 //
 // which the march sums with L1's quadrature: the same samples t_k, the same transmittance T and
-// the same exact int_step e^{-sigma_t u} du, with S read once per pair of samples at their
-// midpoint (MarchEightRays.cpp: the composite midpoint rule). So the term costs the march a
-// trilinear read per two samples instead of a march of its own. The read is the lane-parallel
+// the same exact int_step e^{-sigma_t u} du, with S read once per group of samples (as many as
+// span at most one cell, 2 to 8) at the group's weighted mean position: exact for an S linear
+// along the ray (MarchEightRays.cpp). So the term costs the march a trilinear read per group
+// instead of a march of its own. The read is the lane-parallel
 // form of wkb::RadianceGrid::fetch (cell-centred, clamped at the edge cells).
 #pragma once
 

@@ -162,9 +162,10 @@ bool marchGreyDistantEight(const RenderContext& ctx, const VolumeData& vol, cons
         __m256i nx, nxy, floats, corner[8];
         int layers;
         __m256 L[kMaxInScatterLayers][3];
-        // Pairs of samples share one read (see the march below): the odd iteration's sample,
-        // its weight and t, waits for the even one's.
-        __m256 pendingW, pendingT;
+        // A group of up to `group` samples shares one read (see the march below): their summed
+        // weights W and weighted positions sum w t.
+        __m256 W, Wt;
+        unsigned group, inGroup;
         // L += weight S(o + d t), S trilinear (InScatterGrid.h); min before max sends a NaN
         // coordinate (a dead lane) to the grid's edge, so every gather stays inside.
         void read(const float* rgb, __m256 t, __m256 weight)
@@ -200,6 +201,10 @@ bool marchGreyDistantEight(const RenderContext& ctx, const VolumeData& vol, cons
             du[0][i] = b.x, du[1][i] = b.y, du[2][i] = b.z;
         }
         gl.layers = grid->layers;
+        // Samples per read: as many as span at most one cell, (group - 1) dt <= cell, from 2 to 8.
+        gl.group = unsigned(std::clamp(int(1.0f + grid->cell / dt), 2, 8));
+        gl.inGroup = 0;
+        gl.W = gl.Wt = zero;
         const int F = 3 * grid->layers;  // floats per cell
         gl.floats = _mm256_set1_epi32(F);
         int stride[3] = {F, F * grid->n[0], F * grid->n[0] * grid->n[1]};
@@ -314,22 +319,20 @@ bool marchGreyDistantEight(const RenderContext& ctx, const VolumeData& vol, cons
         }
 
         if (grid) {
-            // The grid read at half L1's rate: an odd iteration's sample waits, and the even one
-            // reads S once for both, at their midpoint where both are in occupied bricks (each
-            // sample's S off by half a step, in opposite directions: the composite midpoint
-            // rule), else at the one sample's own point. A lane that skipped or stopped in
-            // between (its even sample outside an occupied brick) reads its odd sample where it
-            // was; so does the flush after the march.
-            if (polled & 1) {
-                gl.pendingW = stepWeight;
-                gl.pendingT = tk;
-            } else {
-                const __m256 paired = _mm256_and_ps(occ, _mm256_cmp_ps(gl.pendingW, zero, _CMP_GT_OQ));
-                const __m256 t =
-                    _mm256_blendv_ps(_mm256_blendv_ps(gl.pendingT, tk, occ),
-                                     _mm256_mul_ps(_mm256_set1_ps(0.5f), _mm256_add_ps(gl.pendingT, tk)), paired);
-                gl.read(grid->rgb, t, _mm256_add_ps(gl.pendingW, stepWeight));
-                gl.pendingW = zero;
+            // The grid read once per group of samples (S once for up to `group` samples: a read
+            // costs 3 x layers x 8 gathers), at the group's weighted mean position t = sum w t /
+            // sum w with weight sum w: for an S linear along the ray (trilinear S within a cell is
+            // nearly so) this equals sum_k w_k S(t_k), L1's own quadrature, exactly. A group ends
+            // after `group` iterations, or early where a lane that holds weight moves into empty
+            // bricks (its next samples may lie far along the ray); the flush after the march
+            // reads what is left.
+            gl.W = _mm256_add_ps(gl.W, stepWeight);
+            gl.Wt = _mm256_fmadd_ps(stepWeight, tk, gl.Wt);
+            const __m256 holding = _mm256_cmp_ps(gl.W, zero, _CMP_GT_OQ);
+            if (++gl.inGroup == gl.group || !lanes::none(_mm256_andnot_ps(occ, _mm256_and_ps(alive, holding)))) {
+                gl.read(grid->rgb, _mm256_blendv_ps(tk, _mm256_div_ps(gl.Wt, gl.W), holding), gl.W);
+                gl.W = gl.Wt = zero;
+                gl.inGroup = 0;
             }
         }
 
@@ -363,8 +366,9 @@ bool marchGreyDistantEight(const RenderContext& ctx, const VolumeData& vol, cons
         for (int ch = 0; ch < 3; ++ch)
             _mm256_store_ps(skyL1[s][ch], skyLanes[s].L1[ch]);
     if (grid) {
-        if (!lanes::none(_mm256_cmp_ps(gl.pendingW, zero, _CMP_GT_OQ)))
-            gl.read(grid->rgb, gl.pendingT, gl.pendingW);
+        const __m256 holding = _mm256_cmp_ps(gl.W, zero, _CMP_GT_OQ);
+        if (!lanes::none(holding))
+            gl.read(grid->rgb, _mm256_blendv_ps(zero, _mm256_div_ps(gl.Wt, gl.W), holding), gl.W);
         for (int layer = 0; layer < gl.layers; ++layer) {
             alignas(32) float gL[3][8];
             for (int ch = 0; ch < 3; ++ch)

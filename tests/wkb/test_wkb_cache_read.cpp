@@ -82,7 +82,8 @@ TEST(WkbCacheRead, EightRayMarchReadsTheCacheWithL1sQuadrature)
                     }
             std::vector<float3> o, d;
             // Rays held out inside the box (odd ones along x, all along y and z), so that marches,
-            // and whole batches, end on both parities of the reads' pairs (MarchEightRays.cpp).
+            // and whole batches, end at several points within a group of samples that share a read
+            // (8 here: cells of 10 L1 steps; MarchEightRays.cpp).
             std::vector<float> tFar;
             for (int i = 0; i < 11; ++i) {
                 const bool cut = axis > 0 || i % 2;
