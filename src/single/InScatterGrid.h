@@ -12,8 +12,8 @@
 // the same exact int_step e^{-sigma_t u} du, with S read once per group of samples (as many as
 // span at most one cell, 2 to 8) at the group's weighted mean position: exact for an S linear
 // along the ray (MarchEightRays.cpp). So the term costs the march a trilinear read per group
-// instead of a march of its own. The read is the lane-parallel
-// form of wkb::RadianceGrid::fetch (cell-centred, clamped at the edge cells).
+// instead of a march of its own. The read is the lane-parallel form of wkb::RadianceGrid::fetch
+// (cell-centred, clamped at the edge cells).
 #pragma once
 
 #include "../core/Vec.h"

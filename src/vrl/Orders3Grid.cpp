@@ -580,8 +580,8 @@ std::shared_ptr<const wkb::RadianceGrid> traceOrders3(const RenderContext& ctx, 
                 sharp = cacheNoise(ctx, pilots, *grid, half);
             // Where the sharp cache asks for no more paths, within the cap, the blur cannot be
             // chosen below (pathsFor is at least `traced`): its estimate is not needed.
-            const bool sharpSuffices = round == 0 && !(sharp.mean * double(traced) / kCacheNoiseTarget > double(cap)) &&
-                                       pathsFor(sharp.mean) == traced;
+            const bool sharpOverCap = sharp.mean * double(traced) / kCacheNoiseTarget > double(cap);
+            const bool sharpSuffices = round == 0 && !sharpOverCap && pathsFor(sharp.mean) == traced;
             if (!sharpSuffices && (round == 0 || blurred)) {
                 smooth(*grid, scratch);
                 smooth(half, scratch);
@@ -594,8 +594,7 @@ std::shared_ptr<const wkb::RadianceGrid> traceOrders3(const RenderContext& ctx, 
                 // cache's noise is heavy-tailed (a few bright paths), and a count extrapolated from
                 // it falls short (at 256x256 a sunlit cumulus's, 0.048 at 65536 paths, was 0.048
                 // again at 1.6 M).
-                blurred = !sharpSuffices && (sharp.mean * double(traced) / kCacheNoiseTarget > double(cap) ||
-                                             pathsFor(sharp.mean) > pathsFor(noise.mean));
+                blurred = !sharpSuffices && (sharpOverCap || pathsFor(sharp.mean) > pathsFor(noise.mean));
             if (!blurred)
                 noise = sharp;
             noisePaths = traced;
